@@ -1,0 +1,29 @@
+# Every target creates .venv and installs the package on first use.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: test compare lint bench clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/ruff check scara_robust tests benchmarks
+	$(BIN)/python -m pytest -q
+
+compare: $(STAMP)
+	$(BIN)/python -m scara_robust.compare
+
+lint: $(STAMP)
+	$(BIN)/ruff check scara_robust tests benchmarks
+
+bench: $(STAMP)
+	$(BIN)/python -m pytest benchmarks --benchmark-enable --benchmark-json=benchmark.json -q
+
+clean:
+	rm -rf $(VENV) .pytest_cache benchmark.json

@@ -1,0 +1,66 @@
+"""Robust PID design for SCARA robots carrying a time-varying payload.
+
+Use as ``import scara_robust as sr``.
+
+Robot (:mod:`scara_robust.robot`)
+    ScaraParams, paper_params       -- robot data (SI), the paper's by default
+    SinusoidalPayload, ConstantPayload, paper_payload -- payload mass profiles m_p(t)
+    mass_matrix, coriolis, forward_dynamics, kinetic_energy -- Eq. (1)
+    error_dynamics_jacobians        -- linearized error dynamics (Eq. 3)
+    scara_plant                     -- the robot as a control.NonlinearIOSystem
+Signals (:mod:`scara_robust.signals`)
+    Reference, paper_reference      -- joint references with derivatives
+    SquareWave, paper_disturbance   -- square-wave disturbance torques
+Uncertain model (:mod:`scara_robust.uncertain`)
+    UncertainElement, UncertainLTVModel -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
+    paper_model, derived_model      -- published bounds / bounds derived from the robot
+Design and certificate (:mod:`scara_robust.design`, :mod:`scara_robust.certificate`)
+    design, Design                  -- K from (ρ, η), procedure steps 2-3
+    certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
+Design surface (:mod:`scara_robust.surface`)
+    design_surface, DesignSurface   -- max λ(Z) over a (ρ, η) grid (Figure 2)
+Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)
+    pid_controller, sliding_mode_controller, SlidingModeGains, CONTROLLERS, make_controller
+    simulate, run_scenario, SimulationResult, Scenario, SCENARIOS, closed_loop
+Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.compare`)
+    tracking_metrics, TrackingMetrics -- errors and torques after the transient
+    compare                         -- the PID vs sliding-mode table
+Plotting (:mod:`scara_robust.plotting`)
+    plot_surface, plot_surface_contour, plot_response
+"""
+
+from .certificate import Certificate, UltimateBound, certify
+from .compare import compare
+from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
+from .design import Design, design
+from .metrics import TrackingMetrics, tracking_metrics
+from .plotting import plot_response, plot_surface, plot_surface_contour
+from .robot import (
+    ConstantPayload,
+    ScaraParams,
+    SinusoidalPayload,
+    coriolis,
+    error_dynamics_jacobians,
+    forward_dynamics,
+    kinetic_energy,
+    mass_matrix,
+    paper_params,
+    paper_payload,
+    scara_plant,
+)
+from .signals import Reference, SquareWave, paper_disturbance, paper_reference
+from .simulation import SCENARIOS, Scenario, SimulationResult, closed_loop, run_scenario, simulate
+from .surface import DesignSurface, design_surface
+from .uncertain import UncertainElement, UncertainLTVModel, derived_model, paper_model
+
+__all__ = [
+    "CONTROLLERS", "SCENARIOS", "Certificate", "ConstantPayload", "Design", "DesignSurface", "Reference",
+    "Scenario", "ScaraParams", "SimulationResult", "SinusoidalPayload", "SlidingModeGains", "SquareWave",
+    "TrackingMetrics", "UltimateBound", "UncertainElement", "UncertainLTVModel", "certify", "closed_loop",
+    "compare", "coriolis", "derived_model", "design", "design_surface", "error_dynamics_jacobians",
+    "forward_dynamics", "kinetic_energy", "make_controller", "mass_matrix", "paper_disturbance",
+    "paper_model", "paper_params", "paper_payload", "paper_reference", "pid_controller", "plot_response",
+    "plot_surface", "plot_surface_contour", "run_scenario", "scara_plant", "simulate",
+    "sliding_mode_controller", "tracking_metrics",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,228 @@
+"""Theorem 1 (robust stability certificate) and Corollary 1 (ultimate bound).
+
+For the closed loop ``ẋ = Ā x + Σ_j h_j(t) E_j x`` with ``h_j ∈ [h_lj, h_uj]`` and
+``V = xᵀPx/2``, Theorem 1 builds ``Z`` with ``V̇ <= xᵀZx/2``:
+
+1. P from ``-Q = (PĀ + ĀᵀP)/2`` (``control.lyap``). With the Q of procedure step 3
+   this returns the Riccati P of step 2: the certificate checks that it does.
+2. ``Ā₁ = Ā + Σ h_lj E_j``, ``Φ = PĀ₁ + Ā₁ᵀP``.
+3. ``Ψ_j = PE_j + E_jᵀP``.
+4-6. ``Ψ_j⁺``: Ψ_j with its negative eigenvalues set to zero.
+7. ``Z = Φ + Σ (h_uj - h_lj) Ψ_j⁺``; ``max λ(Z) < 0`` certifies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from ._validation import check_choice, check_real
+from .design import Design
+from .uncertain import ELEMENT_SETS, UncertainLTVModel
+
+__all__ = ["Certificate", "UltimateBound", "certify", "theorem1_z", "positive_part"]
+
+Array = NDArray[np.float64]
+
+
+def positive_part(S: Array) -> Array:
+    """Theorem 1 steps 4-6: ``T diag(max(λ, 0)) Tᵀ`` for symmetric ``S`` of shape (..., n, n)."""
+    w, T = np.linalg.eigh(S)
+    return np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T)
+
+
+def theorem1_z(
+    P: Array, A_cl: Array, E: Array, lower: Array, upper: Array
+) -> tuple[Array, Array, Array, Array]:
+    """Theorem 1 steps 2-7 for a given P.
+
+    Parameters
+    ----------
+    P, A_cl : ndarray, shape (n, n)
+    E : ndarray, shape (N, n, n)
+    lower, upper : ndarray, shape (N,)
+
+    Returns
+    -------
+    Z, Phi : ndarray, shape (n, n)
+    Psi, Psi_plus : ndarray, shape (N, n, n)
+    """
+    A1 = A_cl + np.einsum("j,jik->ik", lower, E)
+    Phi = P @ A1 + A1.T @ P
+    Psi = P @ E + np.swapaxes(E, -1, -2) @ P
+    Psi_plus = positive_part(Psi)
+    Z = Phi + np.einsum("j,jik->ik", upper - lower, Psi_plus)
+    return 0.5 * (Z + Z.T), Phi, Psi, Psi_plus
+
+
+@dataclass(frozen=True)
+class UltimateBound:
+    """Corollary 1's bounds for ``‖w(t)‖ < phi``.
+
+    Attributes
+    ----------
+    phi : float
+        Bound on the perturbation ``‖w‖`` (units of ẋ).
+    decrease_radius : float
+        ``V̇ < 0`` whenever ``‖x‖ > 2 λmax(P) φ / |max λ(Z)|``.
+    ultimate_radius : float
+        Every trajectory ends inside ``‖x‖ <= decrease_radius·sqrt(λmax(P)/λmin(P))``
+        (the smallest level set of V holding the decrease ball). ``inf`` if uncertified.
+    """
+
+    phi: float
+    decrease_radius: float
+    ultimate_radius: float
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """Theorem 1 evaluated for one design.
+
+    Attributes
+    ----------
+    Z : ndarray, shape (n, n)
+    max_eig : float
+        ``max λ(Z)``; negative certifies.
+    certified : bool
+        ``Ā`` Hurwitz and ``max_eig < 0``.
+    hurwitz : bool
+    elements : str
+        Which elements entered Z: ``'all'``, ``'A'`` or ``'B'``.
+    labels : tuple of str, length N
+    widths : ndarray, shape (N,)
+        ``h_uj - h_lj``.
+    Phi : ndarray, shape (n, n)
+    Psi, Psi_plus : ndarray, shape (N, n, n)
+    P : ndarray, shape (n, n)
+        The Lyapunov solution of step 1.
+    lyapunov_residual : float
+        ``‖PĀ + ĀᵀP + 2Q‖_F / (1 + ‖P‖_F)``.
+    riccati_mismatch : float
+        ``‖P_lyap - P_riccati‖_F / ‖P_riccati‖_F`` (theory: 0).
+    """
+
+    Z: Array
+    max_eig: float
+    certified: bool
+    hurwitz: bool
+    elements: str
+    labels: tuple[str, ...]
+    widths: Array
+    Phi: Array
+    Psi: Array
+    Psi_plus: Array
+    P: Array
+    lyapunov_residual: float
+    riccati_mismatch: float
+
+    def contributions(self) -> pd.DataFrame:
+        """Each element's share of Z.
+
+        Columns: ``element``, ``width``, ``lambda_max_psi_plus`` (largest eigenvalue of
+        Ψ_j⁺), ``weight`` (width × that eigenvalue: by Weyl's inequality, an upper bound on
+        how much the element raises max λ(Z)) and ``max_eig_without`` (max λ(Z) with the
+        element left out).
+        """
+        lam = np.linalg.eigvalsh(self.Psi_plus)[:, -1] if len(self.labels) else np.zeros(0)
+        without = []
+        for j in range(len(self.labels)):
+            Zj = self.Z - self.widths[j] * self.Psi_plus[j]
+            without.append(float(np.linalg.eigvalsh(0.5 * (Zj + Zj.T))[-1]))
+        return pd.DataFrame(
+            {
+                "element": list(self.labels),
+                "width": self.widths,
+                "lambda_max_psi_plus": lam,
+                "weight": self.widths * lam,
+                "max_eig_without": without,
+            }
+        )
+
+    def ultimate_bound(self, phi: float) -> UltimateBound:
+        """Corollary 1: where trajectories end up when ``‖w(t)‖ < phi``.
+
+        Parameters
+        ----------
+        phi : float
+            Bound on ``‖w‖`` (>= 0).
+
+        Returns
+        -------
+        UltimateBound
+            Radii are ``inf`` when the design is not certified.
+        """
+        phi = check_real("phi", phi, nonnegative=True)
+        if not self.certified:
+            return UltimateBound(phi, float("inf"), float("inf"))
+        eig_p = np.linalg.eigvalsh(self.P)
+        radius = 2.0 * eig_p[-1] * phi / (-self.max_eig)
+        return UltimateBound(phi, float(radius), float(radius * np.sqrt(eig_p[-1] / eig_p[0])))
+
+
+def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> Certificate:
+    """Theorem 1 for a design: Z, its largest eigenvalue and the verdict.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+        The interval model (bounds and E_j positions).
+    design : Design
+        From :func:`scara_robust.design`; supplies K, Ā and Q.
+    elements : {'all', 'A', 'B'}
+        Which uncertain elements enter Z.
+
+    Returns
+    -------
+    Certificate
+
+    References
+    ----------
+    Paper, Section 3, Theorem 1 (steps 1-7).
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> model = sr.paper_model()
+    >>> cert = sr.certify(model, sr.design(model, 3, 90), elements="A")
+    >>> cert.certified
+    True
+    """
+    if not isinstance(model, UncertainLTVModel):
+        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    if not isinstance(design, Design):
+        raise TypeError(f"`design` must be a Design, found {type(design).__name__}")
+    check_choice("elements", elements, ELEMENT_SETS)
+    if design.K.shape != (model.n_inputs, model.n_states):
+        raise ValueError(
+            f"`design` has K of shape {design.K.shape}, expected {(model.n_inputs, model.n_states)} for `model`"
+        )
+    sub = model.subset(elements)
+    A_cl, Q = design.A_cl, design.Q
+    P = np.asarray(ct.lyap(A_cl.T, 2.0 * Q), dtype=float)
+    P = 0.5 * (P + P.T)
+    lyap_res = np.linalg.norm(P @ A_cl + A_cl.T @ P + 2 * Q) / (1 + np.linalg.norm(P))
+    mismatch = np.linalg.norm(P - design.P) / np.linalg.norm(design.P)
+    E = sub.perturbation_matrices(design.K)
+    lower, upper = sub.lower_bounds(), sub.upper_bounds()
+    Z, Phi, Psi, Psi_plus = theorem1_z(P, A_cl, E, lower, upper)
+    max_eig = float(np.linalg.eigvalsh(Z)[-1])
+    return Certificate(
+        Z=Z,
+        max_eig=max_eig,
+        certified=bool(design.hurwitz and max_eig < 0),
+        hurwitz=design.hurwitz,
+        elements=elements,
+        labels=tuple(el.label for el in sub.elements),
+        widths=upper - lower,
+        Phi=Phi,
+        Psi=Psi,
+        Psi_plus=Psi_plus,
+        P=P,
+        lyapunov_residual=float(lyap_res),
+        riccati_mismatch=float(mismatch),
+    )

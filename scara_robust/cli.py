@@ -1,0 +1,225 @@
+"""Command line: ``python -m scara_robust {design,surface,simulate,compare} ...``.
+
+Every command accepts ``--help``. Bad input prints one line on stderr and exits 2.
+Output files are written to a temporary file in the target folder and renamed, so an
+interrupted or failed run never leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from collections.abc import Callable, Sequence
+from typing import Any, NoReturn
+
+import numpy as np
+
+from .certificate import certify
+from .design import design
+from .surface import design_surface
+from .uncertain import ELEMENT_SETS, UncertainLTVModel, derived_model, paper_model
+
+__all__ = ["main", "BOUNDS", "CommandLineError", "parse_range", "write_atomic"]
+
+#: Interval models selectable with ``--bounds``.
+BOUNDS: dict[str, Callable[[], UncertainLTVModel]] = {"paper": paper_model, "derived": derived_model}
+
+
+class CommandLineError(Exception):
+    """Bad command-line input; reported as one line on stderr with exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise CommandLineError(f"{self.prog}: {message}")
+
+
+def parse_range(text: str) -> np.ndarray:
+    """Parse ``START:STOP:NUM`` into ``numpy.linspace(START, STOP, NUM)``.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is not three fields, a bound is not a finite number or NUM is not
+        an integer >= 1.
+    """
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"expected START:STOP:NUM, found {text!r}")
+    try:
+        start, stop = float(parts[0]), float(parts[1])
+        num = int(parts[2])
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"expected START:STOP:NUM with numbers, found {text!r}") from err
+    if not (np.isfinite(start) and np.isfinite(stop)):
+        raise argparse.ArgumentTypeError(f"START and STOP must be finite, found {text!r}")
+    if num < 1:
+        raise argparse.ArgumentTypeError(f"NUM must be >= 1, found {num}")
+    return np.linspace(start, stop, num)
+
+
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from err
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, found {text!r}")
+    return value
+
+
+def write_atomic(path: str, write: Callable[[str], None]) -> None:
+    """Call ``write(tmp_path)`` then rename the temporary file onto `path`.
+
+    Raises
+    ------
+    OSError
+        If the folder does not exist or is not writable, or `path` is a folder.
+    """
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"`--output` {path!r} is a directory")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.splitext(path)[1])
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _emit(text: str, output: str | None) -> None:
+    if output is None:
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        return
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text if text.endswith("\n") else text + "\n")
+
+    write_atomic(output, write)
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--bounds", choices=sorted(BOUNDS), default="paper",
+                   help="interval model: the published Tables 1-2 or bounds derived from the robot model")
+    p.add_argument("--elements", choices=ELEMENT_SETS, default="all",
+                   help="uncertain elements entering Theorem 1's Z")
+
+
+def _design_payload(args: argparse.Namespace) -> dict[str, Any]:
+    model = BOUNDS[args.bounds]()
+    d = design(model, args.rho, args.eta)
+    cert = certify(model, d, args.elements)
+    return {
+        "rho": d.rho,
+        "eta": d.eta,
+        "bounds": args.bounds,
+        "elements": args.elements,
+        "K": d.K.tolist(),
+        "closed_loop_poles_real": np.sort(d.poles.real).tolist(),
+        "closed_loop_hurwitz": d.hurwitz,
+        "max_eig_Z": cert.max_eig,
+        "certified": cert.certified,
+        "care_residual": d.care_residual,
+        "lyapunov_residual": cert.lyapunov_residual,
+        "contributions": cert.contributions().to_dict(orient="records"),
+    }
+
+
+def _cmd_design(args: argparse.Namespace) -> str:
+    out = _design_payload(args)
+    if args.format == "json":
+        return json.dumps(out, indent=2)
+    K = np.array(out["K"])
+    lines = [
+        f"design (rho, eta) = ({out['rho']:g}, {out['eta']:g}), bounds: {args.bounds}, elements: {args.elements}",
+        "K =",
+        np.array2string(K, precision=4, suppress_small=True, max_line_width=120),
+        f"closed loop Hurwitz: {out['closed_loop_hurwitz']} "
+        f"(largest real part {max(out['closed_loop_poles_real']):.4g} 1/s)",
+        f"max eig Z: {out['max_eig_Z']:.6g}  ->  certified: {out['certified']}",
+        "",
+        "contributions of each element to Z:",
+        __import__("pandas").DataFrame(out["contributions"]).to_string(index=False, float_format="%.4g"),
+    ]
+    return "\n".join(lines)
+
+
+def _cmd_surface(args: argparse.Namespace) -> str:
+    model = BOUNDS[args.bounds]()
+    try:
+        surface = design_surface(model, args.rho, args.eta, args.elements)
+    except ValueError as err:
+        msg = str(err).replace("`rhos`", "`--rho`").replace("`etas`", "`--eta`")
+        raise ValueError(msg) from err
+    frame = surface.to_frame()
+    if args.plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        rho, eta, best = surface.best() if surface.hurwitz.any() else (np.nan, np.nan, np.nan)
+        ax = surface.plot(mark=None if np.isnan(rho) else (rho, eta))
+        write_atomic(args.plot, lambda tmp: ax.figure.savefig(tmp, dpi=120, format="png"))
+        plt.close(ax.figure)
+    if args.format == "json":
+        return json.dumps(frame.to_dict(orient="records"))
+    if args.format == "csv":
+        return frame.to_csv(index=False)
+    rho, eta, best = surface.best()
+    return (
+        f"{frame.shape[0]} grid points, {int(surface.certified.sum())} certified "
+        f"(max eig Z < 0); best: rho={rho:g}, eta={eta:g}, max eig Z={best:.6g}\n"
+        + frame.to_string(index=False, float_format="%.6g")
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``python -m scara_robust``."""
+    parser = _Parser(prog="scara_robust", description="Robust PID design for a SCARA with a time-varying payload.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("design", help="design K from (rho, eta) and certify it with Theorem 1")
+    p.add_argument("--rho", type=_finite_float, required=True, help="design parameter rho > 0")
+    p.add_argument("--eta", type=_finite_float, required=True, help="design parameter eta >= 1")
+    _add_model_options(p)
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--output", help="write to this file instead of stdout")
+    p.set_defaults(func=_cmd_design)
+
+    p = sub.add_parser("surface", help="max eig Z over a (rho, eta) grid (Figure 2)")
+    p.add_argument("--rho", type=parse_range, required=True, metavar="START:STOP:NUM")
+    p.add_argument("--eta", type=parse_range, required=True, metavar="START:STOP:NUM")
+    _add_model_options(p)
+    p.add_argument("--format", choices=("text", "csv", "json"), default="text")
+    p.add_argument("--output", help="write to this file instead of stdout")
+    p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
+    p.set_defaults(func=_cmd_surface)
+
+    from .compare import add_compare_parser
+    from .simulation import add_simulate_parser
+
+    add_simulate_parser(sub)
+    add_compare_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit code (0 ok, 2 bad input or I/O error)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        text = args.func(args)
+        _emit(text, getattr(args, "output", None))
+    except (CommandLineError, ValueError, TypeError, OSError) as err:
+        message = " ".join(str(err).split())
+        sys.stderr.write(f"scara_robust: error: {message}\n")
+        return 2
+    return 0

@@ -1,0 +1,233 @@
+"""Joint-torque controllers as python-control systems.
+
+Every controller reads the plant outputs ``q1, q2, q1_dot, q2_dot`` (rad, rad/s),
+knows the reference ``r(t)`` and its derivatives, and outputs ``Tc1, Tc2`` (N·m). An
+optional per-joint torque limit (N·m, off by default) saturates the output.
+
+Controllers are chosen by name through :data:`CONTROLLERS`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import control as ct
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_choice, check_real
+from .robot import ScaraParams, dynamics_terms
+from .signals import Reference, paper_reference
+
+__all__ = [
+    "pid_controller",
+    "SlidingModeGains",
+    "sliding_mode_controller",
+    "CONTROLLERS",
+    "make_controller",
+    "check_torque_limit",
+]
+
+Array = NDArray[np.float64]
+_MEASURED = ["q1", "q2", "q1_dot", "q2_dot"]
+_TORQUES = ["Tc1", "Tc2"]
+
+
+def check_torque_limit(torque_limit: Any) -> Array | None:
+    """Validate a torque limit: None (off), a number or a pair, each > 0 (N·m)."""
+    if torque_limit is None:
+        return None
+    limit = np.broadcast_to(check_array("torque_limit", torque_limit), (2,)).astype(float)
+    if np.any(limit <= 0):
+        raise ValueError(f"`torque_limit` must be > 0 N·m, found {limit.tolist()}")
+    return limit
+
+
+def _saturate(u: Array, limit: Array | None) -> Array:
+    return u if limit is None else np.clip(u, -limit, limit)
+
+
+def pid_controller(
+    K: ArrayLike,
+    reference: Reference | None = None,
+    *,
+    torque_limit: Any = None,
+    name: str = "pid",
+) -> ct.NonlinearIOSystem:
+    """The PID law ``T_c = -K x``, ``x = [∫e1, ∫e2, e1, e2, ė1, ė2]``, ``e = r - q``.
+
+    Parameters
+    ----------
+    K : array_like, shape (2, 6)
+        Gain, from :func:`scara_robust.design` (N·m·s⁻¹/rad, N·m/rad, N·m·s/rad).
+    reference : Reference, optional
+        Default: the paper's ``sin t, cos t``.
+    torque_limit : float or array_like of shape (2,), optional
+        Per-joint saturation, N·m (> 0); None (default) for none.
+    name : str
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        States ``int_e1, int_e2`` (rad·s, start at 0); inputs ``q1, q2, q1_dot,
+        q2_dot``; outputs ``Tc1, Tc2``. ``updfcn(t, x, u, params) = r(t) - q`` and
+        ``outfcn(t, x, u, params) = sat(-K [x, r(t) - q, ṙ(t) - q̇])``.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> d = sr.design(sr.paper_model(), 3, 90)
+    >>> sr.pid_controller(d.K).nstates
+    2
+    """
+    K = check_array("K", K, shape=(2, 6))
+    ref = reference or paper_reference()
+    limit = check_torque_limit(torque_limit)
+
+    def updfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        return np.asarray(ref.position(t), dtype=float) - u[:2]
+
+    def outfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        e = np.asarray(ref.position(t), dtype=float) - u[:2]
+        ed = np.asarray(ref.velocity(t), dtype=float) - u[2:]
+        return _saturate(-K @ np.concatenate([x, e, ed]), limit)
+
+    return ct.NonlinearIOSystem(
+        updfcn, outfcn, inputs=_MEASURED, outputs=_TORQUES, states=["int_e1", "int_e2"], name=name
+    )
+
+
+@dataclass(frozen=True)
+class SlidingModeGains:
+    """Gains of the sliding-mode law (see :func:`sliding_mode_controller`).
+
+    Parameters
+    ----------
+    lam : float
+        Sliding-surface slope λ, 1/s: ``s = ė + λe``. Default 5 1/s (error time
+        constant 0.2 s once on the surface).
+    k_d : float
+        Linear damping on s, N·m·s/rad. Default 20.
+    k_s : float
+        Switching gain, N·m. Must exceed the disturbance (5 N·m) plus the torque error
+        of the payload-free model; default 10 N·m.
+    boundary : float
+        Boundary-layer width φ on s, rad/s (> 0) for the continuous variant. Default 0.1.
+    """
+
+    lam: float = 5.0
+    k_d: float = 20.0
+    k_s: float = 10.0
+    boundary: float = 0.1
+
+    def __post_init__(self) -> None:
+        check_real("lam [1/s]", self.lam, positive=True)
+        check_real("k_d [N·m·s/rad]", self.k_d, nonnegative=True)
+        check_real("k_s [N·m]", self.k_s, nonnegative=True)
+        check_real("boundary [rad/s]", self.boundary, positive=True)
+
+
+def sliding_mode_controller(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    *,
+    gains: SlidingModeGains | None = None,
+    variant: str = "boundary",
+    torque_limit: Any = None,
+    name: str = "smc",
+) -> ct.NonlinearIOSystem:
+    """Sliding-mode tracking law in the style of Slotine and Li (1991, Sect. 9.3 / 9.4).
+
+    With ``e = r - q`` and ``s = ė + λ e`` (rad/s)::
+
+        T_c = M̂(q) (r̈ + λ ė) + Ĉ(q, q̇) + k_d s + k_s σ(s)
+
+    where ``M̂, Ĉ`` are the robot's mass matrix and Coriolis vector **without payload**
+    (the controller does not know ``m_p``), and ``σ(s) = sign(s)`` (variant ``'sign'``)
+    or ``sat(s/φ)`` (variant ``'boundary'``), element-wise. With the true ``M``,
+    ``ṡ = -M⁻¹(k_d s + k_s σ(s) + T_d + ΔT)`` where ``ΔT`` is the torque error of the
+    payload-free model, so ``k_s > |T_d + ΔT|`` drives each ``s_i`` to 0 (or into the
+    boundary layer) in finite time.
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        The robot data the controller knows (default: the paper's).
+    reference : Reference, optional
+        Default: the paper's.
+    gains : SlidingModeGains, optional
+    variant : {'boundary', 'sign'}
+    torque_limit : float or array_like of shape (2,), optional
+        Per-joint saturation, N·m.
+    name : str
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        No states; inputs ``q1, q2, q1_dot, q2_dot``; outputs ``Tc1, Tc2``.
+    """
+    params = params or ScaraParams()
+    ref = reference or paper_reference()
+    g = gains or SlidingModeGains()
+    check_choice("variant", variant, ("boundary", "sign"))
+    limit = check_torque_limit(torque_limit)
+    sigma: Callable[[Array], Array] = (
+        np.sign if variant == "sign" else (lambda s: np.clip(s / g.boundary, -1.0, 1.0))
+    )
+
+    def outfcn(t: float, x: Array, u: Array, _params: Any) -> Array:
+        q, qd = u[:2], u[2:]
+        e = np.asarray(ref.position(t), dtype=float) - q
+        ed = np.asarray(ref.velocity(t), dtype=float) - qd
+        s = ed + g.lam * e
+        v = np.asarray(ref.acceleration(t), dtype=float) + g.lam * ed
+        m11, m12, m22, c1, c2 = dynamics_terms(params, float(q[1]), float(qd[0]), float(qd[1]), 0.0)
+        tau = np.array([m11 * v[0] + m12 * v[1] + c1, m12 * v[0] + m22 * v[1] + c2])
+        return _saturate(tau + g.k_d * s + g.k_s * sigma(s), limit)
+
+    return ct.NonlinearIOSystem(None, outfcn, inputs=_MEASURED, outputs=_TORQUES, name=name)
+
+
+def _pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
+    from .design import design
+    from .uncertain import paper_model
+
+    K = kw.get("K")
+    if K is None:
+        K = design(paper_model(), kw.get("rho", 3.0), kw.get("eta", 90.0)).K
+    return pid_controller(K, kw.get("reference"), torque_limit=kw.get("torque_limit"))
+
+
+def _smc_factory(variant: str) -> Callable[..., ct.NonlinearIOSystem]:
+    def factory(**kw: Any) -> ct.NonlinearIOSystem:
+        return sliding_mode_controller(
+            kw.get("params"), kw.get("reference"), gains=kw.get("gains"), variant=variant,
+            torque_limit=kw.get("torque_limit"), name=f"smc-{variant}",
+        )
+
+    return factory
+
+
+#: Controllers by name: ``pid`` (designed at (ρ, η) = (3, 90) on the published model
+#: unless ``K`` is given), ``smc`` (boundary layer) and ``smc-sign`` (discontinuous).
+CONTROLLERS: dict[str, Callable[..., ct.NonlinearIOSystem]] = {
+    "pid": _pid_factory,
+    "smc": _smc_factory("boundary"),
+    "smc-sign": _smc_factory("sign"),
+}
+
+
+def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
+    """Build a controller from :data:`CONTROLLERS` by name.
+
+    Parameters
+    ----------
+    name : {'pid', 'smc', 'smc-sign'}
+    **options
+        ``K`` or ``rho``/``eta`` (pid), ``params`` and ``gains`` (smc), ``reference``,
+        ``torque_limit``.
+    """
+    check_choice("controller", name, tuple(CONTROLLERS))
+    return CONTROLLERS[name](**options)

@@ -1,0 +1,159 @@
+"""Reference trajectories and disturbance torques.
+
+Angles in rad, rates in rad/s, accelerations in rad/s², torques in N·m, times in s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_callable, check_real
+
+__all__ = ["Reference", "paper_reference", "SquareWave", "paper_disturbance"]
+
+Array = NDArray[np.float64]
+Signal = Callable[[Any], Any]
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A joint reference ``r(t)`` with its first two time derivatives.
+
+    Parameters
+    ----------
+    position, velocity, acceleration : callable
+        ``f(t) -> array_like, shape (2,)`` for scalar ``t`` (s); also vectorized where
+        the callable allows: ``t`` of shape ``(k,)`` gives shape ``(2, k)``.
+        Units rad, rad/s and rad/s².
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> ref = sr.paper_reference()
+    >>> ref.position(0.0).tolist()
+    [0.0, 1.0]
+    """
+
+    position: Signal
+    velocity: Signal
+    acceleration: Signal
+
+    def __post_init__(self) -> None:
+        for name in ("position", "velocity", "acceleration"):
+            check_callable(name, getattr(self, name))
+
+    @classmethod
+    def from_function(cls, position: Signal, *, step: float = 1e-3) -> Reference:
+        """Build a reference from a smooth ``r(t)`` alone.
+
+        The derivatives are central differences of step `step` (s), accurate to
+        ``O(step²)``; pass exact derivatives to the constructor when you have them.
+        """
+        check_callable("position", position)
+        h = check_real("step", step, positive=True)
+
+        def velocity(t: Any) -> Any:
+            return (np.asarray(position(t + h)) - np.asarray(position(t - h))) / (2 * h)
+
+        def acceleration(t: Any) -> Any:
+            r0 = np.asarray(position(t))
+            return (np.asarray(position(t + h)) - 2 * r0 + np.asarray(position(t - h))) / h**2
+
+        return cls(position, velocity, acceleration)
+
+    def sample(self, times: ArrayLike) -> tuple[Array, Array, Array]:
+        """Evaluate r, ṙ, r̈ at `times`, each of shape ``(k, 2)`` for `times` of shape (k,)."""
+        t = check_array("times", times, ndim=1)
+        out = []
+        for fn in (self.position, self.velocity, self.acceleration):
+            out.append(check_array("reference value", np.array([np.asarray(fn(float(ti)), dtype=float) for ti in t]), shape=(len(t), 2)))
+        return out[0], out[1], out[2]
+
+
+def _sin_cos(t: Any) -> Array:
+    return np.array([np.sin(t), np.cos(t)])
+
+
+def _cos_minus_sin(t: Any) -> Array:
+    return np.array([np.cos(t), -np.sin(t)])
+
+
+def _minus_sin_cos(t: Any) -> Array:
+    return np.array([-np.sin(t), -np.cos(t)])
+
+
+def paper_reference() -> Reference:
+    """The paper's reference ``r1 = sin t``, ``r2 = cos t`` (rad) with exact derivatives.
+
+    References
+    ----------
+    Paper, Section 4.
+    """
+    return Reference(_sin_cos, _cos_minus_sin, _minus_sin_cos)
+
+
+@dataclass(frozen=True)
+class SquareWave:
+    """Square-wave disturbance torque on both joints, N·m.
+
+    ``T_d(t) = amplitude * s(t) * signs`` with ``s(t) = +1`` on the first half of each
+    period (counted from ``-phase * period / (2π)``) and ``-1`` on the second.
+
+    Parameters
+    ----------
+    amplitude : float
+        Magnitude, N·m (>= 0). Paper: 5.
+    period : float
+        Period, s (> 0). Paper: π/5.
+    phase : float
+        Phase, rad; 0 means ``+amplitude`` right after t = 0. The paper does not state
+        phase or sign at t = 0; 0 is this package's choice.
+    signs : tuple of float, shape (2,)
+        Sign (or scale) per joint; default both ``+1`` (in phase).
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.paper_disturbance()(0.1).tolist()
+    [5.0, 5.0]
+    """
+
+    amplitude: float = 5.0
+    period: float = np.pi / 5
+    phase: float = 0.0
+    signs: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        check_real("amplitude [N·m]", self.amplitude, nonnegative=True)
+        check_real("period [s]", self.period, positive=True)
+        check_real("phase [rad]", self.phase)
+        check_array("signs", self.signs, shape=(2,))
+
+    def level(self, t: ArrayLike) -> Any:
+        """The wave's sign ``s(t)`` in {-1, +1}."""
+        frac = np.mod(np.asarray(t, dtype=float) / self.period + self.phase / (2 * np.pi), 1.0)
+        return np.where(frac < 0.5, 1.0, -1.0)
+
+    def __call__(self, t: ArrayLike) -> Array:
+        """Torque at `t`: shape (2,) for scalar t, (2, k) for t of shape (k,)."""
+        s = self.level(t)
+        return self.amplitude * np.multiply.outer(np.asarray(self.signs, dtype=float), s)
+
+    def switching_times(self, t0: float, t1: float) -> Array:
+        """Instants in the open interval ``(t0, t1)`` where the wave switches, s."""
+        half = self.period / 2
+        offset = -self.phase / (2 * np.pi) * self.period
+        k0 = np.floor((t0 - offset) / half) + 1
+        k1 = np.ceil((t1 - offset) / half) - 1
+        times = offset + half * np.arange(k0, k1 + 1)
+        return times[(times > t0) & (times < t1)]
+
+
+def paper_disturbance() -> SquareWave:
+    """±5 N·m square waves of period π/5 s on both joints (paper, Section 4)."""
+    return SquareWave()

@@ -1,0 +1,370 @@
+"""Linear time-varying models with interval-bounded elements (paper Eqs. 4-5).
+
+``ẋ = (A + ΔA(t)) x + (B + ΔB(t)) u`` where each uncertain element ``h_j(t)`` of ΔA or
+ΔB stays in ``[lower_j, upper_j]``. Indices are 0-based in code; tables print them
+1-based like the paper.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_choice, check_real
+from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
+from .signals import Reference, paper_reference
+
+__all__ = [
+    "UncertainElement",
+    "UncertainLTVModel",
+    "ELEMENT_SETS",
+    "paper_model",
+    "derived_model",
+    "pid_state_matrices",
+]
+
+Array = NDArray[np.float64]
+ELEMENT_SETS = ("all", "A", "B")
+
+
+@dataclass(frozen=True)
+class UncertainElement:
+    """One time-varying element ``h(t) ∈ [lower, upper]`` of ΔA or ΔB.
+
+    Parameters
+    ----------
+    matrix : {'A', 'B'}
+        Which matrix the element perturbs.
+    row, col : int
+        0-based position in that matrix.
+    lower, upper : float
+        Bounds of ``h(t)``, in the units of the matrix element; ``lower <= upper``.
+    """
+
+    matrix: Literal["A", "B"]
+    row: int
+    col: int
+    lower: float
+    upper: float
+
+    def __post_init__(self) -> None:
+        check_choice("matrix", self.matrix, ("A", "B"))
+        for name in ("row", "col"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise ValueError(f"`{name}` must be a non-negative integer, found {value!r}")
+            object.__setattr__(self, name, int(value))
+        lo = check_real("lower", self.lower)
+        hi = check_real("upper", self.upper)
+        if lo > hi:
+            raise ValueError(
+                f"`lower` must be <= `upper` for element {self.label}, found {lo} > {hi}"
+            )
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+
+    @property
+    def label(self) -> str:
+        """Paper-style 1-based label, e.g. ``ΔA(5, 4)``."""
+        return f"Δ{self.matrix}({self.row + 1}, {self.col + 1})"
+
+    @property
+    def width(self) -> float:
+        """``upper - lower``."""
+        return self.upper - self.lower
+
+
+@dataclass(frozen=True)
+class UncertainLTVModel:
+    """``ẋ = (A + ΔA(t)) x + (B + ΔB(t)) u`` with interval-bounded elements.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Known part of the state matrix.
+    B : array_like, shape (n, m)
+        Known part of the input matrix.
+    elements : sequence of UncertainElement
+        The time-varying elements, each in its own position (no duplicates).
+    name : str
+        Label used in tables and plots.
+
+    Notes
+    -----
+    Nothing here is SCARA-specific: any ``(A, B, elements)`` is accepted.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> el = sr.UncertainElement("A", 1, 0, -0.5, 0.5)
+    >>> model = sr.UncertainLTVModel([[0, 1], [0, 0]], [[0], [1]], [el])
+    >>> model.n_states, model.n_inputs, model.n_elements
+    (2, 1, 1)
+    """
+
+    A: Array
+    B: Array
+    elements: tuple[UncertainElement, ...] = ()
+    name: str = "model"
+
+    def __post_init__(self) -> None:
+        A = check_array("A", self.A, ndim=2)
+        if A.shape[0] != A.shape[1] or A.shape[0] == 0:
+            raise ValueError(f"`A` must be square and non-empty, found shape {A.shape}")
+        B = check_array("B", self.B, ndim=2)
+        if B.shape[0] != A.shape[0] or B.shape[1] == 0:
+            raise ValueError(f"`B` must have shape ({A.shape[0]}, m) with m >= 1, found shape {B.shape}")
+        elements = tuple(self.elements)
+        seen: set[tuple[str, int, int]] = set()
+        for k, el in enumerate(elements):
+            if not isinstance(el, UncertainElement):
+                raise TypeError(f"`elements[{k}]` must be an UncertainElement, found {type(el).__name__}")
+            shape = A.shape if el.matrix == "A" else B.shape
+            if el.row >= shape[0] or el.col >= shape[1]:
+                raise ValueError(
+                    f"`elements[{k}]` {el.label} lies outside {el.matrix} of shape {shape}"
+                )
+            key = (el.matrix, el.row, el.col)
+            if key in seen:
+                raise ValueError(f"`elements[{k}]` {el.label} appears twice")
+            seen.add(key)
+        for name, value in (("A", A), ("B", B)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "elements", elements)
+
+    @property
+    def n_states(self) -> int:
+        """Number of states n."""
+        return int(self.A.shape[0])
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of inputs m."""
+        return int(self.B.shape[1])
+
+    @property
+    def n_elements(self) -> int:
+        """Number of uncertain elements N."""
+        return len(self.elements)
+
+    def subset(self, elements: str = "all") -> UncertainLTVModel:
+        """The same model keeping only the ΔA (``'A'``) or ΔB (``'B'``) elements, or all."""
+        check_choice("elements", elements, ELEMENT_SETS)
+        if elements == "all":
+            return self
+        kept = tuple(el for el in self.elements if el.matrix == elements)
+        return UncertainLTVModel(self.A, self.B, kept, name=f"{self.name} [{elements} only]")
+
+    def lower_bounds(self) -> Array:
+        """Lower bounds, shape (N,)."""
+        return np.array([el.lower for el in self.elements], dtype=float)
+
+    def upper_bounds(self) -> Array:
+        """Upper bounds, shape (N,)."""
+        return np.array([el.upper for el in self.elements], dtype=float)
+
+    def perturbation_matrices(self, K: ArrayLike) -> Array:
+        """The matrices ``E_j`` of Eq. (5) for the closed loop ``u = -K x``.
+
+        ``E_j = e_i e_jᵀ`` for ΔA(i, j); for ΔB(i, k), ``ΔB u = -ΔB K x``, so ``E_j`` is
+        zero but for row i, which holds ``-K[k, :]``.
+
+        Parameters
+        ----------
+        K : array_like, shape (m, n)
+            State-feedback gain.
+
+        Returns
+        -------
+        ndarray, shape (N, n, n)
+        """
+        K = check_array("K", K, shape=(self.n_inputs, self.n_states))
+        E = np.zeros((self.n_elements, self.n_states, self.n_states))
+        for j, el in enumerate(self.elements):
+            if el.matrix == "A":
+                E[j, el.row, el.col] = 1.0
+            else:
+                E[j, el.row, :] = -K[el.col, :]
+        return E
+
+    def matrices_at(self, h: ArrayLike) -> tuple[Array, Array]:
+        """``(A + ΔA, B + ΔB)`` for element values `h` of shape (N,) (or (k, N) → batched)."""
+        h = check_array("h", h)
+        if h.shape[-1:] != (self.n_elements,):
+            raise ValueError(f"`h` must have last dimension {self.n_elements}, found shape {h.shape}")
+        A = np.broadcast_to(self.A, h.shape[:-1] + self.A.shape).copy()
+        B = np.broadcast_to(self.B, h.shape[:-1] + self.B.shape).copy()
+        for j, el in enumerate(self.elements):
+            target = A if el.matrix == "A" else B
+            target[..., el.row, el.col] += h[..., j]
+        return A, B
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per element: matrix, 1-based row and column, lower, upper, nominal."""
+        rows = []
+        for el in self.elements:
+            nominal = (self.A if el.matrix == "A" else self.B)[el.row, el.col]
+            rows.append(
+                {"matrix": el.matrix, "row": el.row + 1, "col": el.col + 1, "nominal": nominal,
+                 "lower": el.lower, "upper": el.upper}
+            )
+        return pd.DataFrame(rows, columns=["matrix", "row", "col", "nominal", "lower", "upper"])
+
+    def bounds_table(self, matrix: Literal["A", "B"], offset: tuple[int, int] = (0, 0)) -> pd.DataFrame:
+        """Bounds laid out like the paper's Tables 1-2: columns ``(i, j)``, rows h_l, h_u.
+
+        Parameters
+        ----------
+        matrix : {'A', 'B'}
+        offset : tuple of int
+            Subtracted from the 1-based positions, e.g. ``(4, 3)`` numbers ΔA's elements
+            as ΔA*'s, like Table 1.
+        """
+        check_choice("matrix", matrix, ("A", "B"))
+        els = [el for el in self.elements if el.matrix == matrix]
+        cols = [f"({el.row + 1 - offset[0]}, {el.col + 1 - offset[1]})" for el in els]
+        data = [[el.lower for el in els], [el.upper for el in els]]
+        return pd.DataFrame(data, index=pd.Index(["h_l", "h_u"], name="(i, j)"), columns=cols)
+
+
+def pid_state_matrices(a_star: ArrayLike, b_star: ArrayLike) -> tuple[Array, Array]:
+    """Assemble Eq. (4)'s A (6x6) and B (6x2) for the PID state ``[∫e, e, ė]``.
+
+    Parameters
+    ----------
+    a_star : array_like, shape (2, 4)
+        Rows 5-6, columns 3-6 of A (the Jacobian of f with respect to ``e, ė``).
+    b_star : array_like, shape (2, 2)
+        Rows 5-6 of B.
+    """
+    a_star = check_array("a_star", a_star, shape=(2, 4))
+    b_star = check_array("b_star", b_star, shape=(2, 2))
+    A = np.zeros((6, 6))
+    A[:4, 2:] = np.eye(4)
+    A[4:, 2:] = a_star
+    B = np.zeros((6, 2))
+    B[4:, :] = b_star
+    return A, B
+
+
+#: Published A* (rows 5-6, columns 4-6 of A) and B*; paper Section 4.
+PAPER_A_STAR = np.array([[-0.30, -0.28, -0.42], [-2.56, -4.26, -2.49]])
+PAPER_B_STAR = np.array([[-2.18, 1.74], [1.74, -8.98]])
+#: Upper bounds of Tables 1 and 2 (lower bounds all 0).
+PAPER_TABLE1 = np.array([[1.75, 2.38, 2.00], [3.18, 4.70, 3.23]])
+PAPER_TABLE2 = np.array([[0.97, 1.92], [1.92, 5.08]])
+
+
+def paper_model() -> UncertainLTVModel:
+    """The published model of Section 4: A*, B* and Tables 1-2 exactly.
+
+    Returns
+    -------
+    UncertainLTVModel
+        n = 6, m = 2, N = 10 elements: ΔA(5..6, 4..6) then ΔB(5..6, 1..2), each with
+        lower bound 0 (A*, B* are the lower ends of the intervals).
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.paper_model().n_elements
+    10
+    """
+    a_star = np.zeros((2, 4))
+    a_star[:, 1:] = PAPER_A_STAR
+    A, B = pid_state_matrices(a_star, PAPER_B_STAR)
+    elements = [
+        UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j]))
+        for i in range(2)
+        for j in range(3)
+    ] + [
+        UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k]))
+        for i in range(2)
+        for k in range(2)
+    ]
+    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)")
+
+
+def derived_model(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    times: ArrayLike | None = None,
+    n_masses: int = 21,
+    rtol: float = 1e-9,
+) -> UncertainLTVModel:
+    """Interval model obtained by linearizing the robot along the reference.
+
+    The Jacobians of :func:`scara_robust.error_dynamics_jacobians` are evaluated on the
+    grid ``times × masses`` (masses spanning the payload's range), so the reference and
+    payload are treated as independent. An element varies when its range exceeds
+    ``rtol`` times the largest magnitude in its matrix; the nominal matrices hold the
+    element-wise minima and each varying element gets ``[0, max - min]``, the paper's
+    convention.
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        Robot (default: the paper's).
+    reference : Reference, optional
+        Joint reference (default: the paper's ``sin t, cos t``).
+    payload : callable, optional
+        ``payload(t) -> m_p`` in kg (default: the paper's).
+    times : array_like, shape (k,), optional
+        Reference sample times, s (default: 721 points over [0, 2π]).
+    n_masses : int
+        Payload masses sampled across its range (>= 1).
+    rtol : float
+        Relative threshold below which an element is constant.
+
+    Returns
+    -------
+    UncertainLTVModel
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.derived_model().n_elements
+    10
+    """
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    payload = payload if payload is not None else paper_payload(params)
+    t = np.linspace(0.0, 2 * np.pi, 721) if times is None else check_array("times", times, ndim=1)
+    if t.size == 0:
+        raise ValueError("`times` must hold at least one time, found none")
+    if isinstance(n_masses, bool) or not isinstance(n_masses, (int, np.integer)) or n_masses < 1:
+        raise ValueError(f"`n_masses` must be an integer >= 1, found {n_masses!r}")
+    rtol = check_real("rtol", rtol, nonnegative=True)
+    lo, hi = payload_range(payload, t)
+    masses = np.linspace(lo, hi, int(n_masses))
+    r, rd, _ = reference.sample(t)
+    a_star, g_bar = error_dynamics_jacobians(
+        params, r[:, None, :], rd[:, None, :], masses[None, :]
+    )
+    a_star = a_star.reshape(-1, 2, 4)
+    g_bar = g_bar.reshape(-1, 2, 2)
+    A0, _ = pid_state_matrices(np.zeros((2, 4)), np.zeros((2, 2)))
+    A_all = np.repeat(A0[None], len(a_star), axis=0)
+    A_all[:, 4:, 2:] = a_star
+    B_all = np.zeros((len(a_star), 6, 2))
+    B_all[:, 4:, :] = g_bar
+    elements: list[UncertainElement] = []
+    nominal = {}
+    for label, stack in (("A", A_all), ("B", B_all)):
+        low, high = stack.min(axis=0), stack.max(axis=0)
+        scale = max(np.abs(stack).max(), 1e-300)
+        nominal[label] = low.copy()
+        for i, j in zip(*np.nonzero(high - low > rtol * scale)):
+            elements.append(UncertainElement(label, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
+        unchanged = high - low <= rtol * scale
+        nominal[label][unchanged] = stack[0][unchanged]
+    return UncertainLTVModel(nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)")
+
+
