@@ -35,9 +35,7 @@ def positive_part(S: Array) -> Array:
     return np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T)
 
 
-def theorem1_z(
-    P: Array, A_cl: Array, E: Array, lower: Array, upper: Array
-) -> tuple[Array, Array, Array, Array]:
+def theorem1_z(P: Array, A_cl: Array, E: Array, lower: Array, upper: Array) -> tuple[Array, Array, Array, Array]:
     """Theorem 1 steps 2-7 for a given P.
 
     Parameters

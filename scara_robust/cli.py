@@ -106,10 +106,13 @@ def _emit(text: str, output: str | None) -> None:
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--bounds", choices=sorted(BOUNDS), default="paper",
-                   help="interval model: the published Tables 1-2 or bounds derived from the robot model")
-    p.add_argument("--elements", choices=ELEMENT_SETS, default="all",
-                   help="uncertain elements entering Theorem 1's Z")
+    p.add_argument(
+        "--bounds",
+        choices=sorted(BOUNDS),
+        default="paper",
+        help="interval model: the published Tables 1-2 or bounds derived from the robot model",
+    )
+    p.add_argument("--elements", choices=ELEMENT_SETS, default="all", help="uncertain elements entering Theorem 1's Z")
 
 
 def _design_payload(args: argparse.Namespace) -> dict[str, Any]:

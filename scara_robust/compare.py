@@ -57,8 +57,12 @@ def compare(
     rows: list[dict[str, Any]] = []
     for c, s in tqdm(pairs, disable=not progress, file=sys.stderr, desc="compare", unit="run"):
         res = run_scenario(c, s, payload_on=payload_on, t_final=t_final)
-        row: dict[str, Any] = {"controller": c, "scenario": s, "payload": "on" if payload_on else "off",
-                               "success": res.success}
+        row: dict[str, Any] = {
+            "controller": c,
+            "scenario": s,
+            "payload": "on" if payload_on else "off",
+            "success": res.success,
+        }
         row.update(res.metrics().to_dict())
         rows.append(row)
     return pd.DataFrame(rows, columns=["controller", "scenario", "payload", "success", *METRIC_NAMES])
@@ -68,7 +72,9 @@ def _cmd_compare(args: argparse.Namespace) -> str:
     if args.t_final <= 6.0:
         raise ValueError(f"`--t-final` must be > 6 s (metrics are taken after 6 s), found {args.t_final}")
     start = time.perf_counter()
-    table = compare(payload_on=args.payload == "on", t_final=args.t_final, progress=sys.stderr.isatty() or args.progress)
+    table = compare(
+        payload_on=args.payload == "on", t_final=args.t_final, progress=sys.stderr.isatty() or args.progress
+    )
     elapsed = time.perf_counter() - start
     sys.stderr.write(f"compare: {len(table)} runs in {elapsed:.1f} s\n")
     if args.format == "json":

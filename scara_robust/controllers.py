@@ -173,9 +173,7 @@ def sliding_mode_controller(
     g = gains or SlidingModeGains()
     check_choice("variant", variant, ("boundary", "sign"))
     limit = check_torque_limit(torque_limit)
-    sigma: Callable[[Array], Array] = (
-        np.sign if variant == "sign" else (lambda s: np.clip(s / g.boundary, -1.0, 1.0))
-    )
+    sigma: Callable[[Array], Array] = np.sign if variant == "sign" else (lambda s: np.clip(s / g.boundary, -1.0, 1.0))
 
     def outfcn(t: float, x: Array, u: Array, _params: Any) -> Array:
         q, qd = u[:2], u[2:]
@@ -203,8 +201,12 @@ def _pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
 def _smc_factory(variant: str) -> Callable[..., ct.NonlinearIOSystem]:
     def factory(**kw: Any) -> ct.NonlinearIOSystem:
         return sliding_mode_controller(
-            kw.get("params"), kw.get("reference"), gains=kw.get("gains"), variant=variant,
-            torque_limit=kw.get("torque_limit"), name=f"smc-{variant}",
+            kw.get("params"),
+            kw.get("reference"),
+            gains=kw.get("gains"),
+            variant=variant,
+            torque_limit=kw.get("torque_limit"),
+            name=f"smc-{variant}",
         )
 
     return factory

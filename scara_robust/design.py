@@ -78,8 +78,7 @@ def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
         sv = np.linalg.svd(pbh, compute_uv=False)
         if sv[-1] <= 1e-10 * scale:
             raise ValueError(
-                f"`{name}`: (A, B) must be stabilizable, found the eigenvalue {lam:.4g} of A "
-                "uncontrollable from B"
+                f"`{name}`: (A, B) must be stabilizable, found the eigenvalue {lam:.4g} of A uncontrollable from B"
             )
 
 

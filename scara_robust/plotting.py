@@ -40,8 +40,15 @@ def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None
         i = int(np.argmin(np.abs(surface.rhos - mark[0])))
         k = int(np.argmin(np.abs(surface.etas - mark[1])))
         z = surface.max_eig[i, k]
-        ax.scatter([surface.rhos[i]], [surface.etas[k]], [z], color="red", s=60, depthshade=False,
-                   label=f"(ρ, η) = ({surface.rhos[i]:g}, {surface.etas[k]:g}): max λ(Z) = {z:.3g}")
+        ax.scatter(
+            [surface.rhos[i]],
+            [surface.etas[k]],
+            [z],
+            color="red",
+            s=60,
+            depthshade=False,
+            label=f"(ρ, η) = ({surface.rhos[i]:g}, {surface.etas[k]:g}): max λ(Z) = {z:.3g}",
+        )
         ax.legend(loc="upper left")
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")

@@ -159,8 +159,7 @@ class SinusoidalPayload:
         check_real("phase [rad]", self.phase)
         if self.amplitude > self.offset:
             raise ValueError(
-                f"`amplitude [kg]` must be <= `offset` so the mass stays >= 0, found "
-                f"{self.amplitude} > {self.offset}"
+                f"`amplitude [kg]` must be <= `offset` so the mass stays >= 0, found {self.amplitude} > {self.offset}"
             )
 
     def __call__(self, t: ArrayLike) -> Any:
@@ -295,9 +294,7 @@ def _inv22(M: Array) -> Array:
     return _stack22(M[..., 1, 1] / det, -M[..., 0, 1] / det, -M[..., 1, 0] / det, M[..., 0, 0] / det)
 
 
-def forward_dynamics(
-    params: ScaraParams, q: ArrayLike, qd: ArrayLike, torque: ArrayLike, m_p: ArrayLike
-) -> Array:
+def forward_dynamics(params: ScaraParams, q: ArrayLike, qd: ArrayLike, torque: ArrayLike, m_p: ArrayLike) -> Array:
     """Joint accelerations ``q̈ = M⁻¹ (T - C)``, rad/s², shape (..., 2).
 
     Parameters
@@ -315,7 +312,9 @@ def forward_dynamics(
     return _solve22(M, rhs)
 
 
-def dynamics_terms(params: ScaraParams, q2: float, w1: float, w2: float, m_p: float) -> tuple[float, float, float, float, float]:
+def dynamics_terms(
+    params: ScaraParams, q2: float, w1: float, w2: float, m_p: float
+) -> tuple[float, float, float, float, float]:
     """Scalar ``M11, M12, M22, C1, C2`` for one state: the lean path of the simulators."""
     p = params
     a1 = p.m1 * p.Lc1**2 + (p.m2 + m_p) * p.L1**2 + p.I1
@@ -340,9 +339,7 @@ def kinetic_energy(params: ScaraParams, q: ArrayLike, qd: ArrayLike, m_p: ArrayL
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, M, qd)
 
 
-def error_dynamics_jacobians(
-    params: ScaraParams, r: ArrayLike, rd: ArrayLike, m_p: ArrayLike
-) -> tuple[Array, Array]:
+def error_dynamics_jacobians(params: ScaraParams, r: ArrayLike, rd: ArrayLike, m_p: ArrayLike) -> tuple[Array, Array]:
     """Linearize the tracking-error dynamics (Eq. 2) at ``e = ė = 0`` (Eq. 3).
 
     With ``e = r - q``, ``ë = f + g (T_c + T_d)`` where ``f = r̈ + M⁻¹ C`` and

@@ -71,7 +71,11 @@ class Reference:
         t = check_array("times", times, ndim=1)
         out = []
         for fn in (self.position, self.velocity, self.acceleration):
-            out.append(check_array("reference value", np.array([np.asarray(fn(float(ti)), dtype=float) for ti in t]), shape=(len(t), 2)))
+            out.append(
+                check_array(
+                    "reference value", np.array([np.asarray(fn(float(ti)), dtype=float) for ti in t]), shape=(len(t), 2)
+                )
+            )
         return out[0], out[1], out[2]
 
 

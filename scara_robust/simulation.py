@@ -125,9 +125,16 @@ class SimulationResult:
         """Time series: t, e1, e2, e1_dot, e2_dot, Tc1, Tc2, Td1, Td2, m_p."""
         return pd.DataFrame(
             {
-                "t": self.t, "e1": self.e[0], "e2": self.e[1], "e1_dot": self.edot[0],
-                "e2_dot": self.edot[1], "Tc1": self.torque[0], "Tc2": self.torque[1],
-                "Td1": self.disturbance[0], "Td2": self.disturbance[1], "m_p": self.payload,
+                "t": self.t,
+                "e1": self.e[0],
+                "e2": self.e[1],
+                "e1_dot": self.edot[0],
+                "e2_dot": self.edot[1],
+                "Tc1": self.torque[0],
+                "Tc2": self.torque[1],
+                "Td1": self.disturbance[0],
+                "Td2": self.disturbance[1],
+                "m_p": self.payload,
             }
         )
 
@@ -240,7 +247,9 @@ def simulate(
         name = check_choice("controller", controller, tuple(CONTROLLERS))
         controller = make_controller(name, params=params, reference=reference)
     elif not isinstance(controller, ct.NonlinearIOSystem):
-        raise TypeError(f"`controller` must be a name or a control.NonlinearIOSystem, found {type(controller).__name__}")
+        raise TypeError(
+            f"`controller` must be a name or a control.NonlinearIOSystem, found {type(controller).__name__}"
+        )
     if isinstance(scenario, str):
         scenario = SCENARIOS[check_choice("scenario", scenario, tuple(SCENARIOS))]
     elif not isinstance(scenario, Scenario):
@@ -268,8 +277,20 @@ def simulate(
         t, X, Y, success, diverged, message = _fast_run(
             controller, params, payload, reference, wave, x_init, t_final, dt, rtol, atol, limit, sample_time
         )
-        return _result(t, X, Y, labels, state_labels, reference, payload, success, diverged, message,
-                       controller.name, scenario.name)
+        return _result(
+            t,
+            X,
+            Y,
+            labels,
+            state_labels,
+            reference,
+            payload,
+            success,
+            diverged,
+            message,
+            controller.name,
+            scenario.name,
+        )
     sys = closed_loop(controller, params, payload, wave)
 
     n_samples = int(np.floor(t_final / dt + 1e-9)) + 1
@@ -284,8 +305,13 @@ def simulate(
         inside = t_out[(t_out > a) & (t_out < b)]
         seg_t = np.concatenate([[a], inside, [b]])
         resp = ct.input_output_response(
-            sys, seg_t, 0, x, params={"segment_midpoint": 0.5 * (a + b)},
-            solve_ivp_method="RK45", solve_ivp_kwargs={"rtol": rtol, "atol": atol},
+            sys,
+            seg_t,
+            0,
+            x,
+            params={"segment_midpoint": 0.5 * (a + b)},
+            solve_ivp_method="RK45",
+            solve_ivp_kwargs={"rtol": rtol, "atol": atol},
         )
         keep = slice(None) if not times else slice(1, None)
         times.append(resp.time[keep])
@@ -302,18 +328,45 @@ def simulate(
     Y = np.concatenate(outputs, axis=1)
     on_grid = np.isin(t, t_out) if len(t) > len(t_out) else np.ones(len(t), dtype=bool)
     t, X, Y = t[on_grid], X[:, on_grid], Y[:, on_grid]
-    return _result(t, X, Y, list(sys.output_labels), list(sys.state_labels), reference, payload,
-                   success, diverged, message, controller.name, scenario.name)
+    return _result(
+        t,
+        X,
+        Y,
+        list(sys.output_labels),
+        list(sys.state_labels),
+        reference,
+        payload,
+        success,
+        diverged,
+        message,
+        controller.name,
+        scenario.name,
+    )
 
 
 def _result(
-    t: Array, X: Array, Y: Array, output_labels: list[str], state_labels: list[str],
-    reference: Reference, payload: PayloadProfile, success: bool, diverged: bool, message: str,
-    controller: str, scenario: str,
+    t: Array,
+    X: Array,
+    Y: Array,
+    output_labels: list[str],
+    state_labels: list[str],
+    reference: Reference,
+    payload: PayloadProfile,
+    success: bool,
+    diverged: bool,
+    message: str,
+    controller: str,
+    scenario: str,
 ) -> SimulationResult:
     response = ct.TimeResponseData(
-        t, Y, X, None, output_labels=output_labels, state_labels=state_labels,
-        title=f"{controller}, scenario {scenario}", issiso=False,
+        t,
+        Y,
+        X,
+        None,
+        output_labels=output_labels,
+        state_labels=state_labels,
+        title=f"{controller}, scenario {scenario}",
+        issiso=False,
     )
     r = np.array([np.asarray(reference.position(ti), dtype=float) for ti in t]).T
     rd = np.array([np.asarray(reference.velocity(ti), dtype=float) for ti in t]).T
@@ -334,8 +387,17 @@ def _result(
 
 
 def _fast_run(
-    controller: ct.NonlinearIOSystem, params: ScaraParams, payload: PayloadProfile, reference: Reference,
-    wave: SquareWave, x_init: Array, t_final: float, dt: float, rtol: float, atol: float, limit: float,
+    controller: ct.NonlinearIOSystem,
+    params: ScaraParams,
+    payload: PayloadProfile,
+    reference: Reference,
+    wave: SquareWave,
+    x_init: Array,
+    t_final: float,
+    dt: float,
+    rtol: float,
+    atol: float,
+    limit: float,
     sample_time: float | None,
 ) -> tuple[Array, Array, Array, bool, bool, str]:
     from scipy.integrate import solve_ivp
@@ -391,15 +453,16 @@ def _fast_run(
         x = x_init
         for a, b in zip(edges[:-1], edges[1:]):
             td = np.asarray(wave(0.5 * (a + b)), dtype=float)
-            inside = t_out[(t_out >= a) & (t_out <= b)]
-            sol = solve_ivp(lambda tt, xx: rhs(tt, xx, torque(tt, xx), td), (a, b), x,
-                            method="RK45", t_eval=inside, rtol=rtol, atol=atol)
+            t_eval = np.union1d(t_out[(t_out >= a) & (t_out <= b)], [b])
+
+            def segment_rhs(tt: float, xx: Array, td: Array = td) -> Array:
+                return rhs(tt, xx, torque(tt, xx), td)
+
+            sol = solve_ivp(segment_rhs, (a, b), x, method="RK45", t_eval=t_eval, rtol=rtol, atol=atol)
             if not sol.success:
                 success, message = False, f"integrator failed at t = {a:.3f} s: {sol.message}"
                 break
-            x = sol.y[:, -1] if sol.t.size and sol.t[-1] == b else solve_ivp(
-                lambda tt, xx: rhs(tt, xx, torque(tt, xx), td), (a, b), x, method="RK45", rtol=rtol, atol=atol
-            ).y[:, -1]
+            x = sol.y[:, -1]
             keep = ~np.isin(sol.t, pieces_t[-1][-1:]) if pieces_t else np.ones(sol.t.size, dtype=bool)
             pieces_t.append(sol.t[keep])
             pieces_x.append(sol.y[:, keep])
@@ -409,6 +472,8 @@ def _fast_run(
                 break
         t = np.concatenate(pieces_t)
         X = np.concatenate(pieces_x, axis=1)
+        on_grid = np.isin(t, t_out)
+        t, X = t[on_grid], X[:, on_grid]
         tc_all = np.array([torque(ti, X[:, i]) for i, ti in enumerate(t)]).T
     td_all = np.asarray(wave(t), dtype=float)
     Y = np.vstack([X[:4], tc_all, td_all])
@@ -416,8 +481,14 @@ def _fast_run(
 
 
 def run_scenario(
-    controller: str, scenario: str, *, payload_on: bool = True, t_final: float = 20.0,
-    torque_limit: Any = None, params: ScaraParams | None = None, method: str = "fast",
+    controller: str,
+    scenario: str,
+    *,
+    payload_on: bool = True,
+    t_final: float = 20.0,
+    torque_limit: Any = None,
+    params: ScaraParams | None = None,
+    method: str = "fast",
 ) -> SimulationResult:
     """Run a named controller on a named scenario with the paper's signals.
 
@@ -427,8 +498,15 @@ def run_scenario(
     params = params or ScaraParams()
     ctrl = make_controller(controller, params=params, torque_limit=torque_limit)
     payload = paper_payload(params) if payload_on else ConstantPayload(0.0)
-    return simulate(ctrl, scenario, params=params, payload=payload, t_final=t_final, method=method,
-                    sample_time=SAMPLE_TIMES.get(controller))
+    return simulate(
+        ctrl,
+        scenario,
+        params=params,
+        payload=payload,
+        t_final=t_final,
+        method=method,
+        sample_time=SAMPLE_TIMES.get(controller),
+    )
 
 
 def _cmd_simulate(args: argparse.Namespace) -> str:
@@ -436,8 +514,13 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
         raise ValueError(f"`--t-final` must be > 0 s, found {args.t_final}")
     if args.torque_limit is not None and args.torque_limit <= 0:
         raise ValueError(f"`--torque-limit` must be > 0 N·m, found {args.torque_limit}")
-    res = run_scenario(args.controller, args.scenario, payload_on=args.payload == "on",
-                       t_final=args.t_final, torque_limit=args.torque_limit)
+    res = run_scenario(
+        args.controller,
+        args.scenario,
+        payload_on=args.payload == "on",
+        t_final=args.t_final,
+        torque_limit=args.torque_limit,
+    )
     if args.plot is not None:
         import matplotlib
 
@@ -454,8 +537,15 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
     if not res.success:
         raise ValueError(f"`--controller {args.controller}`: the run failed: {res.message}")
     if args.format == "json":
-        return json.dumps({"controller": args.controller, "scenario": args.scenario, "payload": args.payload,
-                           "metrics": res.metrics().to_dict(), "series": frame.to_dict(orient="list")})
+        return json.dumps(
+            {
+                "controller": args.controller,
+                "scenario": args.scenario,
+                "payload": args.payload,
+                "metrics": res.metrics().to_dict(),
+                "series": frame.to_dict(orient="list"),
+            }
+        )
     return frame.to_csv(index=False)
 
 

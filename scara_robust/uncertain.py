@@ -61,9 +61,7 @@ class UncertainElement:
         lo = check_real("lower", self.lower)
         hi = check_real("upper", self.upper)
         if lo > hi:
-            raise ValueError(
-                f"`lower` must be <= `upper` for element {self.label}, found {lo} > {hi}"
-            )
+            raise ValueError(f"`lower` must be <= `upper` for element {self.label}, found {lo} > {hi}")
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
 
@@ -125,9 +123,7 @@ class UncertainLTVModel:
                 raise TypeError(f"`elements[{k}]` must be an UncertainElement, found {type(el).__name__}")
             shape = A.shape if el.matrix == "A" else B.shape
             if el.row >= shape[0] or el.col >= shape[1]:
-                raise ValueError(
-                    f"`elements[{k}]` {el.label} lies outside {el.matrix} of shape {shape}"
-                )
+                raise ValueError(f"`elements[{k}]` {el.label} lies outside {el.matrix} of shape {shape}")
             key = (el.matrix, el.row, el.col)
             if key in seen:
                 raise ValueError(f"`elements[{k}]` {el.label} appears twice")
@@ -210,8 +206,14 @@ class UncertainLTVModel:
         for el in self.elements:
             nominal = (self.A if el.matrix == "A" else self.B)[el.row, el.col]
             rows.append(
-                {"matrix": el.matrix, "row": el.row + 1, "col": el.col + 1, "nominal": nominal,
-                 "lower": el.lower, "upper": el.upper}
+                {
+                    "matrix": el.matrix,
+                    "row": el.row + 1,
+                    "col": el.col + 1,
+                    "nominal": nominal,
+                    "lower": el.lower,
+                    "upper": el.upper,
+                }
             )
         return pd.DataFrame(rows, columns=["matrix", "row", "col", "nominal", "lower", "upper"])
 
@@ -279,14 +281,8 @@ def paper_model() -> UncertainLTVModel:
     a_star[:, 1:] = PAPER_A_STAR
     A, B = pid_state_matrices(a_star, PAPER_B_STAR)
     elements = [
-        UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j]))
-        for i in range(2)
-        for j in range(3)
-    ] + [
-        UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k]))
-        for i in range(2)
-        for k in range(2)
-    ]
+        UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j])) for i in range(2) for j in range(3)
+    ] + [UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k])) for i in range(2) for k in range(2)]
     return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)")
 
 
@@ -345,9 +341,7 @@ def derived_model(
     lo, hi = payload_range(payload, t)
     masses = np.linspace(lo, hi, int(n_masses))
     r, rd, _ = reference.sample(t)
-    a_star, g_bar = error_dynamics_jacobians(
-        params, r[:, None, :], rd[:, None, :], masses[None, :]
-    )
+    a_star, g_bar = error_dynamics_jacobians(params, r[:, None, :], rd[:, None, :], masses[None, :])
     a_star = a_star.reshape(-1, 2, 4)
     g_bar = g_bar.reshape(-1, 2, 2)
     A0, _ = pid_state_matrices(np.zeros((2, 4)), np.zeros((2, 2)))
@@ -366,5 +360,3 @@ def derived_model(
         unchanged = high - low <= rtol * scale
         nominal[label][unchanged] = stack[0][unchanged]
     return UncertainLTVModel(nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)")
-
-

@@ -1,0 +1,40 @@
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import scara_robust as sr  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+@pytest.fixture(scope="session")
+def paper():
+    return sr.paper_model()
+
+
+@pytest.fixture(scope="session")
+def paper_design(paper):
+    return sr.design(paper, 3.0, 90.0)
+
+
+def random_model(seed: int, n: int = 4, m: int = 2, n_elements: int = 4) -> sr.UncertainLTVModel:
+    """A random stabilizable interval model with elements in A and B."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n))
+    B = rng.normal(size=(n, m))
+    positions = [("A", i, j) for i in range(n) for j in range(n)] + [("B", i, k) for i in range(n) for k in range(m)]
+    picks = rng.choice(len(positions), size=n_elements, replace=False)
+    elements = []
+    for p in picks:
+        mat, i, j = positions[p]
+        lo = rng.uniform(-0.3, 0.0)
+        elements.append(sr.UncertainElement(mat, i, j, lo, lo + rng.uniform(0.01, 0.5)))
+    return sr.UncertainLTVModel(A, B, tuple(elements), name=f"random-{seed}")
