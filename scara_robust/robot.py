@@ -396,6 +396,7 @@ def scara_plant(
     payload: PayloadProfile | None = None,
     *,
     name: str = "scara",
+    state_limit: float = 1e3,
 ) -> ct.NonlinearIOSystem:
     """The SCARA as a python-control nonlinear input/output system.
 
@@ -407,6 +408,10 @@ def scara_plant(
         ``payload(t) -> m_p`` in kg (default: the paper's sinusoid).
     name : str
         System name.
+    state_limit : float
+        Once any state exceeds this magnitude (rad or rad/s) the state stops evolving,
+        so a diverging simulation ends quickly instead of crawling through a blow-up;
+        simulators flag such runs as diverged.
 
     Returns
     -------
@@ -425,7 +430,11 @@ def scara_plant(
     params = params or ScaraParams()
     payload = check_callable("payload", payload if payload is not None else paper_payload(params))
 
+    limit = check_real("state_limit", state_limit, positive=True)
+
     def updfcn(t: float, x: Array, u: Array, _params: Any) -> Array:
+        if np.abs(x).max() > limit:
+            return np.zeros(4)
         a1, a2 = forward_dynamics_scalar(params, x, u[0] + u[2], u[1] + u[3], float(payload(t)))
         return np.array([x[2], x[3], a1, a2])
 

@@ -139,6 +139,16 @@ class SimulationResult:
         )
 
 
+#: Plant states (rad, rad/s) beyond which a run counts as diverged and is frozen.
+STATE_LIMIT = 1e3
+
+
+def _diverged(reference: Reference, t: float, x: Array, limit: float) -> bool:
+    if not np.all(np.isfinite(x[:4])) or np.abs(x[:4]).max() > STATE_LIMIT:
+        return True
+    return bool(np.abs(np.asarray(reference.position(t), dtype=float) - x[:2]).max() > limit)
+
+
 def _disturbance_source(wave: SquareWave) -> ct.NonlinearIOSystem:
     def outfcn(t: float, x: Array, u: Array, params: Any) -> Array:
         # The level is held per integration segment so an RK stage at a segment's end
@@ -163,12 +173,13 @@ def closed_loop(
         plant's four followed by the controller's.
     """
     params = params or ScaraParams()
-    plant = scara_plant(params, payload if payload is not None else paper_payload(params))
+    plant = scara_plant(params, payload if payload is not None else paper_payload(params), state_limit=STATE_LIMIT)
     source = _disturbance_source(disturbance or paper_disturbance())
     return ct.interconnect(
         [plant, controller, source],
         inplist=[],
         outlist=["q1", "q2", "q1_dot", "q2_dot", "Tc1", "Tc2", "Td1", "Td2"],
+        outputs=["q1", "q2", "q1_dot", "q2_dot", "Tc1", "Tc2", "Td1", "Td2"],
         name="closed_loop",
     )
 
@@ -272,7 +283,9 @@ def simulate(
     else:
         x_init = check_array("x0", x0, shape=(4 + n_c,))
     labels = ["q1", "q2", "q1_dot", "q2_dot", "Tc1", "Tc2", "Td1", "Td2"]
-    state_labels = ["q1", "q2", "q1_dot", "q2_dot"] + [f"{controller.name}.{n}" for n in controller.state_labels]
+    state_labels = [f"scara_{n}" for n in ("q1", "q2", "q1_dot", "q2_dot")] + [
+        f"{controller.name}_{n}" for n in controller.state_labels
+    ]
     if method == "fast":
         t, X, Y, success, diverged, message = _fast_run(
             controller, params, payload, reference, wave, x_init, t_final, dt, rtol, atol, limit, sample_time
@@ -318,10 +331,9 @@ def simulate(
         states.append(resp.states[:, keep])
         outputs.append(resp.outputs[:, keep])
         x = resp.states[:, -1]
-        err = np.asarray(reference.position(b), dtype=float) - x[:2]
-        if not np.all(np.isfinite(x)) or np.abs(err).max() > limit:
+        if _diverged(reference, b, x, limit):
             success, diverged = False, True
-            message = f"diverged: |e| exceeded {limit} rad by t = {b:.3f} s"
+            message = f"diverged by t = {b:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
             break
     t = np.concatenate(times)
     X = np.concatenate(states, axis=1)
@@ -412,6 +424,9 @@ def _fast_run(
         return np.asarray(out(t, x[4:], x[:4], cparams), dtype=float)
 
     def rhs(t: float, x: Array, tc: Array, td: Array) -> Array:
+        # Freeze a run that has already diverged so the integrator does not crawl.
+        if _diverged(reference, t, x, limit):
+            return np.zeros_like(x)
         dx = np.empty_like(x)
         dx[:2] = x[2:4]
         dx[2:4] = forward_dynamics_scalar(params, x, tc[0] + td[0], tc[1] + td[1], float(payload(t)))
@@ -437,9 +452,9 @@ def _fast_run(
             k4 = rhs(tk + h, x + h * k3, tc, td)
             x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             X[:, k + 1] = x
-            if not np.all(np.isfinite(x)) or np.abs(np.asarray(reference.position(t[k + 1])) - x[:2]).max() > limit:
+            if _diverged(reference, t[k + 1], x, limit):
                 success, diverged = False, True
-                message = f"diverged: |e| exceeded {limit} rad by t = {t[k + 1]:.3f} s"
+                message = f"diverged by t = {t[k + 1]:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
                 t, X = t[: k + 2], X[:, : k + 2]
                 break
         tc_all = np.array([torque(ti, X[:, i]) for i, ti in enumerate(t)]).T
@@ -466,9 +481,9 @@ def _fast_run(
             keep = ~np.isin(sol.t, pieces_t[-1][-1:]) if pieces_t else np.ones(sol.t.size, dtype=bool)
             pieces_t.append(sol.t[keep])
             pieces_x.append(sol.y[:, keep])
-            if not np.all(np.isfinite(x)) or np.abs(np.asarray(reference.position(b)) - x[:2]).max() > limit:
+            if _diverged(reference, b, x, limit):
                 success, diverged = False, True
-                message = f"diverged: |e| exceeded {limit} rad by t = {b:.3f} s"
+                message = f"diverged by t = {b:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
                 break
         t = np.concatenate(pieces_t)
         X = np.concatenate(pieces_x, axis=1)

@@ -11,8 +11,9 @@ PAPER_K_DECIMALS = np.array([[0, 1, 0, 1, 0, 1], [1, 0, 1, 0, 0, 0]])
 
 
 def test_paper_gain_to_printed_digits(paper_design):
-    rounded = np.array([[round(k, int(d)) for k, d in zip(row, drow)]
-                        for row, drow in zip(paper_design.K, PAPER_K_DECIMALS)])
+    rounded = np.array(
+        [[round(k, int(d)) for k, d in zip(row, drow)] for row, drow in zip(paper_design.K, PAPER_K_DECIMALS)]
+    )
     matches = rounded == PAPER_K
     # Nine entries match to the printed digit; K[0,1] = -K[1,0] = -10.83 and K[1,2] = 14.83
     # print as ∓10.8 and 14.8, not ∓10.9 and 14.9 (see the next test for why).
@@ -113,8 +114,11 @@ def test_ultimate_bound_makes_vdot_negative(paper, paper_design):
         (lambda m: sr.design("model", 3, 90), TypeError, "`model` must be an UncertainLTVModel"),
         (lambda m: sr.certify(m, sr.design(m, 3, 90), "C"), ValueError, "`elements` must be one of"),
         (lambda m: sr.certify(m, "design"), TypeError, "`design` must be a Design"),
-        (lambda m: sr.design(sr.UncertainLTVModel(np.eye(2), [[1.0], [0.0]]), 1, 1), ValueError,
-         "must be stabilizable"),
+        (
+            lambda m: sr.design(sr.UncertainLTVModel(np.eye(2), [[1.0], [0.0]]), 1, 1),
+            ValueError,
+            "must be stabilizable",
+        ),
         (lambda m: sr.certify(m, sr.design(m, 3, 90)).ultimate_bound(-1), ValueError, "`phi` must be >= 0"),
         (lambda m: sr.design_surface(m, [0, 1], [1, 2]), ValueError, "`rhos` must be > 0"),
         (lambda m: sr.design_surface(m, [1], [0.5]), ValueError, "`etas` must be >= 1"),
@@ -122,9 +126,24 @@ def test_ultimate_bound_makes_vdot_negative(paper, paper_design):
         (lambda m: sr.design_surface(m, [], [1]), ValueError, "`rhos` must hold at least one"),
         (lambda m: sr.design_surface(m, [1], [1], method="fast"), ValueError, "`method` must be one of"),
     ],
-    ids=["rho0", "rho-neg", "eta-small", "rho-nan", "eta-inf", "rho-str", "model-type", "elements",
-         "design-type", "not-stabilizable", "phi-neg", "surface-rho", "surface-eta", "surface-shape",
-         "surface-empty", "surface-method"],
+    ids=[
+        "rho0",
+        "rho-neg",
+        "eta-small",
+        "rho-nan",
+        "eta-inf",
+        "rho-str",
+        "model-type",
+        "elements",
+        "design-type",
+        "not-stabilizable",
+        "phi-neg",
+        "surface-rho",
+        "surface-eta",
+        "surface-shape",
+        "surface-empty",
+        "surface-method",
+    ],
 )
 def test_bad_design_input(paper, call, exc, match):
     with pytest.raises(exc, match=match):

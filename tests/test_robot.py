@@ -24,10 +24,22 @@ def test_forward_dynamics_matches_paper_closed_form(q, qd, mp):
     s2, c2 = np.sin(q[1]), np.cos(q[1])
     den = a3**2 * (1 + np.cos(2 * q[1])) - 2 * a1 * a2
     w1, w2 = qd
-    qdd1 = -(2 * a2 * a3 * s2 * (w1 + w2) ** 2 + a3**2 * w1**2 * np.sin(2 * q[1]) + 2 * a2 * T[0]
-             - 2 * (a2 + a3 * c2) * T[1]) / den
-    qdd2 = (2 * a2 * a3 * s2 * (w1 + w2) ** 2 + a3**2 * np.sin(2 * q[1]) * (2 * w1**2 + 2 * w1 * w2 + w2**2)
-            + 2 * a1 * a3 * s2 * w1**2 + 2 * (a2 + a3 * c2) * T[0] - 2 * (a1 + a2 + 2 * a3 * c2) * T[1]) / den
+    qdd1 = (
+        -(
+            2 * a2 * a3 * s2 * (w1 + w2) ** 2
+            + a3**2 * w1**2 * np.sin(2 * q[1])
+            + 2 * a2 * T[0]
+            - 2 * (a2 + a3 * c2) * T[1]
+        )
+        / den
+    )
+    qdd2 = (
+        2 * a2 * a3 * s2 * (w1 + w2) ** 2
+        + a3**2 * np.sin(2 * q[1]) * (2 * w1**2 + 2 * w1 * w2 + w2**2)
+        + 2 * a1 * a3 * s2 * w1**2
+        + 2 * (a2 + a3 * c2) * T[0]
+        - 2 * (a1 + a2 + 2 * a3 * c2) * T[1]
+    ) / den
     ours = sr.forward_dynamics(P, q, qd, T, mp)
     assert np.allclose(ours, [qdd1, qdd2], rtol=1e-10, atol=1e-12)
     x = np.concatenate([q, qd])
@@ -39,8 +51,9 @@ def test_kinetic_energy_conserved_without_torque(mp):
     plant = sr.scara_plant(P, sr.ConstantPayload(mp))
     x0 = [0.3, -1.0, 2.0, -1.5]
     t = np.linspace(0, 5, 501)
-    resp = ct.input_output_response(plant, t, np.zeros((4, t.size)), x0,
-                                    solve_ivp_kwargs={"rtol": 1e-10, "atol": 1e-12})
+    resp = ct.input_output_response(
+        plant, t, np.zeros((4, t.size)), x0, solve_ivp_kwargs={"rtol": 1e-10, "atol": 1e-12}
+    )
     energy = sr.kinetic_energy(P, resp.states[:2].T, resp.states[2:].T, mp)
     assert np.allclose(energy, energy[0], rtol=1e-7)
     assert np.ptp(resp.states[1]) > 0.5  # the arm really moved
@@ -72,9 +85,13 @@ def test_plant_signal_names():
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"m1": -1.0}, r"`m1 \[kg\]` must be > 0"), ({"L2": 0.0}, r"`L2 \[m\]` must be > 0"),
-     ({"I1": -0.1}, r"`I1 \[kg·m²\]` must be >= 0"), ({"Lc2": float("nan")}, "must be finite"),
-     ({"m2": "heavy"}, "must be a real number")],
+    [
+        ({"m1": -1.0}, r"`m1 \[kg\]` must be > 0"),
+        ({"L2": 0.0}, r"`L2 \[m\]` must be > 0"),
+        ({"I1": -0.1}, r"`I1 \[kg·m²\]` must be >= 0"),
+        ({"Lc2": float("nan")}, "must be finite"),
+        ({"m2": "heavy"}, "must be a real number"),
+    ],
     ids=["neg-mass", "zero-length", "neg-inertia", "nan", "string"],
 )
 def test_bad_params(kwargs, match):

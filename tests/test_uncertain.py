@@ -23,8 +23,18 @@ def derived():
 
 def test_derived_model_finds_the_ten_elements(derived):
     labels = [el.label for el in derived.elements]
-    assert labels == ["ΔA(5, 4)", "ΔA(5, 5)", "ΔA(5, 6)", "ΔA(6, 4)", "ΔA(6, 5)", "ΔA(6, 6)",
-                      "ΔB(5, 1)", "ΔB(5, 2)", "ΔB(6, 1)", "ΔB(6, 2)"]
+    assert labels == [
+        "ΔA(5, 4)",
+        "ΔA(5, 5)",
+        "ΔA(5, 6)",
+        "ΔA(6, 4)",
+        "ΔA(6, 5)",
+        "ΔA(6, 6)",
+        "ΔB(5, 1)",
+        "ΔB(5, 2)",
+        "ΔB(6, 1)",
+        "ΔB(6, 2)",
+    ]
     assert np.all(derived.A[4:, 2] == 0)  # ∂f/∂e1 = 0: no dependence on q1
 
 
@@ -69,15 +79,32 @@ def test_generic_model_and_perturbation_matrices():
         (lambda: sr.UncertainLTVModel(np.zeros((2, 3)), np.zeros((2, 1))), ValueError, "`A` must be square"),
         (lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.zeros((3, 1))), ValueError, "`B` must have shape"),
         (lambda: sr.UncertainLTVModel([[0, np.inf], [0, 0]], [[0], [1]]), ValueError, "`A` must contain only finite"),
-        (lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.ones((2, 1)), [sr.UncertainElement("A", 2, 0, 0, 1)]),
-         ValueError, "lies outside A"),
-        (lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.ones((2, 1)), [sr.UncertainElement("B", 0, 1, 0, 1)]),
-         ValueError, "lies outside B"),
+        (
+            lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.ones((2, 1)), [sr.UncertainElement("A", 2, 0, 0, 1)]),
+            ValueError,
+            "lies outside A",
+        ),
+        (
+            lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.ones((2, 1)), [sr.UncertainElement("B", 0, 1, 0, 1)]),
+            ValueError,
+            "lies outside B",
+        ),
         (lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.ones((2, 1)), ["x"]), TypeError, "UncertainElement"),
         (lambda: sr.derived_model(n_masses=0), ValueError, "`n_masses`"),
     ],
-    ids=["lower>upper", "bad-matrix", "neg-row", "nan-bound", "A-not-square", "B-rows", "inf-in-A",
-         "outside-A", "outside-B", "not-element", "n-masses"],
+    ids=[
+        "lower>upper",
+        "bad-matrix",
+        "neg-row",
+        "nan-bound",
+        "A-not-square",
+        "B-rows",
+        "inf-in-A",
+        "outside-A",
+        "outside-B",
+        "not-element",
+        "n-masses",
+    ],
 )
 def test_bad_model_input(build, exc, match):
     with pytest.raises(exc, match=match):

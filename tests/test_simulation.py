@@ -1,0 +1,153 @@
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import scara_robust as sr
+
+P = sr.ScaraParams()
+K = sr.design(sr.paper_model(), 3, 90).K
+
+
+def independent_pid_run(e0, ed0, t_final):
+    """PID loop written from the paper's equations alone: numpy + scipy, no python-control."""
+    m2, L1, L2, Lc2 = P.m2, P.L1, P.L2, P.Lc2
+
+    def mp(t):
+        return 0.3 * m2 * (np.sin(t) + 1)
+
+    def rhs(t, z, td):
+        q, qd, ie = z[:2], z[2:4], z[4:]
+        r, rd = np.array([np.sin(t), np.cos(t)]), np.array([np.cos(t), -np.sin(t)])
+        e, ed = r - q, rd - qd
+        tc = -K @ np.concatenate([ie, e, ed])
+        m = mp(t)
+        a1 = P.m1 * P.Lc1**2 + (m2 + m) * L1**2 + P.I1
+        a2 = m2 * Lc2**2 + m * L2**2 + P.I2 + P.cp * m
+        a3 = L1 * (m2 * Lc2 + m * L2)
+        M = np.array([[a1 + a2 + 2 * a3 * np.cos(q[1]), a2 + a3 * np.cos(q[1])], [a2 + a3 * np.cos(q[1]), a2]])
+        C = np.array([-a3 * (2 * qd[0] * qd[1] + qd[1] ** 2) * np.sin(q[1]), a3 * qd[0] ** 2 * np.sin(q[1])])
+        return np.concatenate([qd, np.linalg.solve(M, tc + td - C), e])
+
+    half = np.pi / 10
+    edges = np.append(np.arange(0, t_final, half), t_final)
+    z = np.array([0 - e0[0], 1 - e0[1], 1 - ed0[0], 0 - ed0[1], 0, 0])
+    worst = 0.0
+    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+        td = np.full(2, 5.0 if k % 2 == 0 else -5.0)
+        t_eval = np.arange(np.ceil(a / 1e-3), np.floor(b / 1e-3) + 1) * 1e-3
+        sol = solve_ivp(rhs, (a, b), z, t_eval=t_eval[(t_eval >= a) & (t_eval <= b)], args=(td,), rtol=1e-9, atol=1e-11)
+        z = solve_ivp(rhs, (a, b), z, args=(td,), rtol=1e-9, atol=1e-11).y[:, -1]
+        after = sol.t >= 6
+        if after.any():
+            e = np.array([np.sin(sol.t), np.cos(sol.t)]) - sol.y[:2]
+            worst = max(worst, np.abs(e[:, after]).max())
+    return worst
+
+
+@pytest.mark.parametrize("scenario", ["large", "small"], ids=["large", "small"])
+def test_closed_loop_matches_independent_integration(scenario):
+    sc = sr.SCENARIOS[scenario]
+    ours = sr.run_scenario("pid", scenario, t_final=10.0).metrics().max_abs_error_after_6s
+    theirs = independent_pid_run(sc.e0, sc.edot0, 10.0)
+    assert ours == pytest.approx(theirs, abs=1e-4)
+
+
+@pytest.mark.parametrize("controller", ["pid", "smc"], ids=["pid", "smc"])
+def test_fast_path_matches_interconnect(controller):
+    fast = sr.run_scenario(controller, "large", t_final=8.0, method="fast")
+    ref = sr.run_scenario(controller, "large", t_final=8.0, method="interconnect")
+    assert fast.t.shape == ref.t.shape
+    assert np.abs(fast.e - ref.e).max() <= 1e-5
+    frame = ref.response.to_pandas()
+    assert {"Tc1", "Tc2", "Td1", "q1"} <= set(frame.columns)
+
+
+def test_scenarios_initial_errors():
+    res = sr.run_scenario("pid", "large", t_final=0.5)
+    assert res.e[:, 0] == pytest.approx([-1.5, 2.5]) and res.edot[:, 0] == pytest.approx([1.0, 0.0])
+    res = sr.run_scenario("pid", "small", t_final=0.5)
+    assert res.e[:, 0] == pytest.approx([0.05, 0.05]) and res.edot[:, 0] == pytest.approx([0.0, 0.0])
+    assert res.e.shape == (2, 501) and res.torque.shape == (2, 501) and res.payload.shape == (501,)
+
+
+@pytest.fixture(scope="module")
+def chattering():
+    return {c: sr.run_scenario(c, "small", t_final=9.0).metrics().chattering_index for c in sr.CONTROLLERS}
+
+
+def test_sign_variant_chatters_most(chattering):
+    assert chattering["smc-sign"] > 10 * chattering["smc"]
+    assert chattering["smc-sign"] > 10 * chattering["pid"]
+
+
+def test_destabilizing_controller_is_reported():
+    ctrl = sr.pid_controller(-K)  # the wrong sign: positive feedback
+    res = sr.simulate(ctrl, "small", t_final=5.0, method="fast")
+    assert res.diverged and not res.success and "diverged" in res.message
+    res = sr.simulate(ctrl, "small", t_final=5.0)
+    assert res.diverged
+
+
+def test_torque_limit_saturates():
+    res = sr.run_scenario("pid", "large", t_final=1.0, torque_limit=20.0)
+    assert np.abs(res.torque).max() <= 20.0 + 1e-12
+
+
+def test_square_wave_switching_times():
+    wave = sr.paper_disturbance()
+    times = wave.switching_times(0.0, 1.0)
+    assert times == pytest.approx(np.pi / 10 * np.arange(1, 4))
+    assert wave(0.05).tolist() == [5.0, 5.0] and wave(0.4).tolist() == [-5.0, -5.0]
+
+
+def test_metrics_known_answers():
+    t = np.linspace(0, 10, 10001)
+    e = np.vstack([0.1 * np.sin(t), np.where(t >= 6, 0.02, 1.0)])
+    tc = np.vstack([np.where(t < 6, 10.0, 2.0), 3.0 * np.ones_like(t)])
+    m = sr.tracking_metrics(t, e, tc)
+    after = t >= 6
+    assert m.max_abs_error_after_6s == pytest.approx(0.1)
+    expected_rms = np.sqrt(np.trapezoid(0.5 * (e[0, after] ** 2 + 0.02**2), t[after]) / 4)
+    assert m.rms_error_after_6s == pytest.approx(expected_rms)
+    assert m.peak_torque == 10.0 and m.max_abs_torque_after_6s == 3.0
+    assert m.chattering_index == pytest.approx(0.0)
+    assert m.control_energy == pytest.approx(6 * 109 + 4 * 13, rel=1e-3)
+    square = np.vstack([np.sign(np.sin(2 * np.pi * t)), np.zeros_like(t)])
+    # a ±1 square wave of period 1 s varies by 2 twice a second
+    assert sr.tracking_metrics(t, e, square).chattering_index == pytest.approx(4.0, rel=0.01)
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: sr.simulate("lqr"), ValueError, "`controller` must be one of"),
+        (lambda: sr.simulate("pid", "medium"), ValueError, "`scenario` must be one of"),
+        (lambda: sr.simulate("pid", t_final=0), ValueError, "`t_final` must be > 0"),
+        (lambda: sr.simulate("pid", x0=[np.nan, 0, 0, 0, 0, 0]), ValueError, "`x0` must contain only finite"),
+        (lambda: sr.simulate("pid", x0=[0, 0, 0]), ValueError, "`x0` must have shape"),
+        (lambda: sr.pid_controller(K, torque_limit=0), ValueError, "`torque_limit` must be > 0"),
+        (lambda: sr.sliding_mode_controller(torque_limit=-5), ValueError, "`torque_limit` must be > 0"),
+        (lambda: sr.sliding_mode_controller(variant="tanh"), ValueError, "`variant` must be one of"),
+        (lambda: sr.SlidingModeGains(boundary=0), ValueError, r"`boundary \[rad/s\]` must be > 0"),
+        (lambda: sr.pid_controller(np.ones((2, 5))), ValueError, "`K` must have shape"),
+        (lambda: sr.tracking_metrics([0, 1], [[0, 0], [0, 0]], [[0, 0], [0, 0]]), ValueError, "at least 2 samples"),
+        (lambda: sr.SquareWave(period=0), ValueError, r"`period \[s\]` must be > 0"),
+    ],
+    ids=[
+        "controller",
+        "scenario",
+        "t-final",
+        "x0-nan",
+        "x0-shape",
+        "pid-limit",
+        "smc-limit",
+        "variant",
+        "boundary",
+        "K-shape",
+        "metrics-short",
+        "wave-period",
+    ],
+)
+def test_bad_simulation_input(call, exc, match):
+    with pytest.raises(exc, match=match):
+        call()
