@@ -22,7 +22,7 @@ Design surface (:mod:`scara_robust.surface`)
 Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, CONTROLLERS, make_controller
     simulate, run_scenario, SimulationResult, Scenario, SCENARIOS, closed_loop
-Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.compare`)
+Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.comparison`)
     tracking_metrics, TrackingMetrics -- errors and torques after the transient
     compare                         -- the PID vs sliding-mode table
 Plotting (:mod:`scara_robust.plotting`)
@@ -30,7 +30,7 @@ Plotting (:mod:`scara_robust.plotting`)
 """
 
 from .certificate import Certificate, UltimateBound, certify
-from .compare import compare
+from .comparison import compare
 from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
 from .design import Design, design
 from .metrics import TrackingMetrics, tracking_metrics

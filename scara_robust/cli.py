@@ -206,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
     p.set_defaults(func=_cmd_surface)
 
-    from .compare import add_compare_parser
+    from .comparison import add_compare_parser
     from .simulation import add_simulate_parser
 
     add_simulate_parser(sub)
