@@ -156,3 +156,12 @@ def test_python_dash_m_subprocess():
         [sys.executable, "-m", "scara_robust.compare", "--help"], capture_output=True, text=True, timeout=120
     )
     assert done.returncode == 0 and "--t-final" in done.stdout
+
+
+def test_simulate_plot_and_csv(capsys, tmp_path):
+    png, csv = tmp_path / "fig3.png", tmp_path / "run.csv"
+    code, out, _ = run(capsys, ["simulate", "--scenario", "small", "--t-final", "1", "--plot", str(png),
+                                "--output", str(csv)])
+    assert code == 0 and png.stat().st_size > 5000
+    header = csv.read_text().splitlines()[0]
+    assert header == "t,e1,e2,e1_dot,e2_dot,Tc1,Tc2,Td1,Td2,m_p"
