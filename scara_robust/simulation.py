@@ -149,6 +149,13 @@ def _diverged(reference: Reference, t: float, x: Array, limit: float) -> bool:
     return bool(np.abs(np.asarray(reference.position(t), dtype=float) - x[:2]).max() > limit)
 
 
+def _output_grid(t_final: float, dt: float) -> Array:
+    """Output times 0, dt, 2 dt, ... up to `t_final`, which is always included (s)."""
+    n_samples = int(np.floor(t_final / dt + 1e-9)) + 1
+    t_out = np.linspace(0.0, dt * (n_samples - 1), n_samples)
+    return t_out if t_out[-1] >= t_final - 1e-12 else np.append(t_out, t_final)
+
+
 def _disturbance_source(wave: SquareWave) -> ct.NonlinearIOSystem:
     def outfcn(t: float, x: Array, u: Array, params: Any) -> Array:
         # The level is held per integration segment so an RK stage at a segment's end
@@ -306,10 +313,7 @@ def simulate(
         )
     sys = closed_loop(controller, params, payload, wave)
 
-    n_samples = int(np.floor(t_final / dt + 1e-9)) + 1
-    t_out = np.linspace(0.0, dt * (n_samples - 1), n_samples)
-    if t_out[-1] < t_final - 1e-12:
-        t_out = np.append(t_out, t_final)
+    t_out = _output_grid(t_final, dt)
     edges = np.concatenate([[0.0], wave.switching_times(0.0, t_final), [t_final]])
     times, states, outputs = [], [], []
     x = x_init
@@ -459,10 +463,7 @@ def _fast_run(
                 break
         tc_all = np.array([torque(ti, X[:, i]) for i, ti in enumerate(t)]).T
     else:
-        n_samples = int(np.floor(t_final / dt + 1e-9)) + 1
-        t_out = np.linspace(0.0, dt * (n_samples - 1), n_samples)
-        if t_out[-1] < t_final - 1e-12:
-            t_out = np.append(t_out, t_final)
+        t_out = _output_grid(t_final, dt)
         edges = np.concatenate([[0.0], wave.switching_times(0.0, t_final), [t_final]])
         pieces_t, pieces_x = [], []
         x = x_init
