@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test compare lint bench clean
+.PHONY: test compare lint bench notebooks docs-figures clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -24,6 +24,15 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-enable --benchmark-json=benchmark.json -q
+
+# Executes every notebook (outputs are not saved); PNGs land in notebooks/figures/.
+notebooks: $(STAMP)
+	cd notebooks && ../$(BIN)/jupyter execute --timeout=600 *.ipynb
+
+# The README's figures, regenerated from the notebooks.
+docs-figures: notebooks
+	mkdir -p docs
+	cp notebooks/figures/figure2_surface_published_all.png notebooks/figures/figure3_pid_large_ic.png docs/
 
 clean:
 	rm -rf $(VENV) .pytest_cache benchmark.json

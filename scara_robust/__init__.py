@@ -26,7 +26,10 @@ Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.comparis
     tracking_metrics, TrackingMetrics -- errors and torques after the transient
     compare                         -- the PID vs sliding-mode table
 Plotting (:mod:`scara_robust.plotting`)
-    plot_surface, plot_surface_contour, plot_response
+    plot_surface, plot_surface_contour, plot_response, plot_signals
+Reproduction (:mod:`scara_robust.reproduction`)
+    reproduction_table              -- the paper's claims next to the package's results
+    PAPER_GAIN, PAPER_DESIGN_POINT  -- K and (ρ*, η*) as printed in Section 4
 """
 
 from .certificate import Certificate, UltimateBound, certify
@@ -34,7 +37,8 @@ from .comparison import compare
 from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
 from .design import Design, design
 from .metrics import TrackingMetrics, tracking_metrics
-from .plotting import plot_response, plot_surface, plot_surface_contour
+from .plotting import plot_response, plot_signals, plot_surface, plot_surface_contour
+from .reproduction import PAPER_DESIGN_POINT, PAPER_GAIN, reproduction_table
 from .robot import (
     ConstantPayload,
     ScaraParams,
@@ -55,6 +59,8 @@ from .uncertain import UncertainElement, UncertainLTVModel, derived_model, paper
 
 __all__ = [
     "CONTROLLERS",
+    "PAPER_DESIGN_POINT",
+    "PAPER_GAIN",
     "SCENARIOS",
     "Certificate",
     "ConstantPayload",
@@ -90,8 +96,10 @@ __all__ = [
     "paper_reference",
     "pid_controller",
     "plot_response",
+    "plot_signals",
     "plot_surface",
     "plot_surface_contour",
+    "reproduction_table",
     "run_scenario",
     "scara_plant",
     "simulate",

@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from ._validation import check_choice, check_real
 
 if TYPE_CHECKING:
     from .simulation import SimulationResult
     from .surface import DesignSurface
 
-__all__ = ["plot_surface", "plot_surface_contour", "plot_response"]
+__all__ = ["plot_surface", "plot_surface_contour", "plot_response", "plot_signals", "SIGNALS"]
+
+#: Quantities :func:`plot_signals` draws, with their axis labels.
+SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
 
 
 def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
@@ -33,7 +39,8 @@ def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None
 
     if ax is None:
         fig = plt.figure(figsize=(7, 5))
-        ax = fig.add_subplot(projection="3d")
+        # computed_zorder=False keeps the marker drawn above the surface
+        ax = fig.add_subplot(projection="3d", computed_zorder=False)
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
     ax.plot_surface(R, H, surface.max_eig, cmap="viridis", linewidth=0, antialiased=True, alpha=0.9)
     if mark is not None:
@@ -47,6 +54,7 @@ def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None
             color="red",
             s=60,
             depthshade=False,
+            zorder=10,
             label=f"(ρ, η) = ({surface.rhos[i]:g}, {surface.etas[k]:g}): max λ(Z) = {z:.3g}",
         )
         ax.legend(loc="upper left")
@@ -58,31 +66,72 @@ def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None
 
 
 def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
-    """Contour view of ``max λ(Z)`` with the certified region (max λ(Z) < 0) outlined."""
+    """Contour view of ``max λ(Z)`` with the certified region (max λ(Z) < 0) hatched.
+
+    The colour scale runs from the grid minimum to the 95th percentile, so that a steep
+    corner (ρ → 0) does not wash out the rest; higher values share the top colour.
+
+    Parameters
+    ----------
+    surface : DesignSurface
+    mark : tuple of float, optional
+        ``(rho, eta)`` to mark with a star.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into (default: a new figure).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
     import matplotlib.pyplot as plt
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4.5))
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
-    cs = ax.contourf(R, H, surface.max_eig, levels=30, cmap="viridis")
+    lo, hi = float(surface.max_eig.min()), float(np.quantile(surface.max_eig, 0.95))
+    levels = np.linspace(lo, hi if hi > lo else lo + 1.0, 30)
+    cs = ax.contourf(R, H, surface.max_eig, levels=levels, cmap="viridis", extend="max")
     plt.colorbar(cs, ax=ax, label="max λ(Z) [-]")
-    if (surface.max_eig < 0).any() and (surface.max_eig >= 0).any():
-        ax.contour(R, H, surface.max_eig, levels=[0.0], colors="red", linewidths=2)
+    handles = []
+    if surface.certified.any():
+        ax.contourf(R, H, surface.max_eig, levels=[lo - 1.0, 0.0], colors="none", hatches=["//"])
+        if not surface.certified.all():
+            ax.contour(R, H, surface.max_eig, levels=[0.0], colors="red", linewidths=2)
+        handles.append(plt.Rectangle((0, 0), 1, 1, fill=False, hatch="//", label="max λ(Z) < 0 (certified)"))
+    else:
+        handles.append(plt.Rectangle((0, 0), 1, 1, fill=False, lw=0, label="no grid point has max λ(Z) < 0"))
     if mark is not None:
-        ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")
-        ax.legend()
+        (star,) = ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")
+        handles.append(star)
+    ax.legend(handles=handles, loc="upper right", fontsize=8)
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")
-    ax.set_title(f"max λ(Z) < 0 region (red line = 0) — {surface.model_name}, {surface.elements}")
+    ax.set_title(f"max λ(Z) < 0 region — {surface.model_name}, elements: {surface.elements}")
     return ax
 
 
-def plot_response(result: SimulationResult, *, title: str | None = None) -> Any:
+def _window(result: SimulationResult, t_start: float) -> Any:
+    t_start = check_real("t_start", t_start, nonnegative=True)
+    keep = result.t >= t_start
+    if not keep.any():
+        raise ValueError(f"`t_start` must be at most the final time {result.t[-1]:g} s, found {t_start:g}")
+    return keep
+
+
+def plot_response(result: SimulationResult, *, title: str | None = None, t_start: float = 0.0) -> Any:
     """Two panels laid out like the paper's Figure 3.
 
     Upper: errors e1 (dash-dot) and e2 (solid) in rad on the left axis; disturbance
     torques (N·m) and payload mass (kg) on the right axis. Lower: control torques
     Tc1 (dash-dot) and Tc2 (solid) in N·m.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    title : str, optional
+        Figure title (default: controller and scenario names).
+    t_start : float
+        Draw from this time on, s (e.g. 6 to see the bounds after the transient).
 
     Returns
     -------
@@ -90,22 +139,85 @@ def plot_response(result: SimulationResult, *, title: str | None = None) -> Any:
     """
     import matplotlib.pyplot as plt
 
+    keep = _window(result, t_start)
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    t = result.t
-    top.plot(t, result.e[0], "-.", label="e1 [rad]")
-    top.plot(t, result.e[1], "-", label="e2 [rad]")
+    t = result.t[keep]
+    top.plot(t, result.e[0, keep], "-.", label="e1 [rad]")
+    top.plot(t, result.e[1, keep], "-", label="e2 [rad]")
     top.set_ylabel("joint error [rad]")
     right = top.twinx()
-    right.plot(t, result.disturbance[0], color="0.6", lw=0.8, label="Td1, Td2 [N·m]")
-    right.plot(t, result.payload, color="tab:green", lw=1.0, label="m_p [kg]")
+    right.plot(t, result.disturbance[0, keep], color="0.6", lw=0.8, label="Td1, Td2 [N·m]")
+    right.plot(t, result.payload[keep], color="tab:green", lw=1.0, label="m_p [kg]")
     right.set_ylabel("Td [N·m], m_p [kg]")
     lines = top.get_lines() + right.get_lines()
     top.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8)
-    bottom.plot(t, result.torque[0], "-.", label="Tc1")
-    bottom.plot(t, result.torque[1], "-", label="Tc2")
+    bottom.plot(t, result.torque[0, keep], "-.", label="Tc1")
+    bottom.plot(t, result.torque[1, keep], "-", label="Tc2")
     bottom.set_xlabel("time t [s]")
     bottom.set_ylabel("control torque [N·m]")
     bottom.legend(loc="upper right", fontsize=8)
     fig.suptitle(title or f"{result.controller}, scenario {result.scenario}")
+    fig.tight_layout()
+    return fig
+
+
+def plot_signals(
+    results: Sequence[SimulationResult],
+    signal: str = "error",
+    *,
+    labels: Sequence[str] | None = None,
+    title: str | None = None,
+    t_start: float = 0.0,
+) -> Any:
+    """One panel per simulation, stacked, for one quantity (the layout of Figures 4 and 5).
+
+    Parameters
+    ----------
+    results : sequence of SimulationResult
+        The runs to show, one panel each, top to bottom.
+    signal : {'error', 'torque'}
+        ``'error'``: e1 (dash-dot) and e2 (solid) in rad, with the disturbance torque in
+        N·m on a right axis (Figure 4). ``'torque'``: Tc1 (dash-dot) and Tc2 (solid) in
+        N·m (Figure 5).
+    labels : sequence of str, optional
+        Panel titles, one per result (default: controller and scenario names).
+    title : str, optional
+        Figure title.
+    t_start : float
+        Draw from this time on, s.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    check_choice("signal", signal, tuple(SIGNALS))
+    results = list(results)
+    if not results:
+        raise ValueError("`results` must hold at least one SimulationResult, found none")
+    if labels is None:
+        labels = [f"{r.controller}, scenario {r.scenario}" for r in results]
+    elif len(labels) != len(results):
+        raise ValueError(f"`labels` must have one entry per result ({len(results)}), found {len(labels)}")
+    fig, axes = plt.subplots(len(results), 1, figsize=(8, 2.8 * len(results)), sharex=True, squeeze=False)
+    for ax, result, label in zip(axes[:, 0], results, labels):
+        keep = _window(result, t_start)
+        t = result.t[keep]
+        data, names = (result.e, ("e1", "e2")) if signal == "error" else (result.torque, ("Tc1", "Tc2"))
+        ax.plot(t, data[0, keep], "-.", label=names[0])
+        ax.plot(t, data[1, keep], "-", label=names[1])
+        ax.set_ylabel(SIGNALS[signal])
+        ax.set_title(label, fontsize=10)
+        lines = ax.get_lines()
+        if signal == "error":
+            right = ax.twinx()
+            right.plot(t, result.disturbance[0, keep], color="0.6", lw=0.8, label="Td1, Td2")
+            right.set_ylabel("Td [N·m]")
+            lines = lines + right.get_lines()
+        ax.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time t [s]")
+    if title:
+        fig.suptitle(title)
     fig.tight_layout()
     return fig

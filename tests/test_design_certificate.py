@@ -3,18 +3,20 @@ import pytest
 from conftest import random_model
 
 import scara_robust as sr
+from scara_robust.reproduction import PAPER_GAIN as PAPER_K
+from scara_robust.reproduction import PAPER_GAIN_DECIMALS as PAPER_K_DECIMALS
+from scara_robust.reproduction import gain_digits_matched
 
-#: K printed in the paper, Section 4, for (ρ, η) = (3, 90).
-PAPER_K = np.array([[-156, -10.9, -294, -5.5, -173, 2.4], [10.9, -156, 14.9, -260, 28, -150]])
-#: Decimal places printed for each entry.
-PAPER_K_DECIMALS = np.array([[0, 1, 0, 1, 0, 1], [1, 0, 1, 0, 0, 0]])
+
+def test_gain_digits_matched_on_the_printed_gain():
+    assert gain_digits_matched(PAPER_K).all()
+    shifted = PAPER_K.copy()
+    shifted[1, 3] += 1.0
+    assert gain_digits_matched(shifted).sum() == 11
 
 
 def test_paper_gain_to_printed_digits(paper_design):
-    rounded = np.array(
-        [[round(k, int(d)) for k, d in zip(row, drow)] for row, drow in zip(paper_design.K, PAPER_K_DECIMALS)]
-    )
-    matches = rounded == PAPER_K
+    matches = gain_digits_matched(paper_design.K)
     # Nine entries match to the printed digit; K[0,1] = -K[1,0] = -10.83 and K[1,2] = 14.83
     # print as ∓10.8 and 14.8, not ∓10.9 and 14.9 (see the next test for why).
     mismatched = {tuple(ix) for ix in np.argwhere(~matches)}

@@ -1,0 +1,143 @@
+"""The paper's claims next to what this package computes.
+
+Each row of :func:`reproduction_table` is one claim of the paper's Section 4 (or of
+Figures 2, 3 and 6), the paper's figure as printed, the package's figure and whether the
+claim holds for the package. Nothing is adjusted to make a row agree.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array
+from .certificate import certify
+from .comparison import compare
+from .design import design
+from .metrics import METRIC_NAMES
+from .surface import DesignSurface, design_surface
+from .uncertain import paper_model
+
+__all__ = [
+    "PAPER_GAIN",
+    "PAPER_GAIN_DECIMALS",
+    "PAPER_DESIGN_POINT",
+    "gain_digits_matched",
+    "reproduction_table",
+]
+
+#: The gain K at (ρ, η) = (3, 90) as printed in the paper's Section 4, shape (2, 6).
+PAPER_GAIN = np.array([[-156.0, -10.9, -294.0, -5.5, -173.0, 2.4], [10.9, -156.0, 14.9, -260.0, 28.0, -150.0]])
+#: Decimal places printed for each entry of :data:`PAPER_GAIN`.
+PAPER_GAIN_DECIMALS = np.array([[0, 1, 0, 1, 0, 1], [1, 0, 1, 0, 0, 0]])
+#: The paper's selected design parameters (ρ*, η*) (Section 4, Figure 2).
+PAPER_DESIGN_POINT = (3.0, 90.0)
+
+_COLUMNS = ["claim", "source", "paper", "package", "unit", "holds"]
+
+
+def gain_digits_matched(K: ArrayLike) -> NDArray[np.bool_]:
+    """Which entries of a gain round to the paper's printed K.
+
+    Parameters
+    ----------
+    K : array_like, shape (2, 6)
+        A gain, e.g. ``sr.design(sr.paper_model(), 3, 90).K``.
+
+    Returns
+    -------
+    ndarray of bool, shape (2, 6)
+        True where ``K`` rounded to the printed number of decimals equals the printed entry.
+    """
+    K = check_array("K", K, shape=(2, 6))
+    rounded = np.array(
+        [[round(float(k), int(d)) for k, d in zip(row, drow)] for row, drow in zip(K, PAPER_GAIN_DECIMALS)]
+    )
+    return np.asarray(rounded == PAPER_GAIN)
+
+
+def _timed_paper_surface() -> tuple[DesignSurface, float]:
+    start = time.perf_counter()
+    surface = design_surface(paper_model(), np.linspace(0.01, 10.0, 200), np.linspace(1.0, 200.0, 200), "all")
+    return surface, time.perf_counter() - start
+
+
+def _pid_metrics(comparison: pd.DataFrame, scenario: str) -> dict[str, float]:
+    missing = {"controller", "scenario", "payload", *METRIC_NAMES} - set(comparison.columns)
+    if missing:
+        raise ValueError(f"`comparison` must have the columns of compare(), missing {sorted(missing)}")
+    rows = comparison[
+        (comparison["controller"] == "pid") & (comparison["scenario"] == scenario) & (comparison["payload"] == "on")
+    ]
+    if len(rows) != 1:
+        raise ValueError(
+            f"`comparison` must hold one 'pid' row with payload 'on' for scenario {scenario!r}, found {len(rows)}"
+        )
+    return {name: float(rows[name].iloc[0]) for name in METRIC_NAMES}
+
+
+def reproduction_table(comparison: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Tabulate the paper's claims against this package's results.
+
+    Parameters
+    ----------
+    comparison : pandas.DataFrame, optional
+        A table from :func:`scara_robust.compare` with payload on and 20-s runs, holding
+        the ``pid`` rows of scenarios ``large`` and ``small``. Computed (PID only, about
+        5 s) when omitted.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per claim with columns ``claim``, ``source`` (where the paper makes it),
+        ``paper`` (as printed, a string), ``package`` (float), ``unit`` and ``holds``
+        (bool: the claim is true of the package's result). The design surface of the
+        claims "infinitely many certified (ρ, η)" and "less than 5 seconds" is the
+        published model, all elements, on a 200 x 200 grid ρ ∈ [0.01, 10], η ∈ [1, 200],
+        computed and timed here.
+
+    References
+    ----------
+    Paper, Section 4 and Figures 2, 3 and 6; Section 3 for the sweep time.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> table = sr.reproduction_table()  # doctest: +SKIP
+    >>> table[["claim", "paper", "package", "holds"]]  # doctest: +SKIP
+    """
+    if comparison is None:
+        comparison = compare(("pid",), ("large", "small"))
+    elif not isinstance(comparison, pd.DataFrame):
+        raise TypeError(f"`comparison` must be a pandas DataFrame from compare(), found {type(comparison).__name__}")
+    large = _pid_metrics(comparison, "large")
+    small = _pid_metrics(comparison, "small")
+    surface, seconds = _timed_paper_surface()
+    model = paper_model()
+    d = design(model, *PAPER_DESIGN_POINT)
+    matched = int(gain_digits_matched(d.K).sum())
+    max_eig = certify(model, d, "all").max_eig
+    n_certified = int(surface.certified.sum())
+    grid = "x".join(str(n) for n in surface.max_eig.shape)
+    # claim, source, as printed, package value, unit, holds
+    rows: list[tuple[str, str, str, float, str, bool]] = [
+        ("K(3, 90): entries equal to the printed digits", "Section 4", "12", matched, "of 12", matched == 12),
+        ("max λ(Z(3, 90)), all elements", "Section 4", "-0.04", max_eig, "-", max_eig < 0),
+        (f"(ρ, η) with max λ(Z) < 0, {grid} grid", "Figure 2", "infinitely many", n_certified, "points",
+         n_certified > 0),
+        ("large IC: max |e| after 6 s", "Figure 3", "≤ 0.02", large["max_abs_error_after_6s"], "rad",
+         large["max_abs_error_after_6s"] <= 0.02),
+        ("large IC: max |Tc| after 6 s", "Figure 3", "≤ 7.5", large["max_abs_torque_after_6s"], "N·m",
+         large["max_abs_torque_after_6s"] <= 7.5),
+        ("small IC: initial |Tc|", "Figure 6", "≤ 14.5", small["peak_torque"], "N·m", small["peak_torque"] <= 14.5),
+        ("small IC: max |Tc| after 6 s", "Figure 6", "≤ 7.5", small["max_abs_torque_after_6s"], "N·m",
+         small["max_abs_torque_after_6s"] <= 7.5),
+        ("small IC: max |e| after 6 s", "Figure 6", "≤ 0.02", small["max_abs_error_after_6s"], "rad",
+         small["max_abs_error_after_6s"] <= 0.02),
+        (f"design-surface sweep, {grid} grid", "Section 3", "< 5 (MATLAB, Pentium D)", seconds, "s", seconds < 5.0),
+    ]
+    table = pd.DataFrame(rows, columns=_COLUMNS)
+    return table.astype({"package": float, "holds": bool})

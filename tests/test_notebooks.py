@@ -1,0 +1,76 @@
+"""The notebooks in ``notebooks/``: stored without outputs, and every one executes."""
+
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import nbformat
+import pytest
+from nbclient import NotebookClient
+
+NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "notebooks"
+
+#: Each notebook and the PNG files it must write.
+NOTEBOOKS = {
+    "figure2_design_surface.ipynb": [
+        "figure2_contours.png",
+        "figure2_surface_derived_all.png",
+        "figure2_surface_published_A.png",
+        "figure2_surface_published_all.png",
+    ],
+    "figure3_pid_large_ic.ipynb": ["figure3_pid_large_ic.png", "figure3_pid_large_ic_after_6s.png"],
+    "figures4_5_sliding_mode.ipynb": [
+        "figure4_smc_errors.png",
+        "figure5_smc_torques.png",
+        "figure5_smc_torques_after_6s.png",
+    ],
+    "figure6_pid_small_ic.ipynb": ["figure6_pid_small_ic.png"],
+    "comparison.ipynb": ["comparison_metrics.png"],
+}
+
+
+def _read(name):
+    return nbformat.read(NOTEBOOK_DIR / name, as_version=4)
+
+
+def test_every_notebook_is_listed():
+    assert {p.name for p in NOTEBOOK_DIR.glob("*.ipynb")} == set(NOTEBOOKS)
+
+
+@pytest.mark.parametrize("name", sorted(NOTEBOOKS), ids=sorted(NOTEBOOKS))
+def test_stored_without_outputs(name):
+    nb = _read(name)
+    nbformat.validate(nb)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code, f"{name} has no code cell"
+    dirty = [i for i, c in enumerate(code) if c.outputs or c.execution_count is not None]
+    assert dirty == [], f"{name}: code cells {dirty} carry outputs; clear them before committing"
+
+
+@pytest.mark.parametrize("name", sorted(NOTEBOOKS), ids=sorted(NOTEBOOKS))
+def test_notebook_has_one_parameters_cell_first(name):
+    nb = _read(name)
+    tagged = [i for i, c in enumerate(nb.cells) if "parameters" in c.metadata.get("tags", [])]
+    assert len(tagged) == 1
+    assert "FIGURE_DIR" in nb.cells[tagged[0]].source
+    assert all(c.cell_type == "markdown" for c in nb.cells[: tagged[0]])
+
+
+@pytest.mark.parametrize("name", sorted(NOTEBOOKS), ids=sorted(NOTEBOOKS))
+def test_notebook_executes_and_writes_its_figures(name, tmp_path):
+    nb = _read(name)
+    index = next(i for i, c in enumerate(nb.cells) if "parameters" in c.metadata.get("tags", []))
+    # Injected after the parameters cell, as papermill does: figures go to a temporary folder.
+    nb.cells.insert(index + 1, nbformat.v4.new_code_cell(f"FIGURE_DIR = Path({str(tmp_path)!r})"))
+    client = NotebookClient(
+        nb,
+        timeout=600,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(NOTEBOOK_DIR)}},
+    )
+    client.execute()  # raises CellExecutionError on the first failing cell
+    written = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert written == sorted(NOTEBOOKS[name])
+    for png in written:
+        image = mpimg.imread(tmp_path / png)
+        assert image.shape[0] >= 300 and image.shape[1] >= 500, png
+        assert image[..., :3].std() > 0.05, f"{png} is blank"
