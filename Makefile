@@ -1,4 +1,5 @@
-# Every target creates .venv and installs the package on first use.
+# Every target creates .venv and installs the package with its test tools and the
+# optional `lmi` extra (cvxpy) on first use, so the LMI tests run.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -9,12 +10,12 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,lmi]"
 	touch $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
-	$(BIN)/python -m pytest -q
+	SCARA_ROBUST_REQUIRE_LMI=1 $(BIN)/python -m pytest -q
 
 compare: $(STAMP)
 	$(BIN)/python -m scara_robust.compare

@@ -17,6 +17,13 @@ Uncertain model (:mod:`scara_robust.uncertain`)
 Design and certificate (:mod:`scara_robust.design`, :mod:`scara_robust.certificate`)
     design, Design                  -- K from (ρ, η), procedure steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
+Beyond Theorem 1 (:mod:`scara_robust.vertices`, :mod:`scara_robust.lmi`, :mod:`scara_robust.falsifier`)
+    vertex_certificate, physical_certificate, PolytopeCertificate -- exact test of P over a polytope
+    box_vertices, box_closed_loops, polytope_certificate -- the box's corners and closed loops
+    physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
+    lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
+    falsify, FalsifierResult        -- search for a destabilizing switching signal
+    certificate_table               -- every certificate of one design (``certify`` command)
 Design surface (:mod:`scara_robust.surface`)
     design_surface, DesignSurface   -- max λ(Z) over a (ρ, η) grid (Figure 2)
 Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)
@@ -34,8 +41,11 @@ Reproduction (:mod:`scara_robust.reproduction`)
 
 from .certificate import Certificate, UltimateBound, certify
 from .comparison import compare
+from .conservatism import CERTIFICATE_METHODS, certificate_table
 from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
 from .design import Design, design
+from .falsifier import FalsifierResult, falsify
+from .lmi import LMICertificate, lmi_certificate, verify_lyapunov
 from .metrics import TrackingMetrics, tracking_metrics
 from .plotting import plot_response, plot_signals, plot_surface, plot_surface_contour
 from .reproduction import PAPER_DESIGN_POINT, PAPER_GAIN, reproduction_table
@@ -55,20 +65,40 @@ from .robot import (
 from .signals import Reference, SquareWave, paper_disturbance, paper_reference
 from .simulation import SCENARIOS, Scenario, SimulationResult, closed_loop, run_scenario, simulate
 from .surface import DesignSurface, design_surface
-from .uncertain import UncertainElement, UncertainLTVModel, derived_model, paper_model
+from .uncertain import (
+    PhysicalSamples,
+    UncertainElement,
+    UncertainLTVModel,
+    derived_model,
+    paper_model,
+    physical_samples,
+)
+from .vertices import (
+    PolytopeCertificate,
+    box_closed_loops,
+    box_vertices,
+    physical_certificate,
+    polytope_certificate,
+    vertex_certificate,
+)
 
 __all__ = [
+    "CERTIFICATE_METHODS",
     "CONTROLLERS",
-    "PAPER_DESIGN_POINT",
-    "PAPER_GAIN",
-    "SCENARIOS",
     "Certificate",
     "ConstantPayload",
     "Design",
     "DesignSurface",
+    "FalsifierResult",
+    "LMICertificate",
+    "PAPER_DESIGN_POINT",
+    "PAPER_GAIN",
+    "PhysicalSamples",
+    "PolytopeCertificate",
     "Reference",
-    "Scenario",
+    "SCENARIOS",
     "ScaraParams",
+    "Scenario",
     "SimulationResult",
     "SinusoidalPayload",
     "SlidingModeGains",
@@ -77,6 +107,9 @@ __all__ = [
     "UltimateBound",
     "UncertainElement",
     "UncertainLTVModel",
+    "box_closed_loops",
+    "box_vertices",
+    "certificate_table",
     "certify",
     "closed_loop",
     "compare",
@@ -85,8 +118,10 @@ __all__ = [
     "design",
     "design_surface",
     "error_dynamics_jacobians",
+    "falsify",
     "forward_dynamics",
     "kinetic_energy",
+    "lmi_certificate",
     "make_controller",
     "mass_matrix",
     "paper_disturbance",
@@ -94,16 +129,21 @@ __all__ = [
     "paper_params",
     "paper_payload",
     "paper_reference",
+    "physical_certificate",
+    "physical_samples",
     "pid_controller",
     "plot_response",
     "plot_signals",
     "plot_surface",
     "plot_surface_contour",
+    "polytope_certificate",
     "reproduction_table",
     "run_scenario",
     "scara_plant",
     "simulate",
     "sliding_mode_controller",
     "tracking_metrics",
+    "verify_lyapunov",
+    "vertex_certificate",
 ]
 __version__ = "0.1.0"

@@ -1,4 +1,4 @@
-"""Command line: ``python -m scara_robust {design,surface,simulate,compare} ...``.
+"""Command line: ``python -m scara_robust {design,surface,certify,simulate,compare} ...``.
 
 Every command accepts ``--help``. Bad input prints one line on stderr and exits 2.
 Output files are written to a temporary file in the target folder and renamed, so an
@@ -207,8 +207,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_surface)
 
     from .comparison import add_compare_parser
+    from .conservatism import add_certify_parser
     from .simulation import add_simulate_parser
 
+    add_certify_parser(sub)
     add_simulate_parser(sub)
     add_compare_parser(sub)
     return parser

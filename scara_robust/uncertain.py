@@ -24,6 +24,8 @@ __all__ = [
     "ELEMENT_SETS",
     "paper_model",
     "derived_model",
+    "physical_samples",
+    "PhysicalSamples",
     "pid_state_matrices",
 ]
 
@@ -286,6 +288,90 @@ def paper_model() -> UncertainLTVModel:
     return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)")
 
 
+@dataclass(frozen=True)
+class PhysicalSamples:
+    """The robot's own (A, B) pairs, sampled along the reference over the payload range.
+
+    Attributes
+    ----------
+    A : ndarray, shape (k, 6, 6)
+        State matrices of Eq. (4) at each sample.
+    B : ndarray, shape (k, 6, 2)
+        Input matrices (rows 5-6 hold ``-M⁻¹``).
+    times : ndarray, shape (k,)
+        Reference time of each sample, s.
+    masses : ndarray, shape (k,)
+        Payload mass of each sample, kg.
+    """
+
+    A: Array
+    B: Array
+    times: Array
+    masses: Array
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples k."""
+        return int(self.times.size)
+
+
+def physical_samples(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    times: ArrayLike | None = None,
+    n_masses: int = 21,
+) -> PhysicalSamples:
+    """Linearize the robot at ``e = 0`` on the grid ``times × masses``.
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        Robot (default: the paper's).
+    reference : Reference, optional
+        Joint reference (default: the paper's ``sin t, cos t``).
+    payload : callable, optional
+        ``payload(t) -> m_p`` in kg (default: the paper's); only its range over `times`
+        is used.
+    times : array_like, shape (n_t,), optional
+        Reference sample times, s (default: 721 points over [0, 2π]).
+    n_masses : int
+        Payload masses sampled evenly across its range (>= 1).
+
+    Returns
+    -------
+    PhysicalSamples
+        ``k = n_t * n_masses`` samples, time-major.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.physical_samples(times=[0.0, 1.0], n_masses=3).A.shape
+    (6, 6, 6)
+    """
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    payload = payload if payload is not None else paper_payload(params)
+    t = np.linspace(0.0, 2 * np.pi, 721) if times is None else check_array("times", times, ndim=1)
+    if t.size == 0:
+        raise ValueError("`times` must hold at least one time, found none")
+    if isinstance(n_masses, bool) or not isinstance(n_masses, (int, np.integer)) or n_masses < 1:
+        raise ValueError(f"`n_masses` must be an integer >= 1, found {n_masses!r}")
+    lo, hi = payload_range(payload, t)
+    masses = np.linspace(lo, hi, int(n_masses))
+    r, rd, _ = reference.sample(t)
+    a_star, g_bar = error_dynamics_jacobians(params, r[:, None, :], rd[:, None, :], masses[None, :])
+    k = t.size * masses.size
+    A0, _ = pid_state_matrices(np.zeros((2, 4)), np.zeros((2, 2)))
+    A_all = np.repeat(A0[None], k, axis=0)
+    A_all[:, 4:, 2:] = a_star.reshape(k, 2, 4)
+    B_all = np.zeros((k, 6, 2))
+    B_all[:, 4:, :] = g_bar.reshape(k, 2, 2)
+    grid_t, grid_m = np.meshgrid(t, masses, indexing="ij")
+    return PhysicalSamples(A=A_all, B=B_all, times=grid_t.ravel(), masses=grid_m.ravel())
+
+
 def derived_model(
     params: ScaraParams | None = None,
     reference: Reference | None = None,
@@ -298,11 +384,11 @@ def derived_model(
     """Interval model obtained by linearizing the robot along the reference.
 
     The Jacobians of :func:`scara_robust.error_dynamics_jacobians` are evaluated on the
-    grid ``times × masses`` (masses spanning the payload's range), so the reference and
-    payload are treated as independent. An element varies when its range exceeds
-    ``rtol`` times the largest magnitude in its matrix; the nominal matrices hold the
-    element-wise minima and each varying element gets ``[0, max - min]``, the paper's
-    convention.
+    grid ``times × masses`` (masses spanning the payload's range; see
+    :func:`physical_samples`), so the reference and payload are treated as independent.
+    An element varies when its range exceeds ``rtol`` times the largest magnitude in its
+    matrix; the nominal matrices hold the element-wise minima and each varying element
+    gets ``[0, max - min]``, the paper's convention.
 
     Parameters
     ----------
@@ -329,29 +415,11 @@ def derived_model(
     >>> sr.derived_model().n_elements
     10
     """
-    params = params or ScaraParams()
-    reference = reference or paper_reference()
-    payload = payload if payload is not None else paper_payload(params)
-    t = np.linspace(0.0, 2 * np.pi, 721) if times is None else check_array("times", times, ndim=1)
-    if t.size == 0:
-        raise ValueError("`times` must hold at least one time, found none")
-    if isinstance(n_masses, bool) or not isinstance(n_masses, (int, np.integer)) or n_masses < 1:
-        raise ValueError(f"`n_masses` must be an integer >= 1, found {n_masses!r}")
     rtol = check_real("rtol", rtol, nonnegative=True)
-    lo, hi = payload_range(payload, t)
-    masses = np.linspace(lo, hi, int(n_masses))
-    r, rd, _ = reference.sample(t)
-    a_star, g_bar = error_dynamics_jacobians(params, r[:, None, :], rd[:, None, :], masses[None, :])
-    a_star = a_star.reshape(-1, 2, 4)
-    g_bar = g_bar.reshape(-1, 2, 2)
-    A0, _ = pid_state_matrices(np.zeros((2, 4)), np.zeros((2, 2)))
-    A_all = np.repeat(A0[None], len(a_star), axis=0)
-    A_all[:, 4:, 2:] = a_star
-    B_all = np.zeros((len(a_star), 6, 2))
-    B_all[:, 4:, :] = g_bar
+    samples = physical_samples(params, reference, payload, times=times, n_masses=n_masses)
     elements: list[UncertainElement] = []
     nominal = {}
-    for label, stack in (("A", A_all), ("B", B_all)):
+    for label, stack in (("A", samples.A), ("B", samples.B)):
         low, high = stack.min(axis=0), stack.max(axis=0)
         scale = max(np.abs(stack).max(), 1e-300)
         nominal[label] = low.copy()

@@ -1,0 +1,237 @@
+"""How conservative is Theorem 1? Every certificate of one design, side by side.
+
+:func:`certificate_table` runs, for one design K(ρ, η):
+
+=========================  =====================================================  ===========
+method                     question answered                                      margin
+=========================  =====================================================  ===========
+theorem1-all/-A/-B         the paper's Theorem 1 (elements: all, ΔA, ΔB)           −max λ(Z)
+vertex-box                 design P, exact over the interval box                  −max λ(PĀ_v + Ā_vᵀP)
+physical-polytope          design P, exact over the robot's own sampled (A, B)    same
+lmi-box                    any common quadratic P over the box (cvxpy)            decay rate of V, 1/s
+lmi-physical               any common quadratic P over the sampled robot          decay rate of V, 1/s
+falsifier-box              a switching h(t) in the box that makes ‖x‖ grow        −growth rate, 1/s
+falsifier-physical         the same over the sampled robot                        −growth rate, 1/s
+=========================  =====================================================  ===========
+
+A positive margin means certified (for the falsifier: no growth found). ``python -m
+scara_robust certify`` prints the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ._validation import check_choice
+from .certificate import certify
+from .design import Design, design
+from .falsifier import falsify
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, lmi_certificate, verify_lyapunov
+from .robot import PayloadProfile, ScaraParams
+from .signals import Reference
+from .uncertain import UncertainLTVModel, physical_samples
+from .vertices import box_closed_loops, physical_certificate, vertex_certificate
+
+__all__ = ["CERTIFICATE_METHODS", "certificate_table", "add_certify_parser"]
+
+#: Rows of :func:`certificate_table`, in order.
+CERTIFICATE_METHODS = (
+    "theorem1-all",
+    "theorem1-A",
+    "theorem1-B",
+    "vertex-box",
+    "physical-polytope",
+    "lmi-box",
+    "lmi-physical",
+    "falsifier-box",
+    "falsifier-physical",
+)
+_COLUMNS = ["method", "verdict", "certified", "margin", "seconds", "detail"]
+
+
+def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    start = time.perf_counter()
+    row = fn()
+    row["seconds"] = time.perf_counter() - start
+    return row
+
+
+def certificate_table(
+    model: UncertainLTVModel,
+    design: Design,
+    *,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    n_times: int = 721,
+    n_masses: int = 21,
+    lmi_times: int = 37,
+    lmi_masses: int = 5,
+    lmi_solver: str = "CLARABEL",
+    falsifier_tries: int = 30,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """Run every certificate on one design and tabulate verdict, margin and time.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+        The interval box (published or derived bounds).
+    design : Design
+        The design K(ρ, η) and its P.
+    params, reference, payload
+        Robot, reference and payload of the physical set (defaults: the paper's).
+    n_times, n_masses : int
+        Sampling of the physical set over one reference period × the payload range. The
+        physical rows are repeated at ``(2 n_times − 1, 2 n_masses − 1)`` samples and are
+        certified only if both verdicts agree.
+    lmi_times, lmi_masses : int
+        Coarser sampling on which the physical LMI is solved; its P is then verified
+        with numpy on both dense samplings above.
+    lmi_solver : {'CLARABEL', 'SCS'}
+    falsifier_tries : int
+        Trajectories per falsifier row.
+    seed : int
+        Seed of the falsifier.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per entry of :data:`CERTIFICATE_METHODS`, columns ``method``, ``verdict``
+        (text), ``certified`` (True, False, or None for "no counterexample" and "not
+        installed"), ``margin`` (positive means certified or no growth; NaN when there is
+        none), ``seconds`` and ``detail``.
+    """
+    if not isinstance(model, UncertainLTVModel):
+        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    if not isinstance(design, Design):
+        raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
+    check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
+    for name, value, low in (("lmi_times", lmi_times, 2), ("lmi_masses", lmi_masses, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise ValueError(f"`{name}` must be an integer >= {low}, found {value!r}")
+    robot = {"params": params, "reference": reference, "payload": payload}
+    fine = {"n_times": 2 * int(n_times) - 1, "n_masses": 2 * int(n_masses) - 1}
+
+    def theorem1(elements: str) -> dict[str, Any]:
+        cert = certify(model, design, elements)
+        return {
+            "certified": cert.certified,
+            "margin": -cert.max_eig,
+            "detail": f"max eig Z = {cert.max_eig:.6g}",
+        }
+
+    def vertex_box() -> dict[str, Any]:
+        cert = vertex_certificate(model, design)
+        row = {"certified": cert.certified, "margin": -cert.max_eig, "detail": cert.message}
+        if not cert.certifiable:
+            row["verdict"] = "no certificate can exist"
+        return row
+
+    def physical() -> dict[str, Any]:
+        coarse = physical_certificate(design, **robot, n_times=n_times, n_masses=n_masses)
+        refined = physical_certificate(design, **robot, **fine)
+        agree = coarse.certified == refined.certified
+        detail = (
+            f"{coarse.message}; worst at t = {coarse.worst_point[0]:.4g} s, m_p = {coarse.worst_point[1]:.4g} kg; "
+            f"{coarse.n_vertices} samples: max eig {coarse.max_eig:.6g}, {refined.n_vertices}: {refined.max_eig:.6g}"
+            + ("" if agree else " (verdict changed under refinement)")
+        )
+        return {"certified": coarse.certified and agree, "margin": -max(coarse.max_eig, refined.max_eig),
+                "detail": detail}
+
+    def lmi_row(vertices: np.ndarray, checks: list[np.ndarray]) -> dict[str, Any]:
+        result = lmi_certificate(vertices, solver=lmi_solver)
+        if result.status == NOT_INSTALLED:
+            return {"verdict": NOT_INSTALLED, "certified": None, "margin": np.nan, "detail": result.message}
+        if result.P is None or not checks:
+            return {"certified": result.certified, "margin": result.margin, "detail": result.message}
+        margins = [verify_lyapunov(c, result.P)[1] for c in checks]
+        margin = float(min(result.margin, *margins))
+        detail = f"{result.message}; verified with numpy on {', '.join(str(len(c)) for c in checks)} samples"
+        return {"certified": margin > 0, "margin": margin, "detail": detail}
+
+    def sampled(n_t: int, n_m: int) -> np.ndarray:
+        s = physical_samples(**robot, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
+        return s.A - s.B @ design.K
+
+    def falsifier_row(vertices: np.ndarray) -> dict[str, Any]:
+        result = falsify(vertices, design.P, n_tries=falsifier_tries, seed=seed)
+        return {
+            "verdict": "unstable trajectory found" if result.found else "no counterexample found",
+            "certified": False if result.found else None,
+            "margin": -result.growth_rate,
+            "detail": result.message,
+        }
+
+    box = box_closed_loops(model, design.K)
+    rows = {
+        "theorem1-all": lambda: theorem1("all"),
+        "theorem1-A": lambda: theorem1("A"),
+        "theorem1-B": lambda: theorem1("B"),
+        "vertex-box": vertex_box,
+        "physical-polytope": physical,
+        "lmi-box": lambda: lmi_row(box, []),
+        "lmi-physical": lambda: lmi_row(
+            sampled(lmi_times, lmi_masses), [sampled(n_times, n_masses), sampled(fine["n_times"], fine["n_masses"])]
+        ),
+        "falsifier-box": lambda: falsifier_row(box),
+        "falsifier-physical": lambda: falsifier_row(sampled(lmi_times, lmi_masses)),
+    }
+    records = []
+    for method in CERTIFICATE_METHODS:
+        row = _timed(rows[method])
+        row["method"] = method
+        if "verdict" not in row:
+            row["verdict"] = "certified" if row["certified"] else "not certified"
+        records.append(row)
+    return pd.DataFrame(records, columns=_COLUMNS)
+
+
+def _json_value(value: Any) -> Any:
+    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        return None
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def _cmd_certify(args: argparse.Namespace) -> str:
+    from .cli import BOUNDS
+
+    if args.tries < 1:
+        raise ValueError(f"`--tries` must be an integer >= 1, found {args.tries}")
+    model = BOUNDS[args.bounds]()
+    d = design(model, args.rho, args.eta)
+    table = certificate_table(model, d, falsifier_tries=args.tries, seed=args.seed)
+    if args.format == "json":
+        records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        return json.dumps(records, indent=2)
+    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {args.bounds}"
+    shown = table.drop(columns="detail").assign(
+        certified=table["certified"].map({True: "yes", False: "no", None: "-"})
+    )
+    details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
+    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details])
+
+
+def add_certify_parser(sub: Any) -> None:
+    """Register ``certify`` on the ``python -m scara_robust`` sub-parsers."""
+    from .cli import BOUNDS, _finite_float
+
+    p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
+    p.add_argument("--rho", type=_finite_float, required=True, help="design parameter rho > 0")
+    p.add_argument("--eta", type=_finite_float, required=True, help="design parameter eta >= 1")
+    p.add_argument("--bounds", choices=sorted(BOUNDS), default="paper", help="interval box: published or derived")
+    p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
+    p.add_argument("--seed", type=int, default=0, help="falsifier seed")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--output", help="write to this file instead of stdout")
+    p.set_defaults(func=_cmd_certify)

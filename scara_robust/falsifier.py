@@ -1,0 +1,194 @@
+"""Search for an unstable trajectory of a linear system with time-varying parameters.
+
+A failed certificate says nothing by itself: the system may be stable and the test too
+weak. The falsifier looks for the opposite evidence. The parameter h(t) switches among
+the vertices Ā_v of the uncertainty set, holding each for a dwell time τ, so every step
+is exact: ``x_{k+1} = exp(Ā_v τ) x_k``. At each step one of three rules picks the vertex:
+
+* ``'norm'``: the vertex whose step gives the largest ‖x_{k+1}‖ (greedy growth);
+* ``'lyapunov'``: the largest ``V(x_{k+1}) = x_{k+1}ᵀPx_{k+1}`` for the given P;
+* ``'random'``: a vertex drawn at random.
+
+Each try starts from a random unit x₀. The state is renormalized every step (only the
+logarithm of its norm is accumulated), so unstable sets do not overflow. The result is
+either "unstable trajectory found" (growth by at least `threshold` and still growing over
+the second half of the horizon) or "no counterexample found in N tries"; the latter is
+not a proof.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_real
+
+__all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
+
+Array = NDArray[np.float64]
+NDArrayInt = NDArray[np.int64]
+
+#: Vertex-selection rules, tried in turn over the tries.
+FALSIFIER_RULES = ("norm", "lyapunov", "random")
+
+
+@dataclass(frozen=True)
+class FalsifierResult:
+    """Worst trajectory found.
+
+    Attributes
+    ----------
+    found : bool
+        True when a trajectory grew by at least `threshold` and kept growing.
+    growth_factor : float
+        Largest ``‖x(T)‖ / ‖x(0)‖`` over the tries (may be ``inf`` for huge growth).
+    growth_rate : float
+        ``log(growth_factor) / T`` of that trajectory, 1/s (positive means growth).
+    late_rate : float
+        Its growth rate over the second half of the horizon, 1/s.
+    rule : str
+        Rule that produced it.
+    sequence : ndarray of int, shape (n_steps,)
+        Vertex index held at each step.
+    x0 : ndarray, shape (n,)
+        Its unit initial state.
+    n_tries : int
+    horizon : float
+        T, s.
+    dwell : float
+        τ, s.
+    """
+
+    found: bool
+    growth_factor: float
+    growth_rate: float
+    late_rate: float
+    rule: str
+    sequence: NDArrayInt
+    x0: Array
+    n_tries: int
+    horizon: float
+    dwell: float
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        if self.found:
+            return (
+                f"unstable trajectory found: ‖x‖ grew by {self.growth_factor:.3g} in {self.horizon:g} s "
+                f"(rate {self.growth_rate:.4g} 1/s, rule '{self.rule}')"
+            )
+        return (
+            f"no counterexample found in {self.n_tries} tries (worst growth factor {self.growth_factor:.3g} "
+            f"over {self.horizon:g} s)"
+        )
+
+
+def falsify(
+    closed_loops: ArrayLike,
+    P: ArrayLike | None = None,
+    *,
+    dwell: float = 0.01,
+    horizon: float = 5.0,
+    n_tries: int = 30,
+    threshold: float = 10.0,
+    seed: int = 0,
+) -> FalsifierResult:
+    """Look for a switching signal among vertices that makes ‖x‖ grow.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+        Vertices Ā_v of the uncertainty set (e.g. :func:`scara_robust.box_closed_loops`).
+    P : array_like, shape (n, n), optional
+        Lyapunov matrix for the ``'lyapunov'`` rule (skipped without it).
+    dwell : float
+        Time each vertex is held, s (> 0).
+    horizon : float
+        Length of each trajectory, s (>= 2·dwell).
+    n_tries : int
+        Trajectories to try (>= 1), spread over the rules.
+    threshold : float
+        Growth factor of ‖x‖ that counts as unstable (> 1).
+    seed : int
+        Seed of the random initial states and random switching.
+
+    Returns
+    -------
+    FalsifierResult
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> A1 = np.array([[-0.1, 1.0], [-10.0, -0.1]]); A2 = np.array([[-0.1, 10.0], [-1.0, -0.1]])
+    >>> sr.falsify(np.array([A1, A2]), horizon=20.0).found
+    True
+    """
+    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    n_v, n = A_v.shape[0], A_v.shape[1]
+    if A_v.shape[2] != n or n_v == 0:
+        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
+    dwell = check_real("dwell", dwell, positive=True)
+    horizon = check_real("horizon", horizon, positive=True)
+    threshold = check_real("threshold", threshold, minimum=1.0)
+    if horizon < 2 * dwell:
+        raise ValueError(f"`horizon` must be at least 2 * dwell = {2 * dwell:g} s, found {horizon:g}")
+    if isinstance(n_tries, bool) or not isinstance(n_tries, (int, np.integer)) or n_tries < 1:
+        raise ValueError(f"`n_tries` must be an integer >= 1, found {n_tries!r}")
+    rules = list(FALSIFIER_RULES)
+    if P is not None:
+        P = check_array("P", P, shape=(n, n))
+        P = 0.5 * (P + P.T)
+    else:
+        rules.remove("lyapunov")
+    steps = int(round(horizon / dwell))
+    half = steps // 2
+    Phi = scipy.linalg.expm(A_v * dwell)  # (V, n, n), exact over one dwell
+    rng = np.random.default_rng(seed)
+    best: tuple[float, float, str, NDArrayInt, Array] | None = None
+    for trial in range(int(n_tries)):
+        rule = rules[trial % len(rules)]
+        x0 = rng.normal(size=n)
+        x0 /= np.linalg.norm(x0)
+        x = x0.copy()
+        log_norm = 0.0
+        log_half = 0.0
+        sequence = np.empty(steps, dtype=np.int64)
+        for k in range(steps):
+            candidates = Phi @ x  # (V, n)
+            if rule == "norm":
+                v = int(np.argmax(np.einsum("vi,vi->v", candidates, candidates)))
+            elif rule == "lyapunov":
+                v = int(np.argmax(np.einsum("vi,ij,vj->v", candidates, P, candidates)))
+            else:
+                v = int(rng.integers(n_v))
+            sequence[k] = v
+            x = candidates[v]
+            size = float(np.linalg.norm(x))
+            if size == 0.0 or not np.isfinite(size):
+                log_norm = -np.inf if size == 0.0 else np.inf
+                break
+            log_norm += np.log(size)
+            x /= size
+            if k + 1 == half:
+                log_half = log_norm
+        if best is None or log_norm > best[0]:
+            best = (log_norm, log_norm - log_half, rule, sequence, x0)
+    assert best is not None
+    log_norm, late, rule, sequence, x0 = best
+    late_rate = late / ((steps - half) * dwell)
+    return FalsifierResult(
+        found=bool(log_norm >= np.log(threshold) and late_rate > 0),
+        growth_factor=float(np.exp(log_norm)) if log_norm < 700 else float("inf"),
+        growth_rate=float(log_norm / (steps * dwell)),
+        late_rate=float(late_rate),
+        rule=rule,
+        sequence=sequence,
+        x0=x0,
+        n_tries=int(n_tries),
+        horizon=steps * dwell,
+        dwell=dwell,
+    )

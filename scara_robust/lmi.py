@@ -1,0 +1,170 @@
+"""A common quadratic Lyapunov function found by semidefinite programming (extra ``lmi``).
+
+Theorem 1 and the vertex test use the P of the design procedure. When they fail, another
+P may still prove stability. This module searches for one over the vertices Ā_v of a
+polytope (the interval box, or the physical samples) with cvxpy:
+
+    minimize  λ   subject to   P ⪰ I,   P ⪯ λI,   Ā_vᵀP + PĀ_v ⪯ −I   for every v.
+
+A feasible P gives ``V̇ ≤ −‖x‖² ≤ −V/λmax(P)`` on the whole polytope, so V decays at
+least as ``exp(−t/λmax(P))``. The solver's answer is never taken on its word: the
+returned P is checked with numpy (symmetric, positive definite, every vertex's
+``λmax(Ā_vᵀP + PĀ_v) < 0``), and the reported margin comes from that check.
+
+cvxpy is optional (``pip install scara_robust[lmi]``); without it every function here
+returns a result whose status is ``'not installed'``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_choice
+
+__all__ = ["LMICertificate", "LMI_SOLVERS", "NOT_INSTALLED", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
+
+Array = NDArray[np.float64]
+
+#: Solvers tried by name through cvxpy (Clarabel is interior-point, SCS first-order).
+LMI_SOLVERS = ("CLARABEL", "SCS")
+#: Status reported when cvxpy cannot be imported.
+NOT_INSTALLED = "not installed"
+
+
+def cvxpy_available() -> bool:
+    """True when cvxpy can be imported (the ``lmi`` extra is installed)."""
+    try:
+        import cvxpy  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class LMICertificate:
+    """Result of the LMI search, verified independently.
+
+    Attributes
+    ----------
+    status : str
+        The solver's status (``'optimal'``, ``'infeasible'``, ...) or ``'not installed'``.
+    solver : str
+    P : ndarray, shape (n, n), or None
+        The Lyapunov matrix returned (None when the solver found none).
+    max_vertex_eig : float
+        numpy's ``max_v λmax(Ā_vᵀP + PĀ_v)`` (NaN without P).
+    margin : float
+        Verified decay rate of V, 1/s: ``−max_vertex_eig / λmax(P)`` when P is positive
+        definite, else NaN. Positive means certified.
+    n_vertices : int
+    """
+
+    status: str
+    solver: str
+    P: Array | None
+    max_vertex_eig: float
+    margin: float
+    n_vertices: int
+
+    @property
+    def certified(self) -> bool:
+        """True only when numpy confirms P ≻ 0 and a negative ``max_vertex_eig``."""
+        return bool(self.margin > 0)
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        if self.status == NOT_INSTALLED:
+            return "cvxpy is not installed (pip install scara_robust[lmi])"
+        if self.certified:
+            return f"common quadratic Lyapunov P found and verified; V decays at rate >= {self.margin:.4g} 1/s"
+        if self.P is None:
+            return f"no common quadratic Lyapunov P ({self.solver}: {self.status})"
+        return f"{self.solver} returned a P ({self.status}) that fails the independent check"
+
+
+def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float]:
+    """Check a Lyapunov matrix on every vertex with numpy alone.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+    P : array_like, shape (n, n)
+
+    Returns
+    -------
+    max_vertex_eig : float
+        ``max_v λmax(Ā_vᵀP + PĀ_v)``.
+    margin : float
+        ``−max_vertex_eig / λmax(P)`` (1/s) when P is symmetric positive definite and
+        ``max_vertex_eig < 0``; ``-inf`` when P is not positive definite or not symmetric.
+    """
+    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    P = check_array("P", P, shape=(A_v.shape[1], A_v.shape[1]))
+    scale = max(np.abs(P).max(), 1e-300)
+    PA = P @ A_v
+    max_vertex_eig = float(np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1].max())
+    if not np.allclose(P, P.T, rtol=0.0, atol=1e-9 * scale):
+        return max_vertex_eig, -np.inf
+    eig_P = np.linalg.eigvalsh(0.5 * (P + P.T))
+    if eig_P[0] <= 0:
+        return max_vertex_eig, -np.inf
+    return max_vertex_eig, -max_vertex_eig / eig_P[-1]
+
+
+def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMICertificate:
+    """Search a common quadratic Lyapunov matrix for the polytope ``conv{Ā_v}``.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+        Frozen closed-loop matrices at the vertices, e.g. from
+        :func:`scara_robust.box_closed_loops`.
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    LMICertificate
+        Status ``'not installed'`` when cvxpy is missing.
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> A = np.array([[[-1.0, 0.0], [0.0, -2.0]], [[-1.0, 0.5], [0.0, -2.0]]])
+    >>> sr.lmi_certificate(A).certified  # doctest: +SKIP
+    True
+    """
+    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    n = A_v.shape[1]
+    if A_v.shape[2] != n or A_v.shape[0] == 0:
+        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
+    check_choice("solver", solver, LMI_SOLVERS)
+    if not cvxpy_available():
+        return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])
+    import cvxpy as cp
+
+    # Scaling the vertices by a positive constant leaves feasibility unchanged and keeps
+    # the -I right-hand side commensurate with the data.
+    scale = float(np.abs(A_v).max()) or 1.0
+    A_s = A_v / scale
+    P = cp.Variable((n, n), symmetric=True)
+    lam = cp.Variable()
+    eye = np.eye(n)
+    constraints = [P >> eye, P << lam * eye]
+    for A in A_s:
+        lhs = A.T @ P + P @ A
+        constraints.append(0.5 * (lhs + lhs.T) << -eye)
+    problem = cp.Problem(cp.Minimize(lam), constraints)
+    try:
+        problem.solve(solver=solver)
+    except cp.SolverError as err:
+        return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
+    status = str(problem.status)
+    if P.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        return LMICertificate(status, solver, None, np.nan, np.nan, A_v.shape[0])
+    P_val = np.array(P.value, dtype=float)
+    max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
+    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), A_v.shape[0])

@@ -1,0 +1,282 @@
+"""Exact tests for a fixed Lyapunov matrix over a polytope of closed-loop matrices.
+
+For a fixed P, ``V̇ = xᵀ(PĀ(h) + Ā(h)ᵀP)x`` is affine in the uncertain parameters h, and
+``λmax`` of a symmetric matrix is convex, so over a polytope of matrices its maximum is
+attained at a vertex. Two polytopes are offered:
+
+* the interval **box** of an :class:`~scara_robust.UncertainLTVModel` (2^N vertices), the
+  set Theorem 1 covers; its test is exact where Theorem 1 only bounds each element;
+* the **physical** polytope: the convex hull of the robot's own (A, B) pairs sampled
+  along the reference and payload range (:func:`scara_robust.physical_samples`).
+
+Both also report the largest real part of the frozen closed-loop eigenvalues over the
+vertices: a vertex with a positive one means no quadratic or other certificate of any
+kind can exist for that set, since the constant parameter held at that vertex is itself
+an admissible, unstable, case.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import check_array, check_choice
+from .design import Design
+from .robot import PayloadProfile, ScaraParams
+from .signals import Reference
+from .uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
+
+__all__ = [
+    "PolytopeCertificate",
+    "MAX_BOX_ELEMENTS",
+    "box_vertices",
+    "box_closed_loops",
+    "polytope_certificate",
+    "vertex_certificate",
+    "physical_certificate",
+]
+
+Array = NDArray[np.float64]
+
+#: Largest number of uncertain elements a box test enumerates (2^16 = 65 536 vertices).
+MAX_BOX_ELEMENTS = 16
+_CHUNK = 4096
+
+
+@dataclass(frozen=True)
+class PolytopeCertificate:
+    """Result of the exact fixed-P test over a polytope.
+
+    Attributes
+    ----------
+    max_eig : float
+        ``max_v λmax(PĀ_v + Ā_vᵀP)`` over the vertices, 1/s scaled by P. Negative means
+        V(x) = xᵀPx decreases along every admissible time-varying parameter.
+    worst_index : int
+        Index of the vertex attaining `max_eig`.
+    worst_point : ndarray, shape (p,)
+        That vertex's coordinates: the element values h (box) or ``(t, m_p)`` in s and
+        kg (physical samples).
+    n_vertices : int
+    max_real_pole : float
+        Largest real part of the eigenvalues of any frozen ``Ā_v``, 1/s.
+    n_unstable : int
+        Number of vertices whose frozen closed loop has an eigenvalue with positive real
+        part.
+    set_name : str
+        ``'box'`` or ``'physical'``.
+    """
+
+    max_eig: float
+    worst_index: int
+    worst_point: Array
+    n_vertices: int
+    max_real_pole: float
+    n_unstable: int
+    set_name: str
+
+    @property
+    def certified(self) -> bool:
+        """``max_eig < 0``: P proves robust stability on the whole polytope."""
+        return bool(self.max_eig < 0)
+
+    @property
+    def certifiable(self) -> bool:
+        """False when a frozen vertex is unstable: then no certificate of any kind exists."""
+        return self.n_unstable == 0
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        if self.certified:
+            return f"certified: V decreases at all {self.n_vertices} vertices of the {self.set_name} set"
+        if not self.certifiable:
+            return (
+                f"no certificate can exist: {self.n_unstable} of {self.n_vertices} frozen vertices are unstable "
+                f"(largest real part {self.max_real_pole:.4g} 1/s)"
+            )
+        return (
+            f"not certified with this P (max eig {self.max_eig:.4g} at vertex {self.worst_index}); "
+            "all frozen vertices are stable, so another P may exist (see the LMI test)"
+        )
+
+
+def box_vertices(model: UncertainLTVModel) -> Array:
+    """All 2^N corners of the model's interval box.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+
+    Returns
+    -------
+    ndarray, shape (2**N, N)
+        Row v holds the element values h of vertex v; bit j of v selects the upper bound
+        of element j.
+
+    Raises
+    ------
+    ValueError
+        If N exceeds :data:`MAX_BOX_ELEMENTS`.
+    """
+    if not isinstance(model, UncertainLTVModel):
+        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    n = model.n_elements
+    if n > MAX_BOX_ELEMENTS:
+        raise ValueError(
+            f"`model` must have at most {MAX_BOX_ELEMENTS} uncertain elements for a vertex test "
+            f"(2^N vertices), found {n}"
+        )
+    bits = (np.arange(2**n)[:, None] >> np.arange(n)[None, :]) & 1
+    lower, upper = model.lower_bounds(), model.upper_bounds()
+    return lower + bits * (upper - lower)
+
+
+def box_closed_loops(model: UncertainLTVModel, K: ArrayLike) -> Array:
+    """Frozen closed-loop matrices ``A + ΔA_v − (B + ΔB_v)K`` at every box vertex.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+    K : array_like, shape (m, n)
+        Gain of ``u = -Kx``.
+
+    Returns
+    -------
+    ndarray, shape (2**N, n, n)
+    """
+    H = box_vertices(model)
+    K = check_array("K", K, shape=(model.n_inputs, model.n_states))
+    E = model.perturbation_matrices(K)
+    base = model.A - model.B @ K
+    return base[None] + np.einsum("vj,jik->vik", H, E)
+
+
+def polytope_certificate(
+    closed_loops: ArrayLike, P: ArrayLike, points: ArrayLike | None = None, set_name: str = "polytope"
+) -> PolytopeCertificate:
+    """Exact fixed-P test over the convex hull of given closed-loop matrices.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+        Frozen closed-loop matrices Ā_v at the vertices.
+    P : array_like, shape (n, n)
+        Symmetric positive definite Lyapunov matrix (symmetrized here).
+    points : array_like, shape (V, p), optional
+        Coordinates of each vertex, reported for the worst one (default: the index).
+    set_name : str
+        Name used in messages.
+
+    Returns
+    -------
+    PolytopeCertificate
+    """
+    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    n = A_v.shape[1]
+    if A_v.shape[2] != n or A_v.shape[0] == 0:
+        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
+    P = check_array("P", P, shape=(n, n))
+    P = 0.5 * (P + P.T)
+    if np.linalg.eigvalsh(P)[0] <= 0:
+        raise ValueError("`P` must be positive definite, found a non-positive eigenvalue")
+    pts = np.arange(A_v.shape[0], dtype=float)[:, None] if points is None else check_array("points", points, ndim=2)
+    if pts.shape[0] != A_v.shape[0]:
+        raise ValueError(f"`points` must have one row per vertex ({A_v.shape[0]}), found {pts.shape[0]}")
+    worst_eig = np.empty(A_v.shape[0])
+    real_part = np.empty(A_v.shape[0])
+    for start in range(0, A_v.shape[0], _CHUNK):
+        chunk = A_v[start : start + _CHUNK]
+        PA = P @ chunk
+        worst_eig[start : start + _CHUNK] = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
+        real_part[start : start + _CHUNK] = np.linalg.eigvals(chunk).real.max(axis=-1)
+    worst = int(np.argmax(worst_eig))
+    return PolytopeCertificate(
+        max_eig=float(worst_eig[worst]),
+        worst_index=worst,
+        worst_point=pts[worst].copy(),
+        n_vertices=int(A_v.shape[0]),
+        max_real_pole=float(real_part.max()),
+        n_unstable=int((real_part > 0).sum()),
+        set_name=set_name,
+    )
+
+
+def vertex_certificate(model: UncertainLTVModel, design: Design, elements: str = "all") -> PolytopeCertificate:
+    """Exact test of the design's P over the interval box (all 2^N vertices).
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+    design : Design
+        Supplies K and P (the Riccati/Lyapunov P of Theorem 1's step 1).
+    elements : {'all', 'A', 'B'}
+        Which uncertain elements vary; the others stay at their lower bounds (the
+        nominal matrices).
+
+    Returns
+    -------
+    PolytopeCertificate
+        ``max_eig`` is never above Theorem 1's ``max λ(Z)``, since Z bounds every vertex.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> m = sr.paper_model()
+    >>> cert = sr.vertex_certificate(m, sr.design(m, 3, 90))
+    >>> cert.n_vertices, cert.certifiable
+    (1024, False)
+    """
+    if not isinstance(design, Design):
+        raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
+    check_choice("elements", elements, ELEMENT_SETS)
+    if not isinstance(model, UncertainLTVModel):
+        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    sub = model.subset(elements)
+    return polytope_certificate(box_closed_loops(sub, design.K), design.P, box_vertices(sub), set_name="box")
+
+
+def physical_certificate(
+    design: Design,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    n_times: int = 721,
+    n_masses: int = 21,
+) -> PolytopeCertificate:
+    """Exact test of the design's P over the convex hull of the robot's own (A, B) samples.
+
+    Parameters
+    ----------
+    design : Design
+    params, reference, payload
+        Robot, reference and payload (defaults: the paper's), see
+        :func:`scara_robust.physical_samples`.
+    n_times : int
+        Reference samples over one period [0, 2π] s (>= 2).
+    n_masses : int
+        Payload masses across its range (>= 1).
+
+    Returns
+    -------
+    PolytopeCertificate
+        ``worst_point`` is ``(t, m_p)`` in s and kg. The polytope holds every convex
+        combination of the samples, so a time-varying payload and any switching between
+        them are covered; points of the robot between samples are not, so check that a
+        finer sampling keeps the verdict (:func:`scara_robust.certificate_table` does).
+    """
+    if not isinstance(design, Design):
+        raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
+    if isinstance(n_times, bool) or not isinstance(n_times, (int, np.integer)) or n_times < 2:
+        raise ValueError(f"`n_times` must be an integer >= 2, found {n_times!r}")
+    samples = physical_samples(
+        params, reference, payload, times=np.linspace(0.0, 2 * np.pi, int(n_times)), n_masses=n_masses
+    )
+    if samples.A.shape[1:] != design.A_cl.shape:
+        raise ValueError(f"`design` must be for a {samples.A.shape[1]}-state model, found {design.A_cl.shape[0]}")
+    closed = samples.A - samples.B @ design.K
+    points = np.column_stack([samples.times, samples.masses])
+    return polytope_certificate(closed, design.P, points, set_name="physical")
