@@ -25,6 +25,7 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-enable --benchmark-json=benchmark.json -q
+	$(BIN)/python benchmarks/report.py benchmark.json
 
 # Executes every notebook (outputs are not saved); PNGs land in notebooks/figures/.
 notebooks: $(STAMP)

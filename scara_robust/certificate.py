@@ -24,7 +24,7 @@ from ._validation import check_choice, check_real
 from .design import Design
 from .uncertain import ELEMENT_SETS, UncertainLTVModel
 
-__all__ = ["Certificate", "UltimateBound", "certify", "theorem1_z", "positive_part"]
+__all__ = ["Certificate", "UltimateBound", "certify", "theorem1_z", "positive_part", "rank2_positive_part"]
 
 Array = NDArray[np.float64]
 
@@ -33,6 +33,33 @@ def positive_part(S: Array) -> Array:
     """Theorem 1 steps 4-6: ``T diag(max(λ, 0)) Tᵀ`` for symmetric ``S`` of shape (..., n, n)."""
     w, T = np.linalg.eigh(S)
     return np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T)
+
+
+def rank2_positive_part(u: Array, v: Array) -> Array:
+    """Positive part of ``S = u vᵀ + v uᵀ`` in closed form, for stacks of vectors.
+
+    With ``û = u/‖u‖`` and ``v̂ = v/‖v‖``, S has the eigenpairs
+    ``‖u‖‖v‖(1 ± ûᵀv̂)``, ``û ± v̂`` (and zeros), so
+
+        S⁺ = (‖u‖‖v‖ / 2) (û + v̂)(û + v̂)ᵀ.
+
+    Every Ψ_j of Theorem 1 has this form (``E_j = a bᵀ`` gives ``u = P a``, ``v = b``),
+    which spares an eigendecomposition per element.
+
+    Parameters
+    ----------
+    u, v : ndarray, shape (..., n)
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+    """
+    nu = np.linalg.norm(u, axis=-1, keepdims=True)
+    nv = np.linalg.norm(v, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(nu > 0, u / nu, 0.0) + np.where(nv > 0, v / nv, 0.0)
+    scale = 0.5 * (nu * nv)[..., 0]
+    return scale[..., None, None] * w[..., :, None] * w[..., None, :]
 
 
 def theorem1_z(P: Array, A_cl: Array, E: Array, lower: Array, upper: Array) -> tuple[Array, Array, Array, Array]:

@@ -9,8 +9,13 @@ solution P is fixed, ``K = η K₁`` with ``K₁ = ρBᵀP``, and every E_j of a
     Z₀ = PA + AᵀP + Σ_{ΔA} (h_l Ψ_j + (h_u - h_l) Ψ_j⁺),
     Z₁ = -(PBK₁ + K₁ᵀBᵀP) + Σ_{ΔB} (h_l Ψ_j(K₁) + (h_u - h_l) Ψ_j⁺(K₁)).
 
-Each ρ costs one Riccati solve and N small eigendecompositions; each grid point one
-batched 6x6 symmetric eigenvalue problem.
+Every E_j is rank one (``E_j = a_j b_jᵀ``), so every Ψ_j is ``u vᵀ + v uᵀ`` with
+``u = P a_j`` and its positive part has a closed form
+(:func:`scara_robust.certificate.rank2_positive_part`): each ρ costs one Riccati solve
+and a few small matrix products, all batched over ρ, and each grid point one batched 6x6
+symmetric eigenvalue. The Hurwitz flags come from a Lyapunov argument: ``PĀ + ĀᵀP =
+N₀ + ηN₁`` with ``N₁ = −2ρPBBᵀP ⪯ 0``, so one eigenvalue per ρ proves all η at once;
+closed-loop eigenvalues are computed only where that proof fails.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from ._validation import check_array, check_choice
-from .certificate import certify, positive_part
+from .certificate import certify, rank2_positive_part
 from .design import design, riccati_solution
 from .uncertain import ELEMENT_SETS, UncertainLTVModel
 
@@ -107,23 +112,46 @@ def _grid(name: str, values: ArrayLike, minimum: float, strict: bool) -> Array:
     return arr
 
 
-def _structured_terms(model: UncertainLTVModel, rho: float) -> tuple[Array, Array, Array, Array]:
-    """``Z₀, Z₁`` for one ρ, and ``A``, ``B K₁`` for the Hurwitz test."""
-    P = riccati_solution(model, rho)
+def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, Array, Array, Array]:
+    """``Z₀(ρ), Z₁(ρ)`` and the nominal ``PĀ + ĀᵀP = N₀ + ηN₁`` for every ρ, shape (n_rho, n, n)."""
+    P = np.array([riccati_solution(model, rho) for rho in rhos])
     A, B = model.A, model.B
-    K1 = rho * B.T @ P
+    K1 = rhos[:, None, None] * np.einsum("ji,rjk->rik", B, P)  # ρBᵀP
     G = P @ B @ K1
-    Z0 = P @ A + A.T @ P
-    Z1 = -(G + G.T)
-    E = model.perturbation_matrices(K1)
-    for j, el in enumerate(model.elements):
-        Psi = P @ E[j] + E[j].T @ P
-        term = el.lower * Psi + el.width * positive_part(Psi)
-        if el.matrix == "A":
-            Z0 += term
-        else:
-            Z1 += term
-    return Z0, Z1, A, B @ K1
+    N0 = P @ A
+    N0 = N0 + np.swapaxes(N0, -1, -2)
+    N1 = -(G + np.swapaxes(G, -1, -2))
+    a, b = model.perturbation_factors(K1)  # E_j = a_j b_jᵀ: a (N, n), b (n_rho, N, n)
+    u = np.einsum("rik,jk->rji", P, a)  # P a_j
+    Psi = u[..., :, None] * b[..., None, :]
+    Psi = Psi + np.swapaxes(Psi, -1, -2)
+    lower, width = model.lower_bounds(), model.upper_bounds() - model.lower_bounds()
+    terms = lower[:, None, None] * Psi + width[:, None, None] * rank2_positive_part(u, b)
+    in_A = np.array([el.matrix == "A" for el in model.elements], dtype=bool)
+    Z0 = N0 + terms[:, in_A].sum(axis=1)
+    Z1 = N1 + terms[:, ~in_A].sum(axis=1)
+    return Z0, Z1, N0, N1
+
+
+def _hurwitz(model: UncertainLTVModel, rhos: Array, etas: Array, N0: Array, N1: Array) -> NDArray[np.bool_]:
+    """Hurwitz flags of ``Ā = A − ηBK₁`` by a Lyapunov argument, eigenvalues where it fails.
+
+    ``PĀ + ĀᵀP = N₀ + ηN₁`` with ``N₁ = −2ρPBBᵀP ⪯ 0``, so if P ≻ 0 and it is negative
+    definite at the smallest η of the grid, it is at every larger η and Ā is Hurwitz
+    there. Rows of ρ where this does not hold get the closed-loop eigenvalues.
+    """
+    eta_min = etas.min()
+    lyap_min = np.linalg.eigvalsh(N0 + eta_min * N1)[:, -1]
+    n1_max = np.linalg.eigvalsh(N1)[:, -1]
+    scale = np.abs(N1).max(axis=(-1, -2)) + np.abs(N0).max(axis=(-1, -2))
+    proven = (lyap_min < 0) & (n1_max <= 1e-12 * scale)
+    hurwitz = np.ones((rhos.size, etas.size), dtype=bool)
+    rest = np.flatnonzero(~proven)
+    if rest.size:
+        BK1 = np.array([model.B @ (rho * model.B.T @ riccati_solution(model, rho)) for rho in rhos[rest]])
+        A_cl = model.A[None, None] - etas[None, :, None, None] * BK1[:, None]
+        hurwitz[rest] = np.all(np.linalg.eigvals(A_cl).real < 0, axis=-1)
+    return hurwitz
 
 
 def design_surface(
@@ -180,15 +208,10 @@ def design_surface(
                 max_eig[i, k] = certify(model, d, elements).max_eig
                 hurwitz[i, k] = d.hurwitz
     else:
-        sub = model.subset(elements)
-        terms = [_structured_terms(sub, rho) for rho in rho_grid]
-        Z0 = np.array([t[0] for t in terms])
-        Z1 = np.array([t[1] for t in terms])
+        Z0, Z1, N0, N1 = _structured_terms(model.subset(elements), rho_grid)
         Z = Z0[:, None] + eta_grid[None, :, None, None] * Z1[:, None]
-        Z = 0.5 * (Z + np.swapaxes(Z, -1, -2))
         max_eig = np.linalg.eigvalsh(Z)[..., -1]
-        A_cl = model.A[None, None] - eta_grid[None, :, None, None] * np.array([t[3] for t in terms])[:, None]
-        hurwitz = np.all(np.linalg.eigvals(A_cl).real < 0, axis=-1)
+        hurwitz = _hurwitz(model, rho_grid, eta_grid, N0, N1)
     return DesignSurface(
         rhos=rho_grid,
         etas=eta_grid,

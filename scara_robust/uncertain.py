@@ -166,6 +166,35 @@ class UncertainLTVModel:
         """Upper bounds, shape (N,)."""
         return np.array([el.upper for el in self.elements], dtype=float)
 
+    def perturbation_factors(self, K: ArrayLike) -> tuple[Array, Array]:
+        """Rank-one factors ``E_j = a_j b_jᵀ`` of the matrices of :meth:`perturbation_matrices`.
+
+        ``a_j = e_i`` for an element in row i; ``b_j = e_k`` for ΔA(i, k) and
+        ``b_j = -K[k, :]`` for ΔB(i, k).
+
+        Parameters
+        ----------
+        K : array_like, shape (..., m, n)
+            State-feedback gain, or a stack of gains.
+
+        Returns
+        -------
+        a : ndarray, shape (N, n)
+        b : ndarray, shape (..., N, n)
+        """
+        K = check_array("K", K)
+        if K.ndim < 2 or K.shape[-2:] != (self.n_inputs, self.n_states):
+            raise ValueError(f"`K` must have shape (..., {self.n_inputs}, {self.n_states}), found {K.shape}")
+        a = np.zeros((self.n_elements, self.n_states))
+        b = np.zeros((*K.shape[:-2], self.n_elements, self.n_states))
+        for j, el in enumerate(self.elements):
+            a[j, el.row] = 1.0
+            if el.matrix == "A":
+                b[..., j, el.col] = 1.0
+            else:
+                b[..., j, :] = -K[..., el.col, :]
+        return a, b
+
     def perturbation_matrices(self, K: ArrayLike) -> Array:
         """The matrices ``E_j`` of Eq. (5) for the closed loop ``u = -K x``.
 
@@ -182,13 +211,8 @@ class UncertainLTVModel:
         ndarray, shape (N, n, n)
         """
         K = check_array("K", K, shape=(self.n_inputs, self.n_states))
-        E = np.zeros((self.n_elements, self.n_states, self.n_states))
-        for j, el in enumerate(self.elements):
-            if el.matrix == "A":
-                E[j, el.row, el.col] = 1.0
-            else:
-                E[j, el.row, :] = -K[el.col, :]
-        return E
+        a, b = self.perturbation_factors(K)
+        return a[:, :, None] * b[:, None, :]
 
     def matrices_at(self, h: ArrayLike) -> tuple[Array, Array]:
         """``(A + ΔA, B + ΔB)`` for element values `h` of shape (N,) (or (k, N) → batched)."""

@@ -35,3 +35,42 @@ def test_surface_plot_marks_point(paper):
     assert ax.get_legend() is not None
     ax2 = sr.plot_surface_contour(s, mark=(3, 90))
     assert "ρ" in ax2.get_xlabel()
+
+
+@pytest.mark.parametrize("seed", range(5), ids=[f"seed{s}" for s in range(5)])
+def test_rank2_positive_part_matches_eigendecomposition(seed):
+    rng = np.random.default_rng(seed)
+    u, v = rng.normal(size=(7, 6)), rng.normal(size=(7, 6))
+    v[0] = -2.5 * u[0]  # S = -5 u uᵀ: positive part 0
+    v[1] = 0.0
+    S = u[:, :, None] * v[:, None, :]
+    S = S + np.swapaxes(S, -1, -2)
+    closed = sr.certificate.rank2_positive_part(u, v)
+    literal = sr.certificate.positive_part(S)
+    assert np.allclose(closed, literal, atol=1e-12 * np.abs(S).max())
+    assert np.allclose(closed[:2], 0.0)
+
+
+def test_perturbation_factors_rebuild_the_matrices(paper, paper_design):
+    a, b = paper.perturbation_factors(paper_design.K)
+    E = paper.perturbation_matrices(paper_design.K)
+    assert np.array_equal(a[:, :, None] * b[:, None, :], E)
+    stacked = np.stack([paper_design.K, 2 * paper_design.K])
+    _, b2 = paper.perturbation_factors(stacked)
+    assert b2.shape == (2, 10, 6) and np.array_equal(b2[0], b)
+    with pytest.raises(ValueError, match=r"`K` must have shape \(\.\.\., 2, 6\)"):
+        paper.perturbation_factors(np.zeros((6, 2)))
+
+
+def test_hurwitz_falls_back_to_eigenvalues_when_lyapunov_proof_fails():
+    from scara_robust.surface import _hurwitz
+
+    model = random_model(1)
+    rhos, etas = np.array([0.5, 2.0]), np.array([1.0, 3.0, 10.0])
+    # N0 = +I makes the Lyapunov proof fail on every row, forcing the eigenvalue path.
+    n = model.n_states
+    N0 = np.repeat(np.eye(n)[None], 2, axis=0)
+    N1 = np.zeros_like(N0)
+    flags = _hurwitz(model, rhos, etas, N0, N1)
+    expected = np.array([[sr.design(model, r, e).hurwitz for e in etas] for r in rhos])
+    assert np.array_equal(flags, expected) and flags.all()

@@ -1,0 +1,43 @@
+"""Turn a pytest-benchmark JSON report into the README's performance table.
+
+Usage: ``python benchmarks/report.py benchmark.json``. Prints a markdown table of mean
+times and the ratios of each reference to its fast counterpart, measured in the same run.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 1:
+        sys.stderr.write("usage: python benchmarks/report.py BENCHMARK.json\n")
+        return 2
+    with open(argv[0], encoding="utf-8") as fh:
+        report = json.load(fh)
+    mean = {b["name"]: b["stats"]["mean"] for b in report["benchmarks"]}
+    info = report.get("machine_info", {})
+    lines = [
+        f"machine: {info.get('cpu', {}).get('brand_raw', '?')}, {info.get('cpu', {}).get('count', '?')} cores, "
+        f"Python {info.get('python_version', '?')}",
+        "",
+        "| benchmark | fast [s] | reference [s] | ratio |",
+        "|---|---|---|---|",
+    ]
+    pairs = [
+        ("surface 50x50 (2 500 points)", "test_surface[50x50-structured]", "test_surface[50x50-reference]"),
+        ("surface 200x200 (40 000 points)", "test_surface[200x200-structured]", "test_surface[200x200-reference]"),
+        ("PID 20-s run", "test_simulation_pid_20s[fast]", "test_simulation_pid_20s[interconnect]"),
+    ]
+    for label, fast, ref in pairs:
+        if fast in mean and ref in mean:
+            lines.append(f"| {label} | {mean[fast]:.4g} | {mean[ref]:.4g} | {mean[ref] / mean[fast]:.0f}x |")
+    if "test_compare" in mean:
+        lines.append(f"| whole `compare` (6 runs) | {mean['test_compare']:.3g} | | |")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
