@@ -1,5 +1,5 @@
 # Every target creates .venv and installs the package with its test tools and the
-# optional `lmi` extra (cvxpy) on first use, so the LMI tests run.
+# optional extras (lmi: cvxpy; dask; parquet: pyarrow) on first use, so their tests run.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -10,12 +10,12 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,lmi]"
+	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet]"
 	touch $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
-	SCARA_ROBUST_REQUIRE_LMI=1 $(BIN)/python -m pytest -q
+	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q
 
 compare: $(STAMP)
 	$(BIN)/python -m scara_robust.compare

@@ -9,7 +9,7 @@ Robot (:mod:`scara_robust.robot`)
     error_dynamics_jacobians        -- linearized error dynamics (Eq. 3)
     scara_plant                     -- the robot as a control.NonlinearIOSystem
 Signals (:mod:`scara_robust.signals`)
-    Reference, paper_reference      -- joint references with derivatives
+    Reference, paper_reference, sinusoidal_reference -- joint references with derivatives
     SquareWave, paper_disturbance   -- square-wave disturbance torques
 Uncertain model (:mod:`scara_robust.uncertain`)
     UncertainElement, UncertainLTVModel -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
@@ -29,16 +29,20 @@ Design surface (:mod:`scara_robust.surface`)
 Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, CONTROLLERS, make_controller
     simulate, run_scenario, SimulationResult, Scenario, SCENARIOS, closed_loop
+Campaigns (:mod:`scara_robust.campaign`)
+    load_spec, CampaignSpec, CampaignSpecError -- Monte-Carlo campaign specs (TOML)
+    run_campaign, read_results, campaign_report -- run (local or Dask), resume, summarize
 Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.comparison`)
     tracking_metrics, TrackingMetrics -- errors and torques after the transient
     compare                         -- the PID vs sliding-mode table
 Plotting (:mod:`scara_robust.plotting`)
-    plot_surface, plot_surface_contour, plot_response, plot_signals
+    plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign
 Reproduction (:mod:`scara_robust.reproduction`)
     reproduction_table              -- the paper's claims next to the package's results
     PAPER_GAIN, PAPER_DESIGN_POINT  -- K and (ρ*, η*) as printed in Section 4
 """
 
+from .campaign import CampaignSpec, CampaignSpecError, campaign_report, load_spec, read_results, run_campaign
 from .certificate import Certificate, UltimateBound, certify
 from .comparison import compare
 from .conservatism import CERTIFICATE_METHODS, certificate_table
@@ -47,7 +51,7 @@ from .design import Design, design
 from .falsifier import FalsifierResult, falsify
 from .lmi import LMICertificate, lmi_certificate, verify_lyapunov
 from .metrics import TrackingMetrics, tracking_metrics
-from .plotting import plot_response, plot_signals, plot_surface, plot_surface_contour
+from .plotting import plot_campaign, plot_response, plot_signals, plot_surface, plot_surface_contour
 from .reproduction import PAPER_DESIGN_POINT, PAPER_GAIN, reproduction_table
 from .robot import (
     ConstantPayload,
@@ -62,7 +66,7 @@ from .robot import (
     paper_payload,
     scara_plant,
 )
-from .signals import Reference, SquareWave, paper_disturbance, paper_reference
+from .signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
 from .simulation import SCENARIOS, Scenario, SimulationResult, closed_loop, run_scenario, simulate
 from .surface import DesignSurface, design_surface
 from .uncertain import (
@@ -85,6 +89,8 @@ from .vertices import (
 __all__ = [
     "CERTIFICATE_METHODS",
     "CONTROLLERS",
+    "CampaignSpec",
+    "CampaignSpecError",
     "Certificate",
     "ConstantPayload",
     "Design",
@@ -109,6 +115,7 @@ __all__ = [
     "UncertainLTVModel",
     "box_closed_loops",
     "box_vertices",
+    "campaign_report",
     "certificate_table",
     "certify",
     "closed_loop",
@@ -122,6 +129,7 @@ __all__ = [
     "forward_dynamics",
     "kinetic_energy",
     "lmi_certificate",
+    "load_spec",
     "make_controller",
     "mass_matrix",
     "paper_disturbance",
@@ -132,15 +140,19 @@ __all__ = [
     "physical_certificate",
     "physical_samples",
     "pid_controller",
+    "plot_campaign",
     "plot_response",
     "plot_signals",
     "plot_surface",
     "plot_surface_contour",
     "polytope_certificate",
+    "read_results",
     "reproduction_table",
+    "run_campaign",
     "run_scenario",
     "scara_plant",
     "simulate",
+    "sinusoidal_reference",
     "sliding_mode_controller",
     "tracking_metrics",
     "verify_lyapunov",

@@ -1,4 +1,4 @@
-"""Command line: ``python -m scara_robust {design,surface,certify,simulate,compare} ...``.
+"""Command line: ``python -m scara_robust {design,surface,certify,simulate,compare,campaign,campaign-report} ...``.
 
 Every command accepts ``--help``. Bad input prints one line on stderr and exits 2.
 Output files are written to a temporary file in the target folder and renamed, so an
@@ -206,6 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
     p.set_defaults(func=_cmd_surface)
 
+    from .campaign import add_campaign_parsers
     from .comparison import add_compare_parser
     from .conservatism import add_certify_parser
     from .simulation import add_simulate_parser
@@ -213,6 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_certify_parser(sub)
     add_simulate_parser(sub)
     add_compare_parser(sub)
+    add_campaign_parsers(sub)
     return parser
 
 
@@ -227,4 +229,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = " ".join(str(err).split())
         sys.stderr.write(f"scara_robust: error: {message}\n")
         return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("scara_robust: interrupted; finished work is kept (a campaign continues with --resume)\n")
+        return 130
     return 0

@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     from .simulation import SimulationResult
     from .surface import DesignSurface
 
-__all__ = ["plot_surface", "plot_surface_contour", "plot_response", "plot_signals", "SIGNALS"]
+__all__ = ["plot_surface", "plot_surface_contour", "plot_response", "plot_signals", "plot_campaign", "SIGNALS"]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
 SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
@@ -219,5 +219,44 @@ def plot_signals(
     axes[-1, 0].set_xlabel("time t [s]")
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def plot_campaign(results: Any) -> Any:
+    """Distributions of a campaign's metrics per controller (box plots, log scale).
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        A table from :func:`scara_robust.run_campaign`; failed runs are left out and
+        counted in the titles.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    panels = [
+        ("max_abs_error_after_6s", "max |e| after 6 s [rad]"),
+        ("max_abs_torque_after_6s", "max |Tc| after 6 s [N·m]"),
+    ]
+    names = sorted(results["controller"].unique())
+    fig, axes = plt.subplots(1, len(panels), figsize=(11, 4))
+    for ax, (metric, label) in zip(axes, panels):
+        data, ticks = [], []
+        for name in names:
+            group = results[results["controller"] == name]
+            ok = group[group["success"].astype(bool)][metric].astype(float).dropna()
+            data.append(ok.to_numpy())
+            ticks.append(f"{name}\n({len(ok)} ok, {len(group) - len(ok)} failed)")
+        ax.boxplot(data, whis=(5, 95))
+        ax.set_xticks(range(1, len(ticks) + 1), ticks)
+        ax.set_yscale("log")
+        ax.set_ylabel(label)
+        ax.set_title(label.split(" [")[0] + ", per controller (whiskers 5-95 %)", fontsize=10)
+    n = results["scenario"].nunique() if "scenario" in results else len(results)
+    fig.suptitle(f"Monte-Carlo campaign: {n} scenarios")
     fig.tight_layout()
     return fig

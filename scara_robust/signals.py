@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validation import check_array, check_callable, check_real
 
-__all__ = ["Reference", "paper_reference", "SquareWave", "paper_disturbance"]
+__all__ = ["Reference", "paper_reference", "sinusoidal_reference", "SquareWave", "paper_disturbance"]
 
 Array = NDArray[np.float64]
 Signal = Callable[[Any], Any]
@@ -99,6 +99,41 @@ def paper_reference() -> Reference:
     Paper, Section 4.
     """
     return Reference(_sin_cos, _cos_minus_sin, _minus_sin_cos)
+
+
+def sinusoidal_reference(amplitude: float = 1.0, omega: float = 1.0) -> Reference:
+    """``r1 = a sin(ωt)``, ``r2 = a cos(ωt)`` with exact derivatives; a = ω = 1 is the paper's.
+
+    Parameters
+    ----------
+    amplitude : float
+        a, rad (>= 0).
+    omega : float
+        ω, rad/s (> 0).
+
+    Returns
+    -------
+    Reference
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.sinusoidal_reference(2.0, 0.5).velocity(0.0).tolist()
+    [1.0, 0.0]
+    """
+    a = check_real("amplitude [rad]", amplitude, nonnegative=True)
+    w = check_real("omega [rad/s]", omega, positive=True)
+
+    def position(t: Any) -> Array:
+        return a * np.array([np.sin(w * np.asarray(t)), np.cos(w * np.asarray(t))])
+
+    def velocity(t: Any) -> Array:
+        return a * w * np.array([np.cos(w * np.asarray(t)), -np.sin(w * np.asarray(t))])
+
+    def acceleration(t: Any) -> Array:
+        return -(w**2) * position(t)
+
+    return Reference(position, velocity, acceleration)
 
 
 @dataclass(frozen=True)

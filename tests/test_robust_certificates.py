@@ -14,8 +14,8 @@ from conftest import random_model
 import scara_robust as sr
 from scara_robust import cli, lmi
 
-#: `make test` sets this, so that CI fails rather than skips when the `lmi` extra is missing.
-REQUIRE_LMI = os.environ.get("SCARA_ROBUST_REQUIRE_LMI") == "1"
+#: `make test` sets this, so that CI fails rather than skips when an extra is missing.
+REQUIRE_LMI = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
 needs_cvxpy = pytest.mark.skipif(
     not REQUIRE_LMI and not lmi.cvxpy_available(), reason="the `lmi` extra (cvxpy) is not installed"
 )

@@ -1,0 +1,276 @@
+"""Monte-Carlo campaigns: spec validation, reproducibility, resume, local and Dask runs."""
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import scara_robust as sr
+from scara_robust import campaign as cp
+from scara_robust.cli import main
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "campaign.toml"
+
+#: A tiny campaign: short horizon, a little of everything drawn.
+TINY = """
+controllers = ["pid", "smc"]
+t_final = 6.5
+runs = 4
+seed = 7
+payload_profiles = ["sinusoidal", "constant"]
+payload_peak = { min = 1.0, max = 3.0 }
+disturbance_amplitude = { min = 3.0, max = 7.0 }
+disturbance_phase = { min = 0.0, max = 6.283 }
+initial_error = { min = -0.1, max = 0.1 }
+torque_limit = { min = 40.0, max = 60.0 }
+"""
+
+
+@pytest.fixture
+def tiny_spec(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    """The tiny campaign run straight through in this process."""
+    folder = tmp_path_factory.mktemp("straight")
+    (folder / "tiny.toml").write_text(TINY)
+    spec = cp.load_spec(folder / "tiny.toml")
+    cp.run_campaign(spec, folder / "r.csv", chunk_size=1)
+    return spec, cp.read_results(folder / "r.csv")
+
+
+def test_example_spec_loads():
+    spec = cp.load_spec(EXAMPLE)
+    assert spec.controllers == ("pid", "smc") and spec.runs == 200
+    assert spec.ranges["payload_peak"] == cp.Range(1.0, 3.0)
+    assert math.isinf(spec.ranges["torque_limit"].low)
+
+
+def test_straight_table_shape(straight):
+    spec, table = straight
+    assert len(table) == 8 and table["scenario"].tolist() == [0, 0, 1, 1, 2, 2, 3, 3]
+    assert table["success"].all() and (table["error"] == "").all()
+    assert (table["max_abs_error_after_6s"] > 0).all()
+    assert set(table["payload_profile"]) <= {"sinusoidal", "constant"}
+    assert table["payload_peak"].between(1.0, 3.0).all() and table["torque_limit"].between(40, 60).all()
+    assert (table["seed"] == 7).all() and (table["spec"] == spec.digest()).all()
+    # rows of one scenario share its drawn inputs, and they match an independent redraw
+    for i in range(4):
+        redraw = cp.draw_scenario(spec, 7, i)
+        rows = table[table["scenario"] == i]
+        for key in ("payload_peak", "cp", "e1_0", "e2_0", "disturbance_phase"):
+            assert (rows[key] == redraw[key]).all()
+
+
+def test_draw_depends_only_on_seed_and_index(tiny_spec):
+    spec = cp.load_spec(tiny_spec)
+    a = cp.draw_scenario(spec, 7, 3)
+    assert a == cp.draw_scenario(spec, 7, 3)
+    assert a != cp.draw_scenario(spec, 7, 2) and a != cp.draw_scenario(spec, 8, 3)
+    assert a["cp"] == 0.005  # a constant field stays at the paper's value
+
+
+def test_same_seed_same_table_with_a_process_pool(straight, tmp_path):
+    spec, table = straight
+    cp.run_campaign(spec, tmp_path / "pool.csv", workers=2, chunk_size=1)
+    pd.testing.assert_frame_equal(cp.read_results(tmp_path / "pool.csv"), table)
+
+
+REQUIRE_EXTRAS = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
+
+
+def test_same_seed_same_table_with_dask(straight, tmp_path):
+    if not REQUIRE_EXTRAS:
+        pytest.importorskip("dask.distributed")
+        pytest.importorskip("pyarrow")
+    spec, table = straight
+    cp.run_campaign(spec, tmp_path / "dask.parquet", workers=2, scheduler="dask", chunk_size=1)
+    pd.testing.assert_frame_equal(cp.read_results(tmp_path / "dask.parquet"), table)
+
+
+def test_interrupted_and_resumed_equals_straight(straight, tmp_path):
+    spec, table = straight
+    out = tmp_path / "r.csv"
+
+    def stop_after_two(n_done):
+        if n_done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        cp.run_campaign(spec, out, chunk_size=1, on_chunk=stop_after_two)
+    partial = cp.read_results(out)
+    assert partial["scenario"].nunique() == 2  # the finished chunks were kept
+    seen = []
+    cp.run_campaign(spec, out, chunk_size=1, resume=True, on_chunk=seen.append)
+    assert seen == [3, 4]  # only the two missing scenarios ran
+    pd.testing.assert_frame_equal(cp.read_results(out), table)
+
+
+def test_killed_process_resumes_to_the_same_table(straight, tmp_path, tiny_spec):
+    spec, table = straight
+    out = tmp_path / "killed.csv"
+    cmd = [sys.executable, "-m", "scara_robust", "campaign", str(tiny_spec), "--chunk-size", "1", "--output", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if out.exists() and cp.read_results(out)["scenario"].nunique() >= 1:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = cp.read_results(out)["scenario"].nunique()
+    assert 1 <= done <= 4
+    assert main(["campaign", str(tiny_spec), "--chunk-size", "1", "--output", str(out), "--resume"]) == 0
+    pd.testing.assert_frame_equal(cp.read_results(out), table)
+
+
+def test_failed_run_is_a_row_not_a_crash(monkeypatch, tiny_spec, tmp_path):
+    spec = cp.load_spec(tiny_spec)
+    real = cp.simulate
+
+    def flaky(controller, *args, **kwargs):
+        if controller.name.startswith("smc"):
+            raise RuntimeError("solver exploded")
+        return real(controller, *args, **kwargs)
+
+    monkeypatch.setattr(cp, "simulate", flaky)
+    table = cp.run_campaign(spec, tmp_path / "r.csv", runs=2)
+    smc = table[table["controller"] == "smc"]
+    assert len(table) == 4 and not smc["success"].any()
+    assert (smc["error"] == "RuntimeError: solver exploded").all() and smc["max_abs_error_after_6s"].isna().all()
+    report = cp.campaign_report(table)
+    assert report.loc["smc", "failure_rate"] == 1.0 and report.loc["pid", "failure_rate"] == 0.0
+
+
+def test_report_statistics(straight):
+    _, table = straight
+    report = cp.campaign_report(table, quantiles=(0.5,))
+    pid = table[table["controller"] == "pid"]["max_abs_error_after_6s"]
+    assert report.loc["pid", "runs"] == 4
+    assert report.loc["pid", "max_abs_error_after_6s q50"] == pytest.approx(pid.median())
+    assert report.loc["pid", "max_abs_error_after_6s max"] == pytest.approx(pid.max())
+    with pytest.raises(ValueError, match="`quantiles` must be numbers in"):
+        cp.campaign_report(table, quantiles=(1.5,))
+
+
+def test_existing_output_is_never_overwritten(straight, tmp_path):
+    spec, _ = straight
+    out = tmp_path / "r.csv"
+    out.write_text("precious\n")
+    with pytest.raises(FileExistsError, match="pass --resume"):
+        cp.run_campaign(spec, out)
+    assert out.read_text() == "precious\n"
+
+
+def test_resume_refuses_another_seed(straight, tmp_path):
+    spec, table = straight
+    out = tmp_path / "r.csv"
+    table.to_csv(out, index=False)
+    with pytest.raises(ValueError, match="another spec or seed"):
+        cp.run_campaign(spec, out, seed=8, resume=True)
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("colour = 3", "colour"),
+        ("payload_peak = { min = 3.0, max = 1.0 }", "payload_peak"),
+        ("payload_peak = -1.0", "payload_peak"),
+        ("controllers = []", "controllers"),
+        ('controllers = ["pid", "lqr"]', "controllers"),
+        ('controllers = ["pid", "pid"]', "controllers"),
+        ('cp = "small"', "cp"),
+        ("disturbance_period = 0.0", "disturbance_period"),
+        ("t_final = 5.0", "t_final"),
+        ("runs = 0", "runs"),
+        ("eta = 0.5", "eta"),
+        ("payload_omega = { min = 1.0 }", "payload_omega"),
+        ('payload_profiles = ["square"]', "payload_profiles"),
+        ("initial_error = nan", "initial_error"),
+        ("reference_omega = inf", "reference_omega"),
+    ],
+    ids=[
+        "unknown", "min>max", "negative-mass", "no-controllers", "unknown-controller", "repeat", "type",
+        "period", "t_final", "runs", "eta", "half-range", "profile", "nan", "inf",
+    ],
+)
+def test_bad_specs_name_the_field(tmp_path, capsys, text, field):
+    path = tmp_path / "bad.toml"
+    path.write_text(text + "\n")
+    with pytest.raises(cp.CampaignSpecError, match=f"campaign spec field `{field}`"):
+        cp.load_spec(path)
+    assert main(["campaign", str(path), "--output", str(tmp_path / "r.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"`{field}`" in err
+    assert not (tmp_path / "r.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--runs", "0"], "`--runs` must be an integer >= 1"),
+        (["--workers", "0"], "`--workers` must be an integer >= 1"),
+        (["--output", "r.xlsx"], "`--output` must end in .csv or .parquet"),
+        (["--scheduler", "slurm"], "invalid choice"),
+    ],
+    ids=["runs", "workers", "format", "scheduler"],
+)
+def test_campaign_cli_bad_options(tmp_path, capsys, tiny_spec, argv, match):
+    args = ["campaign", str(tiny_spec), *argv]
+    if "--output" not in argv:
+        args += ["--output", str(tmp_path / "r.csv")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and match in err
+
+
+def test_campaign_cli_missing_spec_and_bad_toml(tmp_path, capsys):
+    assert main(["campaign", str(tmp_path / "missing.toml")]) == 2
+    assert "No such file" in capsys.readouterr().err
+    bad = tmp_path / "bad.toml"
+    bad.write_text("controllers = [\n")
+    assert main(["campaign", str(bad)]) == 2
+    assert "is not valid TOML" in capsys.readouterr().err
+
+
+def test_campaign_and_report_cli(tmp_path, capsys, tiny_spec):
+    if not REQUIRE_EXTRAS:
+        pytest.importorskip("pyarrow")
+    out = tmp_path / "r.parquet"
+    assert main(["campaign", str(tiny_spec), "--runs", "2", "--output", str(out)]) == 0
+    assert "2 scenarios x 2 controllers = 4 rows" in capsys.readouterr().out
+    assert main(["campaign-report", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "max_abs_error_after_6s q50" in text and "failure_rate" in text
+    png = tmp_path / "r-report.png"
+    assert png.exists() and png.stat().st_size > 10_000
+    assert main(["campaign-report", str(out), "--format", "json"]) == 0
+    assert '"controller":"pid"' in capsys.readouterr().out.replace(" ", "")
+    assert main(["campaign-report", str(tmp_path / "nothing.csv")]) == 2
+    assert capsys.readouterr().err.startswith("scara_robust: error:")
+
+
+def test_sinusoidal_reference_matches_paper():
+    ref, paper = sr.sinusoidal_reference(1.0, 1.0), sr.paper_reference()
+    for t in (0.0, 0.7, 3.0):
+        for name in ("position", "velocity", "acceleration"):
+            assert getattr(ref, name)(t) == pytest.approx(getattr(paper, name)(t))
+    with pytest.raises(ValueError, match="omega"):
+        sr.sinusoidal_reference(1.0, 0.0)
+
+
+def test_parquet_without_pyarrow_is_a_clear_error(monkeypatch, tmp_path, tiny_spec, capsys):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    assert main(["campaign", str(tiny_spec), "--output", str(tmp_path / "r.parquet")]) == 2
+    assert "parquet files need pyarrow: pip install scara_robust[parquet]" in capsys.readouterr().err
+    assert not (tmp_path / "r.parquet").exists()
