@@ -22,7 +22,7 @@ import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -119,6 +119,8 @@ class CampaignSpec:
         Default number of scenarios.
     seed : int
         Default seed.
+    robot : ScaraParams
+        The robot (default: the paper's); its ``cp`` is replaced by the drawn one.
     """
 
     controllers: tuple[str, ...] = ("pid", "smc")
@@ -129,6 +131,7 @@ class CampaignSpec:
     ranges: Mapping[str, Range] = field(default_factory=_default_ranges)
     runs: int = 100
     seed: int = 0
+    robot: ScaraParams = field(default_factory=ScaraParams)
 
     def digest(self) -> str:
         """Short hash of everything that determines the drawn scenarios and runs."""
@@ -282,7 +285,7 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     A run that raises or diverges gives a row with ``success = False`` and its
     ``error``; metrics that do not exist are NaN.
     """
-    params = ScaraParams(cp=draw["cp"])
+    params = replace(spec.robot, cp=draw["cp"])
     peak = draw["payload_peak"]
     if draw["payload_profile"] == "sinusoidal":
         payload: Any = SinusoidalPayload(0.5 * peak, 0.5 * peak, draw["payload_omega"], draw["payload_phase"])
@@ -565,7 +568,11 @@ def campaign_report(results: pd.DataFrame, quantiles: Sequence[float] = (0.05, 0
 
 
 def _cmd_campaign(args: argparse.Namespace) -> str:
+    from .cli import resolve_setup
+
     spec = load_spec(args.spec)
+    if args.robot is not None:
+        spec = replace(spec, robot=resolve_setup(args).params)
     output = args.results or "results.csv"
     try:
         table = run_campaign(
@@ -625,6 +632,7 @@ def add_campaign_parsers(sub: Any) -> None:
         + "; each drawn field is a number or {min = ..., max = ...}. See examples/campaign.toml.",
     )
     p.add_argument("spec", help="campaign spec, TOML")
+    p.add_argument("--robot", metavar="FILE", help="robot file (default: the paper's robot); cp is drawn by the spec")
     p.add_argument("--runs", type=int, help="number of scenarios (default: the spec's)")
     p.add_argument("--seed", type=int, help="seed (default: the spec's)")
     p.add_argument("--workers", type=int, default=1, help="processes or dask workers (default 1)")

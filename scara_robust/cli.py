@@ -13,16 +13,31 @@ import os
 import sys
 import tempfile
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, NoReturn
 
 import numpy as np
 
 from .certificate import certify
 from .design import design
+from .robot import PayloadProfile, ScaraParams
+from .signals import Reference, SquareWave
+from .simulation import SCENARIOS, Scenario
 from .surface import design_surface
 from .uncertain import ELEMENT_SETS, UncertainLTVModel, derived_model, paper_model
 
-__all__ = ["main", "BOUNDS", "CommandLineError", "parse_range", "write_atomic"]
+__all__ = [
+    "main",
+    "BOUNDS",
+    "CommandLineError",
+    "Setup",
+    "add_setup_options",
+    "parse_range",
+    "resolve_bounds",
+    "resolve_model",
+    "resolve_setup",
+    "write_atomic",
+]
 
 #: Interval models selectable with ``--bounds``.
 BOUNDS: dict[str, Callable[[], UncertainLTVModel]] = {"paper": paper_model, "derived": derived_model}
@@ -105,24 +120,121 @@ def _emit(text: str, output: str | None) -> None:
     write_atomic(output, write)
 
 
+@dataclass(frozen=True)
+class Setup:
+    """Robot and signals of one command, from ``--robot`` and ``--scenario``.
+
+    Attributes
+    ----------
+    params : ScaraParams
+    reference, payload, disturbance
+        None where the paper's apply.
+    initial : Scenario or None
+        Initial condition (named, or from the scenario file).
+    from_files : bool
+        True when a robot or scenario file was given.
+    """
+
+    params: ScaraParams
+    reference: Reference | None
+    payload: PayloadProfile | None
+    disturbance: SquareWave | None
+    initial: Scenario | None
+    from_files: bool
+
+    def signals(self) -> dict[str, Any]:
+        """Keyword arguments for :func:`scara_robust.run_scenario` and :func:`scara_robust.compare`."""
+        return {"params": self.params, "reference": self.reference, "payload": self.payload,
+                "disturbance": self.disturbance}
+
+
+def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenario: bool = True) -> None:
+    """Add ``--robot FILE``, ``--scenario NAME|FILE`` and ``--bounds`` to a sub-command."""
+    p.add_argument("--robot", metavar="FILE", help="robot file (.toml/.json, see examples/robot-paper.toml)")
+    if scenario:
+        p.add_argument(
+            "--scenario",
+            metavar="NAME|FILE",
+            help="initial condition 'large' or 'small', or a scenario file (payload, reference, disturbance, "
+            "initial error; see examples/scenario-paper.toml)",
+        )
+    if bounds:
+        p.add_argument(
+            "--bounds",
+            choices=sorted(BOUNDS),
+            default=None,
+            help="interval model of the PID design: published Tables 1-2 ('paper', the default without files) "
+            "or derived from the robot ('derived', the default with --robot or a scenario file)",
+        )
+
+
+def resolve_setup(args: argparse.Namespace) -> Setup:
+    """Load the files named by ``--robot`` and ``--scenario``."""
+    from .inputs import InputFileError, load_robot, load_scenario
+
+    params, from_files = ScaraParams(), False
+    robot = getattr(args, "robot", None)
+    if robot is not None:
+        try:
+            params = load_robot(robot)
+        except OSError as err:
+            raise OSError(f"`--robot` {robot!r}: {err.strerror or err}") from err
+        except InputFileError as err:
+            raise InputFileError(f"`--robot` {err}") from err
+        from_files = True
+    scenario = getattr(args, "scenario", None)
+    reference = payload = disturbance = None
+    initial: Scenario | None = None
+    if scenario is not None and scenario in SCENARIOS:
+        initial = SCENARIOS[scenario]
+    elif scenario is not None:
+        if not scenario.lower().endswith((".toml", ".json")):
+            raise ValueError(
+                f"`--scenario` must be {', '.join(repr(n) for n in SCENARIOS)} or a .toml/.json scenario file, "
+                f"found {scenario!r}"
+            )
+        try:
+            scen = load_scenario(scenario)
+        except OSError as err:
+            raise OSError(f"`--scenario` {scenario!r}: {err.strerror or err}") from err
+        except InputFileError as err:
+            raise InputFileError(f"`--scenario` {err}") from err
+        reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
+        from_files = True
+    return Setup(params, reference, payload, disturbance, initial, from_files)
+
+
+def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
+    """``--bounds``, or its default: ``'derived'`` with files, else ``'paper'``."""
+    return getattr(args, "bounds", None) or ("derived" if setup.from_files else "paper")
+
+
+def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
+    """The interval model of ``--bounds`` for this setup (refusing published bounds for other data)."""
+    if resolve_bounds(args, setup) == "paper":
+        if setup.from_files:
+            raise ValueError(
+                "`--bounds paper` holds only for the paper's robot and signals; with --robot or a scenario file "
+                "use --bounds derived"
+            )
+        return paper_model()
+    return derived_model(setup.params, setup.reference, setup.payload)
+
+
 def _add_model_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--bounds",
-        choices=sorted(BOUNDS),
-        default="paper",
-        help="interval model: the published Tables 1-2 or bounds derived from the robot model",
-    )
+    add_setup_options(p)
     p.add_argument("--elements", choices=ELEMENT_SETS, default="all", help="uncertain elements entering Theorem 1's Z")
 
 
 def _design_payload(args: argparse.Namespace) -> dict[str, Any]:
-    model = BOUNDS[args.bounds]()
+    setup = resolve_setup(args)
+    model = resolve_model(args, setup)
     d = design(model, args.rho, args.eta)
     cert = certify(model, d, args.elements)
     return {
         "rho": d.rho,
         "eta": d.eta,
-        "bounds": args.bounds,
+        "bounds": resolve_bounds(args, setup),
         "elements": args.elements,
         "K": d.K.tolist(),
         "closed_loop_poles_real": np.sort(d.poles.real).tolist(),
@@ -141,7 +253,7 @@ def _cmd_design(args: argparse.Namespace) -> str:
         return json.dumps(out, indent=2)
     K = np.array(out["K"])
     lines = [
-        f"design (rho, eta) = ({out['rho']:g}, {out['eta']:g}), bounds: {args.bounds}, elements: {args.elements}",
+        f"design (rho, eta) = ({out['rho']:g}, {out['eta']:g}), bounds: {out['bounds']}, elements: {args.elements}",
         "K =",
         np.array2string(K, precision=4, suppress_small=True, max_line_width=120),
         f"closed loop Hurwitz: {out['closed_loop_hurwitz']} "
@@ -155,7 +267,7 @@ def _cmd_design(args: argparse.Namespace) -> str:
 
 
 def _cmd_surface(args: argparse.Namespace) -> str:
-    model = BOUNDS[args.bounds]()
+    model = resolve_model(args, resolve_setup(args))
     try:
         surface = design_surface(model, args.rho, args.eta, args.elements)
     except ValueError as err:

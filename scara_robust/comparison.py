@@ -18,18 +18,19 @@ import pandas as pd
 
 from .controllers import CONTROLLERS
 from .metrics import METRIC_NAMES
-from .simulation import SCENARIOS, run_scenario
+from .simulation import SCENARIOS, Scenario, run_scenario
 
 __all__ = ["compare", "add_compare_parser"]
 
 
 def compare(
     controllers: Sequence[str] = tuple(CONTROLLERS),
-    scenarios: Sequence[str] = tuple(SCENARIOS),
+    scenarios: Sequence[str | Scenario] = tuple(SCENARIOS),
     *,
     payload_on: bool = True,
     t_final: float = 20.0,
     progress: bool = False,
+    **setup: Any,
 ) -> pd.DataFrame:
     """Simulate every controller on every scenario and tabulate the metrics.
 
@@ -37,14 +38,17 @@ def compare(
     ----------
     controllers : sequence of str
         Names from :data:`scara_robust.CONTROLLERS`.
-    scenarios : sequence of str
-        Names from :data:`scara_robust.SCENARIOS`.
+    scenarios : sequence of str or Scenario
+        Names from :data:`scara_robust.SCENARIOS`, or :class:`~scara_robust.Scenario`.
     payload_on : bool
         The paper's ``m_p(t)`` (True) or ``m_p = 0`` (False).
     t_final : float
         Horizon, s (> 6 so the after-transient metrics exist).
     progress : bool
         Show a tqdm progress bar on stderr.
+    **setup
+        ``params``, ``reference``, ``payload``, ``disturbance``, ``K``, passed to
+        :func:`scara_robust.run_scenario` (default: the paper's).
 
     Returns
     -------
@@ -56,10 +60,10 @@ def compare(
     pairs = [(c, s) for c in controllers for s in scenarios]
     rows: list[dict[str, Any]] = []
     for c, s in tqdm(pairs, disable=not progress, file=sys.stderr, desc="compare", unit="run"):
-        res = run_scenario(c, s, payload_on=payload_on, t_final=t_final)
+        res = run_scenario(c, s, payload_on=payload_on, t_final=t_final, **setup)
         row: dict[str, Any] = {
             "controller": c,
-            "scenario": s,
+            "scenario": s if isinstance(s, str) else s.name,
             "payload": "on" if payload_on else "off",
             "success": res.success,
         }
@@ -71,9 +75,20 @@ def compare(
 def _cmd_compare(args: argparse.Namespace) -> str:
     if args.t_final <= 6.0:
         raise ValueError(f"`--t-final` must be > 6 s (metrics are taken after 6 s), found {args.t_final}")
+    from .cli import resolve_model, resolve_setup
+    from .design import design
+
+    setup = resolve_setup(args)
+    K = design(resolve_model(args, setup), 3.0, 90.0).K
+    scenarios = list(SCENARIOS) if setup.initial is None else [setup.initial]
     start = time.perf_counter()
     table = compare(
-        payload_on=args.payload == "on", t_final=args.t_final, progress=sys.stderr.isatty() or args.progress
+        scenarios=scenarios,
+        payload_on=args.payload == "on",
+        t_final=args.t_final,
+        progress=sys.stderr.isatty() or args.progress,
+        K=K,
+        **setup.signals(),
     )
     elapsed = time.perf_counter() - start
     sys.stderr.write(f"compare: {len(table)} runs in {elapsed:.1f} s\n")
@@ -106,9 +121,10 @@ def _markdown(table: pd.DataFrame) -> str:
 
 def add_compare_parser(sub: Any) -> None:
     """Register ``compare`` on the command line's sub-parsers."""
-    from .cli import _finite_float
+    from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios")
+    add_setup_options(p)
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--t-final", type=_finite_float, default=20.0, help="horizon, s (> 6)")

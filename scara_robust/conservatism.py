@@ -204,17 +204,26 @@ def _json_value(value: Any) -> Any:
 
 
 def _cmd_certify(args: argparse.Namespace) -> str:
-    from .cli import BOUNDS
+    from .cli import resolve_bounds, resolve_model, resolve_setup
 
     if args.tries < 1:
         raise ValueError(f"`--tries` must be an integer >= 1, found {args.tries}")
-    model = BOUNDS[args.bounds]()
+    setup = resolve_setup(args)
+    model = resolve_model(args, setup)
     d = design(model, args.rho, args.eta)
-    table = certificate_table(model, d, falsifier_tries=args.tries, seed=args.seed)
+    table = certificate_table(
+        model,
+        d,
+        params=setup.params,
+        reference=setup.reference,
+        payload=setup.payload,
+        falsifier_tries=args.tries,
+        seed=args.seed,
+    )
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         return json.dumps(records, indent=2)
-    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {args.bounds}"
+    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {resolve_bounds(args, setup)}"
     shown = table.drop(columns="detail").assign(
         certified=table["certified"].map({True: "yes", False: "no", None: "-"})
     )
@@ -224,12 +233,12 @@ def _cmd_certify(args: argparse.Namespace) -> str:
 
 def add_certify_parser(sub: Any) -> None:
     """Register ``certify`` on the ``python -m scara_robust`` sub-parsers."""
-    from .cli import BOUNDS, _finite_float
+    from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
     p.add_argument("--rho", type=_finite_float, required=True, help="design parameter rho > 0")
     p.add_argument("--eta", type=_finite_float, required=True, help="design parameter eta >= 1")
-    p.add_argument("--bounds", choices=sorted(BOUNDS), default="paper", help="interval box: published or derived")
+    add_setup_options(p)
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
     p.add_argument("--format", choices=("text", "json"), default="text")

@@ -504,27 +504,57 @@ def _fast_run(
 
 def run_scenario(
     controller: str,
-    scenario: str,
+    scenario: Scenario | str,
     *,
     payload_on: bool = True,
     t_final: float = 20.0,
     torque_limit: Any = None,
     params: ScaraParams | None = None,
     method: str = "fast",
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    disturbance: SquareWave | None = None,
+    K: ArrayLike | None = None,
 ) -> SimulationResult:
-    """Run a named controller on a named scenario with the paper's signals.
+    """Run a named controller on a scenario (the paper's signals unless given).
 
-    ``payload_on=False`` sets ``m_p = 0`` (the setting of Figures 4-5). Controllers in
-    :data:`SAMPLE_TIMES` run sampled with that period (``smc-sign``: 1 ms).
+    Parameters
+    ----------
+    controller : {'pid', 'smc', 'smc-sign'}
+    scenario : Scenario or {'large', 'small'}
+    payload_on : bool
+        False sets ``m_p = 0`` (the setting of Figures 4-5).
+    t_final : float
+        Horizon, s.
+    torque_limit : float or array_like of shape (2,), optional
+        Per-joint saturation, N·m.
+    params : ScaraParams, optional
+        The robot (default: the paper's); the sliding-mode law uses it without payload.
+    method : {'fast', 'interconnect'}
+    reference, payload, disturbance : optional
+        Default: the paper's ``sin t, cos t``, ``0.3 m2 (sin t + 1)`` and ±5 N·m square waves.
+    K : array_like, shape (2, 6), optional
+        PID gain (default: designed at (3, 90) on the published model).
+
+    Controllers in :data:`SAMPLE_TIMES` run sampled with that period (``smc-sign``: 1 ms).
     """
     params = params or ScaraParams()
-    ctrl = make_controller(controller, params=params, torque_limit=torque_limit)
-    payload = paper_payload(params) if payload_on else ConstantPayload(0.0)
+    reference = reference or paper_reference()
+    options: dict[str, Any] = {"params": params, "reference": reference, "torque_limit": torque_limit}
+    if K is not None and controller == "pid":
+        options["K"] = K
+    ctrl = make_controller(controller, **options)
+    if payload_on:
+        profile = payload if payload is not None else paper_payload(params)
+    else:
+        profile = ConstantPayload(0.0)
     return simulate(
         ctrl,
         scenario,
         params=params,
-        payload=payload,
+        payload=profile,
+        reference=reference,
+        disturbance=disturbance,
         t_final=t_final,
         method=method,
         sample_time=SAMPLE_TIMES.get(controller),
@@ -536,12 +566,20 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
         raise ValueError(f"`--t-final` must be > 0 s, found {args.t_final}")
     if args.torque_limit is not None and args.torque_limit <= 0:
         raise ValueError(f"`--torque-limit` must be > 0 N·m, found {args.torque_limit}")
+    from .cli import resolve_model, resolve_setup
+    from .design import design
+
+    setup = resolve_setup(args)
+    K = design(resolve_model(args, setup), 3.0, 90.0).K if args.controller == "pid" else None
+    initial = setup.initial or SCENARIOS["large"]
     res = run_scenario(
         args.controller,
-        args.scenario,
+        initial,
         payload_on=args.payload == "on",
         t_final=args.t_final,
         torque_limit=args.torque_limit,
+        K=K,
+        **setup.signals(),
     )
     if args.plot is not None:
         import matplotlib
@@ -562,7 +600,7 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
         return json.dumps(
             {
                 "controller": args.controller,
-                "scenario": args.scenario,
+                "scenario": initial.name,
                 "payload": args.payload,
                 "metrics": res.metrics().to_dict(),
                 "series": frame.to_dict(orient="list"),
@@ -573,11 +611,11 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
 
 def add_simulate_parser(sub: Any) -> None:
     """Register ``simulate`` on the command line's sub-parsers."""
-    from .cli import _finite_float
+    from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("simulate", help="one closed-loop run and its time series")
     p.add_argument("--controller", choices=tuple(CONTROLLERS), default="pid")
-    p.add_argument("--scenario", choices=tuple(SCENARIOS), default="large")
+    add_setup_options(p)
     p.add_argument("--payload", choices=("on", "off"), default="on")
     p.add_argument("--t-final", type=_finite_float, default=20.0, help="horizon, s (> 0)")
     p.add_argument("--torque-limit", type=_finite_float, default=None, help="per-joint saturation, N·m (> 0)")

@@ -1,0 +1,256 @@
+"""Robot and scenario files: your own SCARA, payload, reference and disturbance.
+
+Two small TOML (or JSON, by extension) formats, validated on load with errors that name
+the file, the field and its unit. ``examples/robot-paper.toml`` and
+``examples/scenario-paper.toml`` are the paper's data and document every field.
+
+Robot file (all fields required, SI units)::
+
+    name = "..."              # optional
+    [robot]
+    m1 = 2.61                 # kg, mass of link 1
+    m2 = 3.45                 # kg, mass of link 2
+    L1 = 0.3                  # m, length of link 1
+    L2 = 0.4                  # m, length of link 2 (payload at its tip)
+    Lc1 = 0.178               # m, joint 1 to the centre of mass of link 1
+    Lc2 = 0.2                 # m, joint 2 to the centre of mass of link 2
+    I1 = 0.198                # kg·m², inertia of link 1 about its centre of mass
+    I2 = 0.184                # kg·m², inertia of link 2 about its centre of mass
+    cp = 0.005                # m², payload inertia I_p = cp · m_p
+
+Scenario file (every table optional; a missing one is the paper's)::
+
+    name = "..."
+    [payload]                 # profile = "sinusoidal": offset, amplitude [kg], omega [rad/s], phase [rad]
+    profile = "sinusoidal"    # profile = "constant": mass [kg]
+    offset = 1.035
+    amplitude = 1.035
+    omega = 1.0
+    phase = 0.0
+    [reference]               # r = amplitude · (sin ωt, cos ωt)
+    amplitude = 1.0           # rad
+    omega = 1.0               # rad/s
+    [disturbance]             # square waves on both joints, in phase
+    amplitude = 5.0           # N·m
+    period = 0.6283185307     # s
+    phase = 0.0               # rad
+    [initial]                 # initial tracking error; without it the named scenarios apply
+    e0 = [-1.5, 2.5]          # rad
+    edot0 = [1.0, 0.0]        # rad/s
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any
+
+from .robot import ConstantPayload, PayloadProfile, ScaraParams, SinusoidalPayload, paper_payload
+from .signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
+from .simulation import Scenario
+
+__all__ = ["InputFileError", "ScenarioFile", "ROBOT_UNITS", "load_robot", "load_scenario"]
+
+#: Fields of the ``[robot]`` table and their units.
+ROBOT_UNITS = {
+    "m1": "kg",
+    "m2": "kg",
+    "L1": "m",
+    "L2": "m",
+    "Lc1": "m",
+    "Lc2": "m",
+    "I1": "kg·m²",
+    "I2": "kg·m²",
+    "cp": "m²",
+}
+_SCENARIO_FIELDS: dict[str, dict[str, str]] = {
+    "payload": {"profile": "-", "offset": "kg", "amplitude": "kg", "omega": "rad/s", "phase": "rad", "mass": "kg"},
+    "reference": {"amplitude": "rad", "omega": "rad/s"},
+    "disturbance": {"amplitude": "N·m", "period": "s", "phase": "rad"},
+    "initial": {"e0": "rad", "edot0": "rad/s"},
+}
+
+
+class InputFileError(ValueError):
+    """A robot or scenario file that cannot be used; the message names file and field."""
+
+
+@dataclass(frozen=True)
+class ScenarioFile:
+    """What a scenario file sets.
+
+    Attributes
+    ----------
+    name : str
+    payload : PayloadProfile
+        ``m_p(t)``, kg.
+    reference : Reference
+    disturbance : SquareWave
+    initial : Scenario or None
+        The file's initial condition, or None to use the named scenarios.
+    """
+
+    name: str
+    payload: PayloadProfile
+    reference: Reference
+    disturbance: SquareWave
+    initial: Scenario | None
+
+
+def _read(path: str | os.PathLike[str]) -> dict[str, Any]:
+    text_path = os.fspath(path)
+    ext = os.path.splitext(text_path)[1].lower()
+    if ext not in (".toml", ".json"):
+        raise InputFileError(f"{text_path!r}: expected a .toml or .json file")
+    if os.path.isdir(text_path):
+        raise InputFileError(f"{text_path!r} is a directory, not a file")
+    with open(text_path, "rb") as fh:
+        raw = fh.read()
+    try:
+        if ext == ".json":
+            data = json.loads(raw.decode("utf-8"))
+        else:
+            if sys.version_info >= (3, 11):
+                import tomllib
+            else:  # pragma: no cover - Python 3.10
+                import tomli as tomllib
+            data = tomllib.loads(raw.decode("utf-8"))
+    except (ValueError, UnicodeDecodeError) as err:
+        raise InputFileError(f"{text_path!r} is not valid {ext[1:].upper()}: {err}") from err
+    if not isinstance(data, dict):
+        raise InputFileError(f"{text_path!r}: expected a table of fields at the top level")
+    return data
+
+
+def _number(path: str, name: str, value: Any, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputFileError(f"{path!r}: field `{name}` must be a finite number in {unit}, found {value!r}")
+    return float(value)
+
+
+def _table(path: str, data: Mapping[str, Any], key: str, allowed: Mapping[str, str]) -> dict[str, Any]:
+    table = data.get(key, {})
+    if not isinstance(table, Mapping):
+        raise InputFileError(f"{path!r}: `{key}` must be a table, found {table!r}")
+    for name in table:
+        if name not in allowed:
+            raise InputFileError(
+                f"{path!r}: unknown field `{key}.{name}`; valid: {', '.join(f'{key}.{n}' for n in allowed)}"
+            )
+    return dict(table)
+
+
+def _top(path: str, data: Mapping[str, Any], tables: tuple[str, ...]) -> str:
+    for key in data:
+        if key not in ("name", *tables):
+            raise InputFileError(f"{path!r}: unknown field `{key}`; valid: name, {', '.join(tables)}")
+    name = data.get("name", os.path.splitext(os.path.basename(path))[0])
+    if not isinstance(name, str):
+        raise InputFileError(f"{path!r}: field `name` must be a string, found {name!r}")
+    return name
+
+
+def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
+    """Read a robot file into :class:`~scara_robust.ScaraParams`.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        If it is not valid TOML/JSON, a field is unknown, missing, not a number, or
+        outside its physical range (the message names the field and its unit).
+    """
+    text_path = os.fspath(path)
+    data = _read(text_path)
+    _top(text_path, data, ("robot",))
+    table = _table(text_path, data, "robot", ROBOT_UNITS)
+    values = {}
+    for f in fields(ScaraParams):
+        unit = ROBOT_UNITS[f.name]
+        if f.name not in table:
+            raise InputFileError(f"{text_path!r}: missing field `robot.{f.name}` [{unit}]")
+        values[f.name] = _number(text_path, f"robot.{f.name}", table[f.name], unit)
+    try:
+        return ScaraParams(**values)
+    except ValueError as err:
+        raise InputFileError(f"{text_path!r}: {err}") from err
+
+
+def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
+    """Read a scenario file; tables it omits take the paper's values.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        Naming the field, as for :func:`load_robot`.
+    """
+    text_path = os.fspath(path)
+    data = _read(text_path)
+    name = _top(text_path, data, tuple(_SCENARIO_FIELDS))
+    tables = {key: _table(text_path, data, key, allowed) for key, allowed in _SCENARIO_FIELDS.items()}
+
+    def num(key: str, field: str, default: float | None = None) -> float:
+        table = tables[key]
+        if field not in table:
+            if default is None:
+                unit = _SCENARIO_FIELDS[key][field]
+                raise InputFileError(f"{text_path!r}: missing field `{key}.{field}` [{unit}]")
+            return default
+        return _number(text_path, f"{key}.{field}", table[field], _SCENARIO_FIELDS[key][field])
+
+    try:
+        payload: PayloadProfile = paper_payload()
+        if tables["payload"]:
+            profile = tables["payload"].get("profile", "sinusoidal")
+            if profile == "sinusoidal":
+                payload = SinusoidalPayload(
+                    num("payload", "offset"),
+                    num("payload", "amplitude"),
+                    num("payload", "omega", 1.0),
+                    num("payload", "phase", 0.0),
+                )
+            elif profile == "constant":
+                payload = ConstantPayload(num("payload", "mass"))
+            else:
+                raise InputFileError(
+                    f"{text_path!r}: field `payload.profile` must be 'sinusoidal' or 'constant', found {profile!r}"
+                )
+        reference = (
+            sinusoidal_reference(num("reference", "amplitude", 1.0), num("reference", "omega", 1.0))
+            if tables["reference"]
+            else paper_reference()
+        )
+        default = paper_disturbance()
+        disturbance = (
+            SquareWave(
+                num("disturbance", "amplitude", default.amplitude),
+                num("disturbance", "period", default.period),
+                num("disturbance", "phase", default.phase),
+            )
+            if tables["disturbance"]
+            else default
+        )
+        initial = None
+        if tables["initial"]:
+            pair = {}
+            for key in ("e0", "edot0"):
+                value = tables["initial"].get(key, [0.0, 0.0])
+                unit = _SCENARIO_FIELDS["initial"][key]
+                if not isinstance(value, list) or len(value) != 2:
+                    raise InputFileError(
+                        f"{text_path!r}: field `initial.{key}` must be a pair of numbers in {unit}, found {value!r}"
+                    )
+                pair[key] = tuple(_number(text_path, f"initial.{key}", v, unit) for v in value)
+            initial = Scenario(name, pair["e0"], pair["edot0"])  # type: ignore[arg-type]
+    except InputFileError:
+        raise
+    except ValueError as err:
+        raise InputFileError(f"{text_path!r}: {err}") from err
+    return ScenarioFile(name, payload, reference, disturbance, initial)
