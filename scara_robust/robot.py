@@ -242,6 +242,14 @@ def _stack22(m11: Any, m12: Any, m21: Any, m22: Any) -> Array:
     return np.stack([np.stack([m11, m12], axis=-1), np.stack([m21, m22], axis=-1)], axis=-2)
 
 
+def _joint_array(name: str, value: ArrayLike) -> Array:
+    """`value` as a float array whose last axis holds the two joints."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0 or arr.shape[-1] != 2:
+        raise ValueError(f"`{name}` must have shape (..., 2) (one value per joint), found shape {arr.shape}")
+    return arr
+
+
 def mass_matrix(params: ScaraParams, q: ArrayLike, m_p: ArrayLike) -> Array:
     """Mass matrix ``M(q, m_p)``, kg·m².
 
@@ -264,7 +272,7 @@ def mass_matrix(params: ScaraParams, q: ArrayLike, m_p: ArrayLike) -> Array:
     >>> sr.mass_matrix(sr.ScaraParams(), [0.0, 0.0], 0.0).shape
     (2, 2)
     """
-    q = np.asarray(q, dtype=float)
+    q = _joint_array("q", q)
     a1, a2, a3 = inertia_coefficients(params, m_p)
     c2 = np.cos(q[..., 1])
     off = a2 + a3 * c2
@@ -273,8 +281,8 @@ def mass_matrix(params: ScaraParams, q: ArrayLike, m_p: ArrayLike) -> Array:
 
 def coriolis(params: ScaraParams, q: ArrayLike, qd: ArrayLike, m_p: ArrayLike) -> Array:
     """Coriolis and centrifugal torques ``C(q, q̇, m_p)``, N·m, shape (..., 2)."""
-    q = np.asarray(q, dtype=float)
-    qd = np.asarray(qd, dtype=float)
+    q = _joint_array("q", q)
+    qd = _joint_array("qd", qd)
     _, _, a3 = inertia_coefficients(params, m_p)
     s2 = np.sin(q[..., 1])
     w1, w2 = qd[..., 0], qd[..., 1]

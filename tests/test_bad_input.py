@@ -1,0 +1,177 @@
+"""Bad-input corpus: every public entry point refuses malformed input with a clear error.
+
+Each API case names the callable, the exception type and a pattern that must appear in
+the message (the argument's name in backticks). Each CLI case checks exit code 2, one
+line on stderr, no traceback, and no file left behind.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+PAPER = sr.paper_model()
+DESIGN = sr.design(PAPER, 3.0, 90.0)
+SWITCHED = np.array([[[-0.1, 1.0], [-10.0, -0.1]], [[-0.1, 10.0], [-1.0, -0.1]]])
+
+API_CASES = [
+    # robot data
+    ("params-negative-mass", lambda: sr.ScaraParams(m1=-1.0), ValueError, r"`m1 \[kg\]`"),
+    ("params-zero-length", lambda: sr.ScaraParams(L1=0.0), ValueError, r"`L1 \[m\]`"),
+    ("params-nan", lambda: sr.ScaraParams(I2=float("nan")), ValueError, r"`I2"),
+    ("params-string", lambda: sr.ScaraParams(m2="heavy"), TypeError, r"`m2"),
+    ("payload-negative", lambda: sr.ConstantPayload(-0.5), ValueError, r"mass"),
+    ("payload-omega", lambda: sr.SinusoidalPayload(1.0, 0.5, omega=0.0), ValueError, r"`omega \[rad/s\]`"),
+    ("square-period", lambda: sr.SquareWave(period=-1.0), ValueError, r"`period \[s\]`"),
+    ("square-signs-shape", lambda: sr.SquareWave(signs=(1.0, 1.0, 1.0)), ValueError, r"`signs`"),
+    ("reference-not-callable", lambda: sr.Reference(1.0, np.sin, np.cos), TypeError, r"`position`"),
+    ("mass-matrix-shape", lambda: sr.mass_matrix(sr.ScaraParams(), np.zeros(3), 0.0), ValueError, r"`q` must"),
+    # uncertain model
+    ("element-matrix", lambda: sr.UncertainElement("C", 0, 0, 0.0, 1.0), ValueError, r"`matrix`"),
+    ("element-lower>upper", lambda: sr.UncertainElement("A", 0, 0, 1.0, 0.0), ValueError, r"`lower`|`upper`"),
+    ("element-outside",
+     lambda: sr.UncertainLTVModel(np.eye(2), np.ones((2, 1)), (sr.UncertainElement("A", 5, 0, 0, 1),)),
+     ValueError, r"outside|row"),
+    ("model-A-not-square", lambda: sr.UncertainLTVModel(np.ones((2, 3)), np.ones((2, 1)), ()), ValueError, r"`A`"),
+    ("model-A-inf", lambda: sr.UncertainLTVModel(np.array([[np.inf, 0], [0, 1.0]]), np.ones((2, 1)), ()),
+     ValueError, r"`A`"),
+    ("derived-n-masses", lambda: sr.derived_model(n_masses=0), ValueError, r"`n_masses`"),
+    ("derived-times-empty", lambda: sr.derived_model(times=[]), ValueError, r"`times`"),
+    # design and certificate
+    ("design-rho-zero", lambda: sr.design(PAPER, 0.0, 90.0), ValueError, r"`rho`"),
+    ("design-eta-small", lambda: sr.design(PAPER, 3.0, 0.5), ValueError, r"`eta`"),
+    ("design-rho-nan", lambda: sr.design(PAPER, float("nan"), 90.0), ValueError, r"`rho`"),
+    ("design-rho-string", lambda: sr.design(PAPER, "3", 90.0), TypeError, r"`rho`"),
+    ("design-model-type", lambda: sr.design("paper", 3.0, 90.0), TypeError, r"`model`"),
+    ("design-not-stabilizable", lambda: sr.design(sr.UncertainLTVModel(np.eye(2), np.zeros((2, 1)), ()), 1.0, 2.0),
+     ValueError, r"stabilizable"),
+    ("certify-elements", lambda: sr.certify(PAPER, DESIGN, "C"), ValueError, r"`elements`"),
+    ("certify-design-type", lambda: sr.certify(PAPER, "K"), TypeError, r"`design`"),
+    ("surface-rhos-negative", lambda: sr.design_surface(PAPER, [-1.0, 1.0], [1.0]), ValueError, r"`rhos`"),
+    ("surface-etas-empty", lambda: sr.design_surface(PAPER, [1.0], []), ValueError, r"`etas`"),
+    ("surface-method", lambda: sr.design_surface(PAPER, [1.0], [1.0], method="fast"), ValueError, r"`method`"),
+    ("surface-2d-grid", lambda: sr.design_surface(PAPER, [[1.0]], [1.0]), ValueError, r"`rhos`"),
+    # beyond Theorem 1
+    ("vertex-elements", lambda: sr.vertex_certificate(PAPER, DESIGN, "all-of-them"), ValueError, r"`elements`"),
+    ("polytope-P-shape", lambda: sr.polytope_certificate(SWITCHED, np.eye(3)), ValueError, r"`P`"),
+    ("lmi-solver", lambda: sr.lmi_certificate(SWITCHED, solver="MOSEK"), ValueError, r"`solver`"),
+    ("lmi-shape", lambda: sr.lmi_certificate(np.eye(2)), ValueError, r"`closed_loops`"),
+    ("falsify-dwell", lambda: sr.falsify(SWITCHED, dwell=-1.0), ValueError, r"`dwell`"),
+    ("physical-n-times", lambda: sr.physical_certificate(DESIGN, n_times=0), ValueError, r"`n_times`"),
+    # simulation
+    ("simulate-controller", lambda: sr.simulate("lqr"), ValueError, r"`controller`"),
+    ("simulate-scenario", lambda: sr.simulate("pid", "medium"), ValueError, r"`scenario`"),
+    ("simulate-t-final", lambda: sr.simulate("pid", t_final=0.0), ValueError, r"`t_final"),
+    ("simulate-x0-nan", lambda: sr.simulate("pid", x0=[np.nan] * 6), ValueError, r"`x0`"),
+    ("simulate-method", lambda: sr.simulate("pid", method="euler"), ValueError, r"`method`"),
+    ("pid-K-shape", lambda: sr.pid_controller(np.ones((6, 2))), ValueError, r"`K`"),
+    ("torque-limit-negative", lambda: sr.make_controller("pid", torque_limit=-1.0), ValueError, r"`torque_limit"),
+    ("metrics-short", lambda: sr.tracking_metrics(np.linspace(0, 1, 5), np.zeros((2, 5)), np.zeros((2, 5))),
+     ValueError, r"`t`"),
+    ("compare-controller", lambda: sr.compare(["pid", "lqr"], t_final=7.0), ValueError, r"`controller`"),
+    # reproduction, plotting, campaigns
+    ("reproduction-type", lambda: sr.reproduction_table([1, 2]), TypeError, r"`comparison`"),
+    ("plot-signals-empty", lambda: sr.plot_signals([]), ValueError, r"`results`"),
+    ("campaign-spec-type", lambda: sr.run_campaign("spec.toml", "r.csv"), TypeError, r"`spec`"),
+    ("campaign-report-frame", lambda: sr.campaign_report(np.zeros(3)), ValueError, r"`results`"),
+]
+
+
+@pytest.mark.parametrize(("call", "error", "match"), [c[1:] for c in API_CASES], ids=[c[0] for c in API_CASES])
+def test_api_refuses_bad_input(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+def _cli_cases(tmp):
+    bad_toml = tmp / "bad.toml"
+    bad_toml.write_text("[robot\nm1 = 1\n")
+    unknown = tmp / "unknown.toml"
+    unknown.write_text((EXAMPLES / "robot-paper.toml").read_text() + "colour = 'red'\n")
+    negative = tmp / "negative.toml"
+    negative.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("m1 = 2.61", "m1 = -2.61"))
+    typed = tmp / "typed.toml"
+    typed.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("L2 = 0.4", 'L2 = "long"'))
+    scen = tmp / "scen.toml"
+    scen.write_text("[disturbance]\nperiod = 0.0\n")
+    pair = tmp / "pair.toml"
+    pair.write_text("[initial]\ne0 = [0.1]\n")
+    folder = tmp / "folder.toml"
+    folder.mkdir()
+    design = ["design", "--rho", "3", "--eta", "90"]
+    return [
+        ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`rho`"),
+        ("design-rho-text", ["design", "--rho", "three", "--eta", "90"], "expected a number"),
+        ("design-eta-inf", ["design", "--rho", "3", "--eta", "inf"], "finite"),
+        ("design-missing-eta", ["design", "--rho", "3"], "--eta"),
+        ("design-format", [*design, "--format", "xml"], "invalid choice"),
+        ("surface-range", ["surface", "--rho", "1:2", "--eta", "1:2:3"], "START:STOP:NUM"),
+        ("surface-range-num", ["surface", "--rho", "1:2:0", "--eta", "1:2:3"], "NUM must be >= 1"),
+        ("unknown-command", ["optimize"], "invalid choice"),
+        ("robot-missing", [*design, "--robot", str(tmp / "none.toml")], "`--robot`"),
+        ("robot-directory", [*design, "--robot", str(folder)], "is a directory"),
+        ("robot-bad-toml", [*design, "--robot", str(bad_toml)], "not valid TOML"),
+        ("robot-unknown-field", [*design, "--robot", str(unknown)], "unknown field `robot.colour`"),
+        ("robot-negative-mass", [*design, "--robot", str(negative)], "m1 [kg]"),
+        ("robot-wrong-type", [*design, "--robot", str(typed)], "`robot.L2` must be a finite number in m"),
+        ("robot-extension", [*design, "--robot", str(tmp / "robot.yaml")], "expected a .toml or .json file"),
+        ("scenario-name", ["simulate", "--scenario", "medium"], "`--scenario` must be 'large', 'small'"),
+        ("scenario-period", ["simulate", "--scenario", str(scen)], "period [s]"),
+        ("scenario-pair", ["simulate", "--scenario", str(pair)], "`initial.e0` must be a pair"),
+        ("simulate-t-final", ["simulate", "--t-final", "0"], "`--t-final`"),
+        ("simulate-torque-limit", ["simulate", "--torque-limit", "-1"], "`--torque-limit`"),
+        ("compare-t-final", ["compare", "--t-final", "5"], "`--t-final` must be > 6 s"),
+        ("certify-tries", ["certify", "--rho", "3", "--eta", "90", "--tries", "0"], "`--tries`"),
+        ("output-directory", [*design, "--output", str(tmp)], "is a directory"),
+        ("output-missing-folder", [*design, "--output", str(tmp / "no" / "such" / "k.json")], "No such file"),
+        ("output-unwritable", [*design, "--output", "/proc/scara_robust_k.json"], "scara_robust: error"),
+        ("plot-unwritable", ["simulate", "--t-final", "0.2", "--plot", "/proc/x.png"], "scara_robust: error"),
+        ("report-missing", ["campaign-report", str(tmp / "none.csv")], "No such file"),
+    ]
+
+
+
+
+@pytest.fixture
+def cli_cases(tmp_path):
+    return {name: (argv, needle) for name, argv, needle in _cli_cases(tmp_path)}
+
+
+CLI_NAMES = [
+    "design-rho-negative", "design-rho-text", "design-eta-inf", "design-missing-eta", "design-format",
+    "surface-range", "surface-range-num", "unknown-command", "robot-missing", "robot-directory", "robot-bad-toml",
+    "robot-unknown-field", "robot-negative-mass", "robot-wrong-type", "robot-extension", "scenario-name",
+    "scenario-period", "scenario-pair", "simulate-t-final", "simulate-torque-limit", "compare-t-final",
+    "certify-tries", "output-directory", "output-missing-folder", "output-unwritable", "plot-unwritable",
+    "report-missing",
+]
+
+
+@pytest.mark.parametrize("name", CLI_NAMES, ids=CLI_NAMES)
+def test_cli_refuses_bad_input(capsys, tmp_path, cli_cases, name):
+    argv, needle = cli_cases[name]
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and err.startswith("scara_robust: error:")
+    assert "Traceback" not in err and needle in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written, no temporary left
+
+
+def test_case_lists_agree(tmp_path):
+    assert [c[0] for c in _cli_cases(tmp_path)] == CLI_NAMES
+    assert len(API_CASES) + len(CLI_NAMES) >= 40
+
+
+def test_failed_command_keeps_an_existing_output(capsys, tmp_path):
+    out = tmp_path / "k.json"
+    out.write_text("precious\n")
+    assert main(["design", "--rho", "3", "--eta", "0.5", "--output", str(out)]) == 2
+    assert out.read_text() == "precious\n"
+    assert main(["design", "--rho", "3", "--eta", "90", "--output", str(out), "--format", "json"]) == 0
+    assert out.read_text().startswith("{")
