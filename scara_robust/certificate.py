@@ -228,7 +228,13 @@ def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> 
         )
     sub = model.subset(elements)
     A_cl, Q = design.A_cl, design.Q
-    P = np.asarray(ct.lyap(A_cl.T, 2.0 * Q), dtype=float)
+    try:
+        P = np.asarray(ct.lyap(A_cl.T, 2.0 * Q), dtype=float)
+    except Exception as err:  # slycot raises RuntimeError subclasses with bare INFO codes
+        raise ValueError(
+            f"Theorem 1 step 1: the Lyapunov equation for K(rho={design.rho:g}, eta={design.eta:g}) cannot be solved "
+            f"({err}); |K| = {np.abs(design.K).max():.3g} is beyond what double precision resolves"
+        ) from err
     P = 0.5 * (P + P.T)
     lyap_res = np.linalg.norm(P @ A_cl + A_cl.T @ P + 2 * Q) / (1 + np.linalg.norm(P))
     mismatch = np.linalg.norm(P - design.P) / np.linalg.norm(design.P)

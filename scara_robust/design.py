@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from ._validation import check_real
 from .uncertain import UncertainLTVModel
 
-__all__ = ["Design", "design", "riccati_solution", "check_stabilizable"]
+__all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
 
 Array = NDArray[np.float64]
 
@@ -82,6 +82,10 @@ def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
             )
 
 
+#: Largest relative residual of the Riccati equation that :func:`design` accepts.
+CARE_RTOL = 1e-8
+
+
 def riccati_solution(model: UncertainLTVModel, rho: float) -> Array:
     """Solve step 2's Riccati equation ``PA + AᵀP - 2ρPBBᵀP = -2I`` for P.
 
@@ -100,8 +104,9 @@ def riccati_solution(model: UncertainLTVModel, rho: float) -> Array:
     Raises
     ------
     ValueError
-        If ρ is not a finite positive number, (A, B) is not stabilizable, or the
-        Riccati solver fails.
+        If ρ is not a finite positive number, (A, B) is not stabilizable, the
+        Riccati solver fails, or its solution's relative residual exceeds
+        :data:`CARE_RTOL` (the equation is ill-conditioned at this ρ).
     """
     rho = check_real("rho", rho, positive=True)
     n, m = model.n_states, model.n_inputs
@@ -113,6 +118,14 @@ def riccati_solution(model: UncertainLTVModel, rho: float) -> Array:
     P = 0.5 * (P + P.T)
     if not np.all(np.isfinite(P)):
         raise ValueError(f"`rho`={rho}: the Riccati solution is not finite")
+    PA, PBBP = P @ model.A, 2 * rho * P @ model.B @ model.B.T @ P
+    residual = np.linalg.norm(PA + PA.T - PBBP + 2 * np.eye(n))
+    scale = 2 * np.linalg.norm(PA) + np.linalg.norm(PBBP) + 2 * np.sqrt(n)
+    if residual > CARE_RTOL * scale:
+        raise ValueError(
+            f"`rho`={rho:g}: the Riccati solution is inaccurate (relative residual {residual / scale:.1e} > "
+            f"{CARE_RTOL:g}); the equation is ill-conditioned at this rho"
+        )
     return np.asarray(P, dtype=float)
 
 

@@ -49,6 +49,10 @@ API_CASES = [
     ("design-model-type", lambda: sr.design("paper", 3.0, 90.0), TypeError, r"`model`"),
     ("design-not-stabilizable", lambda: sr.design(sr.UncertainLTVModel(np.eye(2), np.zeros((2, 1)), ()), 1.0, 2.0),
      ValueError, r"stabilizable"),
+    ("design-rho-huge", lambda: sr.design(PAPER, 1e12, 90.0), ValueError, r"`rho`=1e\+12: the Riccati solution"),
+    ("design-rho-tiny", lambda: sr.design(PAPER, 1e-12, 90.0), ValueError, r"ill-conditioned at this rho"),
+    ("surface-rho-huge", lambda: sr.design_surface(PAPER, [1.0, 1e12], [1.0]), ValueError, r"`rho`=1e\+12"),
+    ("certify-eta-huge", lambda: sr.certify(PAPER, sr.design(PAPER, 3.0, 1e15)), ValueError, r"beyond what double"),
     ("certify-elements", lambda: sr.certify(PAPER, DESIGN, "C"), ValueError, r"`elements`"),
     ("certify-design-type", lambda: sr.certify(PAPER, "K"), TypeError, r"`design`"),
     ("surface-rhos-negative", lambda: sr.design_surface(PAPER, [-1.0, 1.0], [1.0]), ValueError, r"`rhos`"),
@@ -105,6 +109,7 @@ def _cli_cases(tmp):
     design = ["design", "--rho", "3", "--eta", "90"]
     return [
         ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`rho`"),
+        ("design-eta-huge", ["design", "--rho", "3", "--eta", "1e15"], "Lyapunov equation"),
         ("design-rho-text", ["design", "--rho", "three", "--eta", "90"], "expected a number"),
         ("design-eta-inf", ["design", "--rho", "3", "--eta", "inf"], "finite"),
         ("design-missing-eta", ["design", "--rho", "3"], "--eta"),
@@ -142,7 +147,8 @@ def cli_cases(tmp_path):
 
 
 CLI_NAMES = [
-    "design-rho-negative", "design-rho-text", "design-eta-inf", "design-missing-eta", "design-format",
+    "design-rho-negative", "design-eta-huge", "design-rho-text", "design-eta-inf", "design-missing-eta",
+    "design-format",
     "surface-range", "surface-range-num", "unknown-command", "robot-missing", "robot-directory", "robot-bad-toml",
     "robot-unknown-field", "robot-negative-mass", "robot-wrong-type", "robot-extension", "scenario-name",
     "scenario-period", "scenario-pair", "simulate-t-final", "simulate-torque-limit", "compare-t-final",
