@@ -67,6 +67,22 @@ def check_array(
     return arr
 
 
+def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> Any:
+    """Return the symmetric part of a square matrix that is symmetric up to `rtol`, else raise.
+
+    Rounding-level asymmetry is removed; anything larger is refused rather than
+    silently symmetrized, since the caller assumed a symmetric matrix.
+    """
+    arr = np.asarray(value, dtype=float)
+    scale = max(float(np.abs(arr).max()), 1e-300)
+    gap = float(np.abs(arr - arr.T).max())
+    if gap > rtol * scale:
+        raise ValueError(
+            f"`{name}` must be symmetric, found max |{name} - {name}ᵀ| = {gap:.3g} (relative {gap / scale:.1e})"
+        )
+    return 0.5 * (arr + arr.T)
+
+
 def check_choice(name: str, value: Any, choices: Sequence[str]) -> str:
     """Return `value` if it is one of `choices`, else raise listing them."""
     if not isinstance(value, str) or value not in choices:

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_real
+from ._validation import check_array, check_real, check_symmetric
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
@@ -140,8 +140,7 @@ def falsify(
         raise ValueError(f"`n_tries` must be an integer >= 1, found {n_tries!r}")
     rules = list(FALSIFIER_RULES)
     if P is not None:
-        P = check_array("P", P, shape=(n, n))
-        P = 0.5 * (P + P.T)
+        P = check_symmetric("P", check_array("P", P, shape=(n, n)))
     else:
         rules.remove("lyapunov")
     steps = int(round(horizon / dwell))

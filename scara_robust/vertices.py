@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice
+from ._validation import check_array, check_choice, check_symmetric
 from .design import Design
 from .robot import PayloadProfile, ScaraParams
 from .signals import Reference
@@ -164,7 +164,8 @@ def polytope_certificate(
     closed_loops : array_like, shape (V, n, n)
         Frozen closed-loop matrices Ā_v at the vertices.
     P : array_like, shape (n, n)
-        Symmetric positive definite Lyapunov matrix (symmetrized here).
+        Symmetric positive definite Lyapunov matrix; asymmetry beyond rounding
+        (relative 1e-8) is refused.
     points : array_like, shape (V, p), optional
         Coordinates of each vertex, reported for the worst one (default: the index).
     set_name : str
@@ -178,8 +179,7 @@ def polytope_certificate(
     n = A_v.shape[1]
     if A_v.shape[2] != n or A_v.shape[0] == 0:
         raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
-    P = check_array("P", P, shape=(n, n))
-    P = 0.5 * (P + P.T)
+    P = check_symmetric("P", check_array("P", P, shape=(n, n)))
     if np.linalg.eigvalsh(P)[0] <= 0:
         raise ValueError("`P` must be positive definite, found a non-positive eigenvalue")
     pts = np.arange(A_v.shape[0], dtype=float)[:, None] if points is None else check_array("points", points, ndim=2)

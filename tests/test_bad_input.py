@@ -62,6 +62,10 @@ API_CASES = [
     # beyond Theorem 1
     ("vertex-elements", lambda: sr.vertex_certificate(PAPER, DESIGN, "all-of-them"), ValueError, r"`elements`"),
     ("polytope-P-shape", lambda: sr.polytope_certificate(SWITCHED, np.eye(3)), ValueError, r"`P`"),
+    ("polytope-P-asymmetric", lambda: sr.polytope_certificate(SWITCHED, [[1.0, 0.5], [0.0, 1.0]]), ValueError,
+     r"`P` must be symmetric"),
+    ("falsify-P-asymmetric", lambda: sr.falsify(SWITCHED, [[1.0, 0.5], [0.0, 1.0]]), ValueError,
+     r"`P` must be symmetric"),
     ("lmi-solver", lambda: sr.lmi_certificate(SWITCHED, solver="MOSEK"), ValueError, r"`solver`"),
     ("lmi-shape", lambda: sr.lmi_certificate(np.eye(2)), ValueError, r"`closed_loops`"),
     ("falsify-dwell", lambda: sr.falsify(SWITCHED, dwell=-1.0), ValueError, r"`dwell`"),
