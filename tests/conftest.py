@@ -5,8 +5,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
 
 import scara_robust as sr  # noqa: E402
+
+# One fixed, CI-friendly profile: derandomized (same examples every run), no deadline
+# (a Riccati solve may be slow on a loaded machine), few examples per property.
+settings.register_profile(
+    "ci", max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.load_profile("ci")
 
 
 @pytest.fixture(autouse=True)
