@@ -15,6 +15,7 @@ $(STAMP): pyproject.toml
 
 test: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
+	$(BIN)/mypy
 	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q
 
 compare: $(STAMP)
@@ -22,6 +23,7 @@ compare: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
+	$(BIN)/mypy
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-enable --benchmark-json=benchmark.json -q

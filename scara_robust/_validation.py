@@ -67,7 +67,7 @@ def check_array(
     return arr
 
 
-def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> Any:
+def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> NDArray[np.float64]:
     """Return the symmetric part of a square matrix that is symmetric up to `rtol`, else raise.
 
     Rounding-level asymmetry is removed; anything larger is refused rather than
@@ -80,7 +80,7 @@ def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> Any:
         raise ValueError(
             f"`{name}` must be symmetric, found max |{name} - {name}ᵀ| = {gap:.3g} (relative {gap / scale:.1e})"
         )
-    return 0.5 * (arr + arr.T)
+    return np.asarray(0.5 * (arr + arr.T), dtype=float)
 
 
 def check_choice(name: str, value: Any, choices: Sequence[str]) -> str:

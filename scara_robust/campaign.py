@@ -517,14 +517,19 @@ def _execute_dask(
         from dask.distributed import as_completed as dask_completed
     except ImportError as err:
         raise ValueError("`--scheduler dask` needs the `dask` extra: pip install scara_robust[dask]") from err
-    cluster = None if address else LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)
-    client = Client(address if address else cluster)
+    # dask.distributed is not typed: its calls are untyped for mypy
+    cluster = (
+        None
+        if address
+        else LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)  # type: ignore[no-untyped-call]
+    )
+    client = Client(address if address else cluster)  # type: ignore[no-untyped-call]
     try:
         futures = [client.submit(_run_chunk, spec, seed, chunk, pure=False) for chunk in chunks]
-        for future in dask_completed(futures):
+        for future in dask_completed(futures):  # type: ignore[no-untyped-call]
             yield future.result()
     finally:
-        client.close()
+        client.close()  # type: ignore[no-untyped-call]
         if cluster is not None:
             cluster.close()
 
@@ -616,10 +621,10 @@ def _cmd_report(args: argparse.Namespace) -> str:
     write_atomic(plot, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
     plt.close(fig)
     if args.format == "json":
-        return report.reset_index().to_json(orient="records", indent=2)
+        return str(report.reset_index().to_json(orient="records", indent=2))
     if args.format == "csv":
-        return report.to_csv()
-    return report.T.to_string(float_format="%.4g") + f"\nfigure: {plot}"
+        return str(report.to_csv())
+    return str(report.T.to_string(float_format="%.4g")) + f"\nfigure: {plot}"
 
 
 def add_campaign_parsers(sub: Any) -> None:

@@ -32,7 +32,7 @@ Array = NDArray[np.float64]
 def positive_part(S: Array) -> Array:
     """Theorem 1 steps 4-6: ``T diag(max(λ, 0)) Tᵀ`` for symmetric ``S`` of shape (..., n, n)."""
     w, T = np.linalg.eigh(S)
-    return np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T)
+    return np.asarray(np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T), dtype=float)
 
 
 def rank2_positive_part(u: Array, v: Array) -> Array:
@@ -59,7 +59,7 @@ def rank2_positive_part(u: Array, v: Array) -> Array:
     with np.errstate(invalid="ignore", divide="ignore"):
         w = np.where(nu > 0, u / nu, 0.0) + np.where(nv > 0, v / nv, 0.0)
     scale = 0.5 * (nu * nv)[..., 0]
-    return scale[..., None, None] * w[..., :, None] * w[..., None, :]
+    return np.asarray(scale[..., None, None] * w[..., :, None] * w[..., None, :], dtype=float)
 
 
 def theorem1_z(P: Array, A_cl: Array, E: Array, lower: Array, upper: Array) -> tuple[Array, Array, Array, Array]:

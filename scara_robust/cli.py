@@ -287,12 +287,12 @@ def _cmd_surface(args: argparse.Namespace) -> str:
     if args.format == "json":
         return json.dumps(frame.to_dict(orient="records"))
     if args.format == "csv":
-        return frame.to_csv(index=False)
+        return str(frame.to_csv(index=False))
     rho, eta, best = surface.best()
     return (
         f"{frame.shape[0]} grid points, {int(surface.certified.sum())} certified "
         f"(max eig Z < 0); best: rho={rho:g}, eta={eta:g}, max eig Z={best:.6g}\n"
-        + frame.to_string(index=False, float_format="%.6g")
+        + str(frame.to_string(index=False, float_format="%.6g"))
     )
 
 

@@ -96,10 +96,10 @@ def _cmd_compare(args: argparse.Namespace) -> str:
         keys = ["controller", "scenario", "payload", *METRIC_NAMES]
         return json.dumps(table[keys].to_dict(orient="records"), indent=2)
     if args.format == "csv":
-        return table.to_csv(index=False)
+        return str(table.to_csv(index=False))
     if args.format == "markdown":
         return table.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(table)
-    return table.to_string(index=False, float_format="%.4g")
+    return str(table.to_string(index=False, float_format="%.4g"))
 
 
 def _has_tabulate() -> bool:

@@ -117,8 +117,7 @@ def certificate_table(
     for name, value, low in (("lmi_times", lmi_times, 2), ("lmi_masses", lmi_masses, 1)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
             raise ValueError(f"`{name}` must be an integer >= {low}, found {value!r}")
-    robot = {"params": params, "reference": reference, "payload": payload}
-    fine = {"n_times": 2 * int(n_times) - 1, "n_masses": 2 * int(n_masses) - 1}
+    fine_times, fine_masses = 2 * int(n_times) - 1, 2 * int(n_masses) - 1
 
     def theorem1(elements: str) -> dict[str, Any]:
         cert = certify(model, design, elements)
@@ -136,8 +135,8 @@ def certificate_table(
         return row
 
     def physical() -> dict[str, Any]:
-        coarse = physical_certificate(design, **robot, n_times=n_times, n_masses=n_masses)
-        refined = physical_certificate(design, **robot, **fine)
+        coarse = physical_certificate(design, params, reference, payload, n_times=n_times, n_masses=n_masses)
+        refined = physical_certificate(design, params, reference, payload, n_times=fine_times, n_masses=fine_masses)
         agree = coarse.certified == refined.certified
         detail = (
             f"{coarse.message}; worst at t = {coarse.worst_point[0]:.4g} s, m_p = {coarse.worst_point[1]:.4g} kg; "
@@ -159,7 +158,7 @@ def certificate_table(
         return {"certified": margin > 0, "margin": margin, "detail": detail}
 
     def sampled(n_t: int, n_m: int) -> np.ndarray:
-        s = physical_samples(**robot, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
+        s = physical_samples(params, reference, payload, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
         return s.A - s.B @ design.K
 
     def falsifier_row(vertices: np.ndarray) -> dict[str, Any]:
@@ -180,7 +179,7 @@ def certificate_table(
         "physical-polytope": physical,
         "lmi-box": lambda: lmi_row(box, []),
         "lmi-physical": lambda: lmi_row(
-            sampled(lmi_times, lmi_masses), [sampled(n_times, n_masses), sampled(fine["n_times"], fine["n_masses"])]
+            sampled(lmi_times, lmi_masses), [sampled(n_times, n_masses), sampled(fine_times, fine_masses)]
         ),
         "falsifier-box": lambda: falsifier_row(box),
         "falsifier-physical": lambda: falsifier_row(sampled(lmi_times, lmi_masses)),

@@ -70,7 +70,7 @@ def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
         Naming `name` and the first uncontrollable unstable eigenvalue.
     """
     n = A.shape[0]
-    scale = max(np.linalg.norm(A), np.linalg.norm(B), 1.0)
+    scale = max(float(np.linalg.norm(A)), float(np.linalg.norm(B)), 1.0)
     for lam in np.linalg.eigvals(A):
         if lam.real < -1e-9 * scale:
             continue
@@ -180,7 +180,7 @@ def design(model: UncertainLTVModel, rho: float, eta: float) -> Design:
         P=P,
         A_cl=A_cl,
         Q=Q,
-        poles=poles,
+        poles=poles.astype(complex),
         hurwitz=bool(np.all(poles.real < 0)),
         care_residual=float(np.linalg.norm(residual) / (1 + np.linalg.norm(P))),
     )

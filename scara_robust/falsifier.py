@@ -18,7 +18,9 @@ not a proof.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -29,7 +31,7 @@ from ._validation import check_array, check_real, check_symmetric
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
 Array = NDArray[np.float64]
-NDArrayInt = NDArray[np.int64]
+NDArrayInt = NDArray[np.integer[Any]]
 
 #: Vertex-selection rules, tried in turn over the tries.
 FALSIFIER_RULES = ("norm", "lyapunov", "random")
@@ -139,8 +141,9 @@ def falsify(
     if isinstance(n_tries, bool) or not isinstance(n_tries, (int, np.integer)) or n_tries < 1:
         raise ValueError(f"`n_tries` must be an integer >= 1, found {n_tries!r}")
     rules = list(FALSIFIER_RULES)
+    P_sym = np.eye(n)
     if P is not None:
-        P = check_symmetric("P", check_array("P", P, shape=(n, n)))
+        P_sym = check_symmetric("P", check_array("P", P, shape=(n, n)))
     else:
         rules.remove("lyapunov")
     steps = int(round(horizon / dwell))
@@ -148,11 +151,12 @@ def falsify(
     Phi = scipy.linalg.expm(A_v * dwell)  # (V, n, n), exact over one dwell
     rng = np.random.default_rng(seed)
     best: tuple[float, float, str, NDArrayInt, Array] | None = None
+    log_norm: float
     for trial in range(int(n_tries)):
         rule = rules[trial % len(rules)]
-        x0 = rng.normal(size=n)
-        x0 /= np.linalg.norm(x0)
-        x = x0.copy()
+        draw: Array = rng.normal(size=(n,))
+        start: Array = np.asarray(draw / np.linalg.norm(draw), dtype=float)
+        x: Array = start.copy()
         log_norm = 0.0
         log_half = 0.0
         sequence = np.empty(steps, dtype=np.int64)
@@ -161,23 +165,23 @@ def falsify(
             if rule == "norm":
                 v = int(np.argmax(np.einsum("vi,vi->v", candidates, candidates)))
             elif rule == "lyapunov":
-                v = int(np.argmax(np.einsum("vi,ij,vj->v", candidates, P, candidates)))
+                v = int(np.argmax(np.einsum("vi,ij,vj->v", candidates, P_sym, candidates)))
             else:
                 v = int(rng.integers(n_v))
             sequence[k] = v
             x = candidates[v]
             size = float(np.linalg.norm(x))
             if size == 0.0 or not np.isfinite(size):
-                log_norm = -np.inf if size == 0.0 else np.inf
+                log_norm = -math.inf if size == 0.0 else math.inf
                 break
-            log_norm += np.log(size)
+            log_norm += math.log(size)
             x /= size
             if k + 1 == half:
                 log_half = log_norm
         if best is None or log_norm > best[0]:
-            best = (log_norm, log_norm - log_half, rule, sequence, x0)
+            best = (log_norm, log_norm - log_half, rule, sequence, start)
     assert best is not None
-    log_norm, late, rule, sequence, x0 = best
+    log_norm, late, rule, worst_sequence, x0 = best
     late_rate = late / ((steps - half) * dwell)
     return FalsifierResult(
         found=bool(log_norm >= np.log(threshold) and late_rate > 0),
@@ -185,7 +189,7 @@ def falsify(
         growth_rate=float(log_norm / (steps * dwell)),
         late_rate=float(late_rate),
         rule=rule,
-        sequence=sequence,
+        sequence=worst_sequence,
         x0=x0,
         n_tries=int(n_tries),
         horizon=steps * dwell,

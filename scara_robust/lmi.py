@@ -159,7 +159,7 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
         constraints.append(0.5 * (lhs + lhs.T) << -eye)
     problem = cp.Problem(cp.Minimize(lam), constraints)
     try:
-        problem.solve(solver=solver)
+        problem.solve(solver=solver)  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
         return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
     status = str(problem.status)

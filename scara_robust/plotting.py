@@ -84,6 +84,7 @@ def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | Non
     matplotlib.axes.Axes
     """
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 4.5))
@@ -97,9 +98,9 @@ def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | Non
         ax.contourf(R, H, surface.max_eig, levels=[lo - 1.0, 0.0], colors="none", hatches=["//"])
         if not surface.certified.all():
             ax.contour(R, H, surface.max_eig, levels=[0.0], colors="red", linewidths=2)
-        handles.append(plt.Rectangle((0, 0), 1, 1, fill=False, hatch="//", label="max λ(Z) < 0 (certified)"))
+        handles.append(Rectangle((0, 0), 1, 1, fill=False, hatch="//", label="max λ(Z) < 0 (certified)"))
     else:
-        handles.append(plt.Rectangle((0, 0), 1, 1, fill=False, lw=0, label="no grid point has max λ(Z) < 0"))
+        handles.append(Rectangle((0, 0), 1, 1, fill=False, lw=0, label="no grid point has max λ(Z) < 0"))
     if mark is not None:
         (star,) = ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")
         handles.append(star)

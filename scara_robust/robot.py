@@ -390,7 +390,7 @@ def error_dynamics_jacobians(params: ScaraParams, r: ArrayLike, rd: ArrayLike, m
     dC_dw2 = np.stack([-2 * a3 * s2 * (w1 + w2), zero], axis=-1)
 
     def minv_times(v: Array) -> Array:
-        return np.einsum("...ij,...j->...i", Minv, v)
+        return np.asarray(np.einsum("...ij,...j->...i", Minv, v), dtype=float)
 
     dh_dq2 = minv_times(dC_dq2 - np.einsum("...ij,...j->...i", dM_dq2, h))
     # f depends on e through q = r - e, so every derivative changes sign.

@@ -181,7 +181,7 @@ class SquareWave:
     def __call__(self, t: ArrayLike) -> Array:
         """Torque at `t`: shape (2,) for scalar t, (2, k) for t of shape (k,)."""
         s = self.level(t)
-        return self.amplitude * np.multiply.outer(np.asarray(self.signs, dtype=float), s)
+        return np.asarray(self.amplitude * np.multiply.outer(np.asarray(self.signs, dtype=float), s), dtype=float)
 
     def switching_times(self, t0: float, t1: float) -> Array:
         """Instants in the open interval ``(t0, t1)`` where the wave switches, s."""

@@ -320,7 +320,9 @@ def simulate(
 
     t_out = _output_grid(t_final, dt)
     edges = np.concatenate([[0.0], wave.switching_times(0.0, t_final), [t_final]])
-    times, states, outputs = [], [], []
+    times: list[Array] = []
+    states: list[Array] = []
+    outputs: list[Array] = []
     x = x_init
     success, diverged, message = True, False, "completed"
     for a, b in zip(edges[:-1], edges[1:]):
@@ -471,7 +473,8 @@ def _fast_run(
     else:
         t_out = _output_grid(t_final, dt)
         edges = np.concatenate([[0.0], wave.switching_times(0.0, t_final), [t_final]])
-        pieces_t, pieces_x = [], []
+        pieces_t: list[Array] = []
+        pieces_x: list[Array] = []
         x = x_init
         for a, b in zip(edges[:-1], edges[1:]):
             td = np.asarray(wave(0.5 * (a + b)), dtype=float)
@@ -499,7 +502,8 @@ def _fast_run(
         tc_all = np.array([torque(ti, X[:, i]) for i, ti in enumerate(t)]).T
     td_all = np.asarray(wave(t), dtype=float)
     Y = np.vstack([X[:4], tc_all, td_all])
-    return t, X, Y, success, diverged, message
+    t_arr, X_arr, Y_arr = (np.asarray(a, dtype=float) for a in (t, X, Y))
+    return t_arr, X_arr, Y_arr, success, diverged, message
 
 
 def run_scenario(
@@ -607,7 +611,7 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
                 "series": frame.to_dict(orient="list"),
             }
         )
-    return frame.to_csv(index=False)
+    return str(frame.to_csv(index=False))
 
 
 def add_simulate_parser(sub: Any) -> None:

@@ -210,7 +210,7 @@ def design_surface(
     else:
         Z0, Z1, N0, N1 = _structured_terms(model.subset(elements), rho_grid)
         Z = Z0[:, None] + eta_grid[None, :, None, None] * Z1[:, None]
-        max_eig = np.linalg.eigvalsh(Z)[..., -1]
+        max_eig = np.asarray(np.linalg.eigvalsh(Z)[..., -1], dtype=float)
         hurwitz = _hurwitz(model, rho_grid, eta_grid, N0, N1)
     return DesignSurface(
         rhos=rho_grid,

@@ -448,7 +448,8 @@ def derived_model(
         scale = max(np.abs(stack).max(), 1e-300)
         nominal[label] = low.copy()
         for i, j in zip(*np.nonzero(high - low > rtol * scale)):
-            elements.append(UncertainElement(label, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
+            matrix: Literal["A", "B"] = "A" if label == "A" else "B"
+            elements.append(UncertainElement(matrix, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
         unchanged = high - low <= rtol * scale
         nominal[label][unchanged] = stack[0][unchanged]
     return UncertainLTVModel(nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)")

@@ -151,7 +151,7 @@ def box_closed_loops(model: UncertainLTVModel, K: ArrayLike) -> Array:
     K = check_array("K", K, shape=(model.n_inputs, model.n_states))
     E = model.perturbation_matrices(K)
     base = model.A - model.B @ K
-    return base[None] + np.einsum("vj,jik->vik", H, E)
+    return np.asarray(base[None] + np.einsum("vj,jik->vik", H, E), dtype=float)
 
 
 def polytope_certificate(
@@ -179,8 +179,8 @@ def polytope_certificate(
     n = A_v.shape[1]
     if A_v.shape[2] != n or A_v.shape[0] == 0:
         raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
-    P = check_symmetric("P", check_array("P", P, shape=(n, n)))
-    if np.linalg.eigvalsh(P)[0] <= 0:
+    P_sym = check_symmetric("P", check_array("P", P, shape=(n, n)))
+    if np.linalg.eigvalsh(P_sym)[0] <= 0:
         raise ValueError("`P` must be positive definite, found a non-positive eigenvalue")
     pts = np.arange(A_v.shape[0], dtype=float)[:, None] if points is None else check_array("points", points, ndim=2)
     if pts.shape[0] != A_v.shape[0]:
@@ -189,7 +189,7 @@ def polytope_certificate(
     real_part = np.empty(A_v.shape[0])
     for start in range(0, A_v.shape[0], _CHUNK):
         chunk = A_v[start : start + _CHUNK]
-        PA = P @ chunk
+        PA = P_sym @ chunk
         worst_eig[start : start + _CHUNK] = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
         real_part[start : start + _CHUNK] = np.linalg.eigvals(chunk).real.max(axis=-1)
     worst = int(np.argmax(worst_eig))
