@@ -23,7 +23,7 @@ Beyond Theorem 1 (:mod:`scara_robust.vertices`, :mod:`scara_robust.lmi`, :mod:`s
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
     falsify, FalsifierResult        -- search for a destabilizing switching signal
-    certificate_table               -- every certificate of one design (``certify`` command)
+    certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
 Design surface (:mod:`scara_robust.surface`)
     design_surface, DesignSurface   -- max λ(Z) over a (ρ, η) grid (Figure 2)
 Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)

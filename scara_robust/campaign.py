@@ -178,6 +178,17 @@ def _range(name: str, value: Any) -> Range:
 def spec_from_dict(data: Mapping[str, Any]) -> CampaignSpec:
     """Validate a campaign description (as read from TOML) into a :class:`CampaignSpec`.
 
+    Parameters
+    ----------
+    data : mapping
+        Field names to values: a number, ``{min, max}``, or a list for
+        ``controllers`` and ``payload_profiles``.
+
+    Returns
+    -------
+    CampaignSpec
+
+
     Raises
     ------
     CampaignSpecError
@@ -238,6 +249,16 @@ def spec_from_dict(data: Mapping[str, Any]) -> CampaignSpec:
 def load_spec(path: str | os.PathLike[str]) -> CampaignSpec:
     """Read and validate a campaign TOML file.
 
+    Parameters
+    ----------
+    path : path-like
+        The spec file (see ``examples/campaign.toml``).
+
+    Returns
+    -------
+    CampaignSpec
+
+
     Raises
     ------
     OSError
@@ -260,6 +281,15 @@ def load_spec(path: str | os.PathLike[str]) -> CampaignSpec:
 
 def draw_scenario(spec: CampaignSpec, seed: int, index: int) -> dict[str, Any]:
     """The inputs of scenario `index`, drawn from ``default_rng([seed, index])``.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    seed : int
+        Campaign seed (>= 0).
+    index : int
+        Scenario number (>= 0).
+
 
     Returns
     -------
@@ -284,6 +314,18 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
 
     A run that raises or diverges gives a row with ``success = False`` and its
     ``error``; metrics that do not exist are NaN.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    draw : mapping
+        From :func:`draw_scenario`.
+
+    Returns
+    -------
+    list of dict
+        One row per controller: the drawn inputs, ``controller``, ``success``,
+        ``diverged``, ``error`` and the metrics of :func:`scara_robust.tracking_metrics`.
     """
     params = replace(spec.robot, cp=draw["cp"])
     peak = draw["payload_peak"]
@@ -338,6 +380,16 @@ def _columns(spec: CampaignSpec) -> list[str]:
 
 def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read a campaign results file (``.csv`` or ``.parquet``).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (scenario, controller); ``error`` is a string (empty when none).
+
 
     Raises
     ------
@@ -628,7 +680,13 @@ def _cmd_report(args: argparse.Namespace) -> str:
 
 
 def add_campaign_parsers(sub: Any) -> None:
-    """Register ``campaign`` and ``campaign-report`` on the ``python -m scara_robust`` sub-parsers."""
+    """Register ``campaign`` and ``campaign-report`` on the ``python -m scara_robust`` sub-parsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of :func:`scara_robust.cli.main`.
+    """
     p = sub.add_parser(
         "campaign",
         help="Monte-Carlo campaign: draw scenarios from a TOML spec, simulate every controller",

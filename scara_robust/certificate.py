@@ -30,7 +30,18 @@ Array = NDArray[np.float64]
 
 
 def positive_part(S: Array) -> Array:
-    """Theorem 1 steps 4-6: ``T diag(max(λ, 0)) Tᵀ`` for symmetric ``S`` of shape (..., n, n)."""
+    """Theorem 1 steps 4-6: ``T diag(max(λ, 0)) Tᵀ`` for symmetric ``S`` of shape (..., n, n).
+
+    Parameters
+    ----------
+    S : ndarray, shape (..., n, n)
+        Symmetric matrices.
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+        Their positive parts (symmetric positive semidefinite, ``S⁺ ⪰ S``).
+    """
     w, T = np.linalg.eigh(S)
     return np.asarray(np.einsum("...ik,...k,...jk->...ij", T, np.maximum(w, 0.0), T), dtype=float)
 

@@ -55,6 +55,15 @@ class _Parser(argparse.ArgumentParser):
 def parse_range(text: str) -> np.ndarray:
     """Parse ``START:STOP:NUM`` into ``numpy.linspace(START, STOP, NUM)``.
 
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    ndarray, shape (NUM,)
+
+
     Raises
     ------
     argparse.ArgumentTypeError
@@ -88,6 +97,14 @@ def _finite_float(text: str) -> float:
 
 def write_atomic(path: str, write: Callable[[str], None]) -> None:
     """Call ``write(tmp_path)`` then rename the temporary file onto `path`.
+
+    Parameters
+    ----------
+    path : str
+        Destination file.
+    write : callable
+        ``write(tmp_path) -> None`` writes the whole content to ``tmp_path``.
+
 
     Raises
     ------
@@ -149,7 +166,16 @@ class Setup:
 
 
 def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenario: bool = True) -> None:
-    """Add ``--robot FILE``, ``--scenario NAME|FILE`` and ``--bounds`` to a sub-command."""
+    """Add ``--robot FILE``, ``--scenario NAME|FILE`` and ``--bounds`` to a sub-command.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    bounds : bool
+        Add ``--bounds``.
+    scenario : bool
+        Add ``--scenario``.
+    """
     p.add_argument("--robot", metavar="FILE", help="robot file (.toml/.json, see examples/robot-paper.toml)")
     if scenario:
         p.add_argument(
@@ -169,7 +195,21 @@ def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenar
 
 
 def resolve_setup(args: argparse.Namespace) -> Setup:
-    """Load the files named by ``--robot`` and ``--scenario``."""
+    """Load the files named by ``--robot`` and ``--scenario``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    Setup
+
+    Raises
+    ------
+    OSError, InputFileError
+        Naming the option and the file.
+    """
     from .inputs import InputFileError, load_robot, load_scenario
 
     params, from_files = ScaraParams(), False
@@ -205,12 +245,37 @@ def resolve_setup(args: argparse.Namespace) -> Setup:
 
 
 def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
-    """``--bounds``, or its default: ``'derived'`` with files, else ``'paper'``."""
+    """``--bounds``, or its default: ``'derived'`` with files, else ``'paper'``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    setup : Setup
+
+    Returns
+    -------
+    {'paper', 'derived'}
+    """
     return getattr(args, "bounds", None) or ("derived" if setup.from_files else "paper")
 
 
 def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
-    """The interval model of ``--bounds`` for this setup (refusing published bounds for other data)."""
+    """The interval model of ``--bounds`` for this setup (refusing published bounds for other data).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    setup : Setup
+
+    Returns
+    -------
+    UncertainLTVModel
+
+    Raises
+    ------
+    ValueError
+        If published bounds are asked for with a robot or scenario file.
+    """
     if resolve_bounds(args, setup) == "paper":
         if setup.from_files:
             raise ValueError(
@@ -331,7 +396,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the exit code (0 ok, 2 bad input or I/O error)."""
+    """Run the command line; return the exit code (0 ok, 2 bad input or I/O error).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the program name (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 on bad input or an I/O error (one line on stderr), 130 when
+        interrupted.
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -14,7 +14,17 @@ __all__ = ["main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``compare`` with `argv` (default: the process arguments); return the exit code."""
+    """Run ``compare`` with `argv` (default: the process arguments); return the exit code.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+
+    Returns
+    -------
+    int
+        The exit code of :func:`scara_robust.cli.main`.
+    """
     return cli_main(["compare", *(sys.argv[1:] if argv is None else argv)])
 
 

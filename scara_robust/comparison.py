@@ -120,7 +120,12 @@ def _markdown(table: pd.DataFrame) -> str:
 
 
 def add_compare_parser(sub: Any) -> None:
-    """Register ``compare`` on the command line's sub-parsers."""
+    """Register ``compare`` on the command line's sub-parsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
     from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios")

@@ -231,7 +231,12 @@ def _cmd_certify(args: argparse.Namespace) -> str:
 
 
 def add_certify_parser(sub: Any) -> None:
-    """Register ``certify`` on the ``python -m scara_robust`` sub-parsers."""
+    """Register ``certify`` on the ``python -m scara_robust`` sub-parsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
     from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")

@@ -36,7 +36,21 @@ _TORQUES = ["Tc1", "Tc2"]
 
 
 def check_torque_limit(torque_limit: Any) -> Array | None:
-    """Validate a torque limit: None (off), a number or a pair, each > 0 (N·m)."""
+    """Validate a torque limit: None (off), a number or a pair, each > 0 (N·m).
+
+    Parameters
+    ----------
+    torque_limit : None, float or array_like of shape (2,)
+
+    Returns
+    -------
+    ndarray, shape (2,), or None
+
+    Raises
+    ------
+    ValueError
+        If a limit is not a finite number > 0 or the shape is wrong.
+    """
     if torque_limit is None:
         return None
     limit = np.broadcast_to(check_array("torque_limit", torque_limit), (2,)).astype(float)
@@ -230,6 +244,11 @@ def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
     **options
         ``K`` or ``rho``/``eta`` (pid), ``params`` and ``gains`` (smc), ``reference``,
         ``torque_limit``.
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        Inputs ``q1, q2, q1_dot, q2_dot``, outputs ``Tc1, Tc2`` (N·m).
     """
     check_choice("controller", name, tuple(CONTROLLERS))
     return CONTROLLERS[name](**options)

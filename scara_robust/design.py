@@ -64,6 +64,14 @@ class Design:
 def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
     """Raise if ``(A, B)`` is not stabilizable (PBH test on the closed right half-plane).
 
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+    B : ndarray, shape (n, m)
+    name : str
+        Argument name used in the message.
+
+
     Raises
     ------
     ValueError

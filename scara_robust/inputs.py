@@ -157,6 +157,16 @@ def _top(path: str, data: Mapping[str, Any], tables: tuple[str, ...]) -> str:
 def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
     """Read a robot file into :class:`~scara_robust.ScaraParams`.
 
+    Parameters
+    ----------
+    path : path-like
+        A ``.toml`` or ``.json`` robot file.
+
+    Returns
+    -------
+    ScaraParams
+
+
     Raises
     ------
     OSError
@@ -183,6 +193,16 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
     """Read a scenario file; tables it omits take the paper's values.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.toml`` or ``.json`` scenario file.
+
+    Returns
+    -------
+    ScenarioFile
+
 
     Raises
     ------

@@ -35,7 +35,12 @@ NOT_INSTALLED = "not installed"
 
 
 def cvxpy_available() -> bool:
-    """True when cvxpy can be imported (the ``lmi`` extra is installed)."""
+    """True when cvxpy can be imported (the ``lmi`` extra is installed).
+
+    Returns
+    -------
+    bool
+    """
     try:
         import cvxpy  # noqa: F401
     except ImportError:

@@ -65,6 +65,11 @@ def tracking_metrics(t: ArrayLike, e: ArrayLike, torque: ArrayLike, *, t_transie
     t_transient : float
         End of the transient, s (>= 0); at least two samples must follow it.
 
+    Returns
+    -------
+    TrackingMetrics
+
+
     Examples
     --------
     >>> import numpy as np, scara_robust as sr

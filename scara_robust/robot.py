@@ -192,6 +192,16 @@ class ConstantPayload:
 def paper_payload(params: ScaraParams | None = None) -> SinusoidalPayload:
     """The paper's payload ``m_p(t) = 0.3 m2 (sin t + 1)``, in kg.
 
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        Supplies m2 (default: the paper's robot).
+
+    Returns
+    -------
+    SinusoidalPayload
+
+
     References
     ----------
     Paper, Section 4.
@@ -205,6 +215,19 @@ def payload_range(payload: PayloadProfile, times: ArrayLike | None = None) -> tu
 
     Uses ``payload.bounds`` where the profile has it, else samples ``payload(t)`` at
     `times` (default: 2001 points over [0, 2π] s).
+
+    Parameters
+    ----------
+    payload : callable
+        ``payload(t) -> m_p`` in kg.
+    times : array_like, shape (k,), optional
+        Sample times, s.
+
+    Returns
+    -------
+    tuple of float
+        ``(min, max)``, kg.
+
 
     Raises
     ------
@@ -228,6 +251,17 @@ def inertia_coefficients(params: ScaraParams, m_p: ArrayLike) -> tuple[Any, Any,
     ``a1 = m1 Lc1² + (m2 + m_p) L1² + I1``, ``a2 = m2 Lc2² + m_p L2² + I2 + c_p m_p``,
     ``a3 = L1 (m2 Lc2 + m_p L2)``, so ``M = [[a1 + a2 + 2 a3 cos q2, a2 + a3 cos q2],
     [a2 + a3 cos q2, a2]]``.
+
+    Parameters
+    ----------
+    params : ScaraParams
+    m_p : array_like
+        Payload mass, kg.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``a1, a2, a3`` in kg·m².
     """
     p = params
     mp = np.asarray(m_p, dtype=float)
@@ -280,7 +314,21 @@ def mass_matrix(params: ScaraParams, q: ArrayLike, m_p: ArrayLike) -> Array:
 
 
 def coriolis(params: ScaraParams, q: ArrayLike, qd: ArrayLike, m_p: ArrayLike) -> Array:
-    """Coriolis and centrifugal torques ``C(q, q̇, m_p)``, N·m, shape (..., 2)."""
+    """Coriolis and centrifugal torques ``C(q, q̇, m_p)``, N·m, shape (..., 2).
+
+    Parameters
+    ----------
+    params : ScaraParams
+    q, qd : array_like, shape (..., 2)
+        Joint angles (rad) and rates (rad/s).
+    m_p : array_like, shape (...)
+        Payload mass, kg.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        N·m.
+    """
     q = _joint_array("q", q)
     qd = _joint_array("qd", qd)
     _, _, a3 = inertia_coefficients(params, m_p)
@@ -314,6 +362,11 @@ def forward_dynamics(params: ScaraParams, q: ArrayLike, qd: ArrayLike, torque: A
         Total joint torque ``T_c + T_d``, N·m.
     m_p : array_like, shape (...)
         Payload mass, kg.
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        rad/s².
     """
     M = mass_matrix(params, q, m_p)
     rhs = np.asarray(torque, dtype=float) - coriolis(params, q, qd, m_p)
@@ -323,7 +376,23 @@ def forward_dynamics(params: ScaraParams, q: ArrayLike, qd: ArrayLike, torque: A
 def dynamics_terms(
     params: ScaraParams, q2: float, w1: float, w2: float, m_p: float
 ) -> tuple[float, float, float, float, float]:
-    """Scalar ``M11, M12, M22, C1, C2`` for one state: the lean path of the simulators."""
+    """Scalar ``M11, M12, M22, C1, C2`` for one state: the lean path of the simulators.
+
+    Parameters
+    ----------
+    params : ScaraParams
+    q2 : float
+        Angle of joint 2, rad.
+    w1, w2 : float
+        Joint rates, rad/s.
+    m_p : float
+        Payload mass, kg.
+
+    Returns
+    -------
+    tuple of float
+        ``M11, M12, M22`` (kg·m²) and ``C1, C2`` (N·m).
+    """
     p = params
     a1 = p.m1 * p.Lc1**2 + (p.m2 + m_p) * p.L1**2 + p.I1
     a2 = p.m2 * p.Lc2**2 + m_p * p.L2**2 + p.I2 + p.cp * m_p
@@ -333,7 +402,23 @@ def dynamics_terms(
 
 
 def forward_dynamics_scalar(params: ScaraParams, x: Array, t1: float, t2: float, m_p: float) -> tuple[float, float]:
-    """``q̈`` for one state ``x = [q1, q2, q̇1, q̇2]`` and total torques, by a closed-form 2x2 solve."""
+    """``q̈`` for one state ``x = [q1, q2, q̇1, q̇2]`` and total torques, by a closed-form 2x2 solve.
+
+    Parameters
+    ----------
+    params : ScaraParams
+    x : ndarray, shape (>= 4,)
+        ``[q1, q2, q̇1, q̇2, ...]`` in rad and rad/s.
+    t1, t2 : float
+        Total joint torques, N·m.
+    m_p : float
+        Payload mass, kg.
+
+    Returns
+    -------
+    tuple of float
+        ``(q̈1, q̈2)``, rad/s².
+    """
     m11, m12, m22, c1, c2 = dynamics_terms(params, float(x[1]), float(x[2]), float(x[3]), m_p)
     b1, b2 = t1 - c1, t2 - c2
     det = m11 * m22 - m12 * m12
@@ -341,7 +426,21 @@ def forward_dynamics_scalar(params: ScaraParams, x: Array, t1: float, t2: float,
 
 
 def kinetic_energy(params: ScaraParams, q: ArrayLike, qd: ArrayLike, m_p: ArrayLike) -> Any:
-    """Kinetic energy ``q̇ᵀ M q̇ / 2``, J, shape (...)."""
+    """Kinetic energy ``q̇ᵀ M q̇ / 2``, J, shape (...).
+
+    Parameters
+    ----------
+    params : ScaraParams
+    q, qd : array_like, shape (..., 2)
+        Joint angles (rad) and rates (rad/s).
+    m_p : array_like, shape (...)
+        Payload mass, kg.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        J.
+    """
     qd = np.asarray(qd, dtype=float)
     M = mass_matrix(params, q, m_p)
     return 0.5 * np.einsum("...i,...ij,...j->...", qd, M, qd)

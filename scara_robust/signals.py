@@ -94,6 +94,11 @@ def _minus_sin_cos(t: Any) -> Array:
 def paper_reference() -> Reference:
     """The paper's reference ``r1 = sin t``, ``r2 = cos t`` (rad) with exact derivatives.
 
+    Returns
+    -------
+    Reference
+
+
     References
     ----------
     Paper, Section 4.
@@ -194,5 +199,10 @@ class SquareWave:
 
 
 def paper_disturbance() -> SquareWave:
-    """±5 N·m square waves of period π/5 s on both joints (paper, Section 4)."""
+    """±5 N·m square waves of period π/5 s on both joints (paper, Section 4).
+
+    Returns
+    -------
+    SquareWave
+    """
     return SquareWave()

@@ -178,6 +178,16 @@ def closed_loop(
 ) -> ct.InterconnectedSystem:
     """Plant, controller and disturbance joined with ``control.interconnect``.
 
+    Parameters
+    ----------
+    controller : control.NonlinearIOSystem
+        Inputs ``q1, q2, q1_dot, q2_dot``, outputs ``Tc1, Tc2``.
+    params : ScaraParams, optional
+    payload : callable, optional
+        ``m_p(t)`` in kg (default: the paper's).
+    disturbance : SquareWave, optional
+
+
     Returns
     -------
     control.InterconnectedSystem
@@ -541,6 +551,10 @@ def run_scenario(
         PID gain (default: designed at (3, 90) on the published model).
 
     Controllers in :data:`SAMPLE_TIMES` run sampled with that period (``smc-sign``: 1 ms).
+
+    Returns
+    -------
+    SimulationResult
     """
     params = params or ScaraParams()
     reference = reference or paper_reference()
@@ -615,7 +629,12 @@ def _cmd_simulate(args: argparse.Namespace) -> str:
 
 
 def add_simulate_parser(sub: Any) -> None:
-    """Register ``simulate`` on the command line's sub-parsers."""
+    """Register ``simulate`` on the command line's sub-parsers.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
     from .cli import _finite_float, add_setup_options
 
     p = sub.add_parser("simulate", help="one closed-loop run and its time series")

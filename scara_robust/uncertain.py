@@ -269,6 +269,11 @@ def pid_state_matrices(a_star: ArrayLike, b_star: ArrayLike) -> tuple[Array, Arr
         Rows 5-6, columns 3-6 of A (the Jacobian of f with respect to ``e, ė``).
     b_star : array_like, shape (2, 2)
         Rows 5-6 of B.
+
+    Returns
+    -------
+    A : ndarray, shape (6, 6)
+    B : ndarray, shape (6, 2)
     """
     a_star = check_array("a_star", a_star, shape=(2, 4))
     b_star = check_array("b_star", b_star, shape=(2, 2))
