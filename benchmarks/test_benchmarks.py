@@ -44,5 +44,5 @@ def test_simulation_pid_20s(benchmark, method):
 
 def test_compare(benchmark):
     benchmark.group = "compare: 3 controllers x 2 scenarios, 20 s"
-    table = benchmark.pedantic(sr.compare, rounds=2)
+    table = benchmark.pedantic(sr.compare_controllers, rounds=2)
     assert table["success"].all() and len(table) == 6

@@ -34,7 +34,7 @@ Campaigns (:mod:`scara_robust.campaign`)
     run_campaign, read_results, campaign_report -- run (local or Dask), resume, summarize
 Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.comparison`)
     tracking_metrics, TrackingMetrics -- errors and torques after the transient
-    compare                         -- the PID vs sliding-mode table
+    compare_controllers             -- the PID vs sliding-mode table (``python -m scara_robust.compare``)
 Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign
 Reproduction (:mod:`scara_robust.reproduction`)
@@ -44,7 +44,7 @@ Reproduction (:mod:`scara_robust.reproduction`)
 
 from .campaign import CampaignSpec, CampaignSpecError, campaign_report, load_spec, read_results, run_campaign
 from .certificate import Certificate, UltimateBound, certify
-from .comparison import compare
+from .comparison import compare_controllers
 from .conservatism import CERTIFICATE_METHODS, certificate_table
 from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
 from .design import Design, design
@@ -119,7 +119,7 @@ __all__ = [
     "certificate_table",
     "certify",
     "closed_loop",
-    "compare",
+    "compare_controllers",
     "coriolis",
     "derived_model",
     "design",

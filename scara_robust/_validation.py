@@ -67,6 +67,13 @@ def check_array(
     return arr
 
 
+def check_int(name: str, value: Any, minimum: int) -> int:
+    """Return `value` as an int if it is an integer >= `minimum` (not a bool), else raise naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"`{name}` must be an integer >= {minimum}, found {value!r}")
+    return int(value)
+
+
 def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> NDArray[np.float64]:
     """Return the symmetric part of a square matrix that is symmetric up to `rtol`, else raise.
 

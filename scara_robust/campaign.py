@@ -488,7 +488,7 @@ def run_campaign(
     """
     from tqdm import tqdm
 
-    from ._validation import check_choice
+    from ._validation import check_choice, check_int
 
     if not isinstance(spec, CampaignSpec):
         raise TypeError(f"`spec` must be a CampaignSpec, found {type(spec).__name__}")
@@ -497,8 +497,7 @@ def run_campaign(
     seed = spec.seed if seed is None else seed
     checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
     for name, value, low in checks:
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise ValueError(f"`{name}` must be an integer >= {low}, found {value!r}")
+        check_int(name, value, low)
     path = os.fspath(output)
     _format(path)
     columns = _columns(spec)

@@ -20,10 +20,10 @@ from .controllers import CONTROLLERS
 from .metrics import METRIC_NAMES
 from .simulation import SCENARIOS, Scenario, run_scenario
 
-__all__ = ["compare", "add_compare_parser"]
+__all__ = ["compare_controllers", "add_compare_parser"]
 
 
-def compare(
+def compare_controllers(
     controllers: Sequence[str] = tuple(CONTROLLERS),
     scenarios: Sequence[str | Scenario] = tuple(SCENARIOS),
     *,
@@ -82,7 +82,7 @@ def _cmd_compare(args: argparse.Namespace) -> str:
     K = design(resolve_model(args, setup), 3.0, 90.0).K
     scenarios = list(SCENARIOS) if setup.initial is None else [setup.initial]
     start = time.perf_counter()
-    table = compare(
+    table = compare_controllers(
         scenarios=scenarios,
         payload_on=args.payload == "on",
         t_final=args.t_final,

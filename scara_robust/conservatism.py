@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ._validation import check_choice
+from ._validation import check_choice, check_int
 from .certificate import certify
 from .design import Design, design
 from .falsifier import falsify
@@ -114,9 +114,7 @@ def certificate_table(
     if not isinstance(design, Design):
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
-    for name, value, low in (("lmi_times", lmi_times, 2), ("lmi_masses", lmi_masses, 1)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise ValueError(f"`{name}` must be an integer >= {low}, found {value!r}")
+    lmi_times, lmi_masses = check_int("lmi_times", lmi_times, 2), check_int("lmi_masses", lmi_masses, 1)
     fine_times, fine_masses = 2 * int(n_times) - 1, 2 * int(n_masses) - 1
 
     def theorem1(elements: str) -> dict[str, Any]:

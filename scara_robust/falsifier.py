@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_real, check_symmetric
+from ._validation import check_array, check_int, check_real, check_symmetric
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
@@ -138,8 +138,7 @@ def falsify(
     threshold = check_real("threshold", threshold, minimum=1.0)
     if horizon < 2 * dwell:
         raise ValueError(f"`horizon` must be at least 2 * dwell = {2 * dwell:g} s, found {horizon:g}")
-    if isinstance(n_tries, bool) or not isinstance(n_tries, (int, np.integer)) or n_tries < 1:
-        raise ValueError(f"`n_tries` must be an integer >= 1, found {n_tries!r}")
+    n_tries = check_int("n_tries", n_tries, 1)
     rules = list(FALSIFIER_RULES)
     P_sym = np.eye(n)
     if P is not None:

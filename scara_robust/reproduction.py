@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validation import check_array
 from .certificate import certify
-from .comparison import compare
+from .comparison import compare_controllers
 from .design import design
 from .metrics import METRIC_NAMES
 from .surface import DesignSurface, design_surface
@@ -68,7 +68,7 @@ def _timed_paper_surface() -> tuple[DesignSurface, float]:
 def _pid_metrics(comparison: pd.DataFrame, scenario: str) -> dict[str, float]:
     missing = {"controller", "scenario", "payload", *METRIC_NAMES} - set(comparison.columns)
     if missing:
-        raise ValueError(f"`comparison` must have the columns of compare(), missing {sorted(missing)}")
+        raise ValueError(f"`comparison` must have the columns of compare_controllers(), missing {sorted(missing)}")
     rows = comparison[
         (comparison["controller"] == "pid") & (comparison["scenario"] == scenario) & (comparison["payload"] == "on")
     ]
@@ -85,7 +85,7 @@ def reproduction_table(comparison: pd.DataFrame | None = None) -> pd.DataFrame:
     Parameters
     ----------
     comparison : pandas.DataFrame, optional
-        A table from :func:`scara_robust.compare` with payload on and 20-s runs, holding
+        A table from :func:`scara_robust.compare_controllers` with payload on and 20-s runs, holding
         the ``pid`` rows of scenarios ``large`` and ``small``. Computed (PID only, about
         5 s) when omitted.
 
@@ -110,9 +110,11 @@ def reproduction_table(comparison: pd.DataFrame | None = None) -> pd.DataFrame:
     >>> table[["claim", "paper", "package", "holds"]]  # doctest: +SKIP
     """
     if comparison is None:
-        comparison = compare(("pid",), ("large", "small"))
+        comparison = compare_controllers(("pid",), ("large", "small"))
     elif not isinstance(comparison, pd.DataFrame):
-        raise TypeError(f"`comparison` must be a pandas DataFrame from compare(), found {type(comparison).__name__}")
+        raise TypeError(
+            f"`comparison` must be a pandas DataFrame from compare_controllers(), found {type(comparison).__name__}"
+        )
     large = _pid_metrics(comparison, "large")
     small = _pid_metrics(comparison, "small")
     surface, seconds = _timed_paper_surface()

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice, check_real
+from ._validation import check_array, check_choice, check_int, check_real
 from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
 from .signals import Reference, paper_reference
 
@@ -57,9 +57,7 @@ class UncertainElement:
         check_choice("matrix", self.matrix, ("A", "B"))
         for name in ("row", "col"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise ValueError(f"`{name}` must be a non-negative integer, found {value!r}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, check_int(name, value, 0))
         lo = check_real("lower", self.lower)
         hi = check_real("upper", self.upper)
         if lo > hi:
@@ -385,8 +383,7 @@ def physical_samples(
     t = np.linspace(0.0, 2 * np.pi, 721) if times is None else check_array("times", times, ndim=1)
     if t.size == 0:
         raise ValueError("`times` must hold at least one time, found none")
-    if isinstance(n_masses, bool) or not isinstance(n_masses, (int, np.integer)) or n_masses < 1:
-        raise ValueError(f"`n_masses` must be an integer >= 1, found {n_masses!r}")
+    n_masses = check_int("n_masses", n_masses, 1)
     lo, hi = payload_range(payload, t)
     masses = np.linspace(lo, hi, int(n_masses))
     r, rd, _ = reference.sample(t)

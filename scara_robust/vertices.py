@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice, check_symmetric
+from ._validation import check_array, check_choice, check_int, check_symmetric
 from .design import Design
 from .robot import PayloadProfile, ScaraParams
 from .signals import Reference
@@ -270,8 +270,7 @@ def physical_certificate(
     """
     if not isinstance(design, Design):
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
-    if isinstance(n_times, bool) or not isinstance(n_times, (int, np.integer)) or n_times < 2:
-        raise ValueError(f"`n_times` must be an integer >= 2, found {n_times!r}")
+    n_times = check_int("n_times", n_times, 2)
     samples = physical_samples(
         params, reference, payload, times=np.linspace(0.0, 2 * np.pi, int(n_times)), n_masses=n_masses
     )

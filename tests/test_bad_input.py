@@ -80,7 +80,7 @@ API_CASES = [
     ("torque-limit-negative", lambda: sr.make_controller("pid", torque_limit=-1.0), ValueError, r"`torque_limit"),
     ("metrics-short", lambda: sr.tracking_metrics(np.linspace(0, 1, 5), np.zeros((2, 5)), np.zeros((2, 5))),
      ValueError, r"`t`"),
-    ("compare-controller", lambda: sr.compare(["pid", "lqr"], t_final=7.0), ValueError, r"`controller`"),
+    ("compare-controller", lambda: sr.compare_controllers(["pid", "lqr"], t_final=7.0), ValueError, r"`controller`"),
     # reproduction, plotting, campaigns
     ("reproduction-type", lambda: sr.reproduction_table([1, 2]), TypeError, r"`comparison`"),
     ("plot-signals-empty", lambda: sr.plot_signals([]), ValueError, r"`results`"),

@@ -39,3 +39,13 @@ def test_module_declares_all_and_documents_it(name):
 def test_package_index_lists_every_export():
     for name in scara_robust.__all__:
         assert name in scara_robust.__doc__, f"{name} missing from the package docstring index"
+
+
+def test_importing_submodules_shadows_no_export():
+    # `import scara_robust.compare` (the `python -m` entry point) sets a package attribute;
+    # no public name may share a submodule's name, or importing it would replace the name.
+    before = {name: getattr(scara_robust, name) for name in scara_robust.__all__}
+    for name in MODULES:
+        importlib.import_module(f"scara_robust.{name}")
+    assert {n: getattr(scara_robust, n) for n in scara_robust.__all__} == before
+    assert not set(scara_robust.__all__) & set(MODULES)

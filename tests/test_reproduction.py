@@ -11,7 +11,7 @@ from scara_robust.metrics import METRIC_NAMES
 @pytest.fixture(scope="module")
 def short_comparison():
     # 8-s runs keep the test short; the metrics after 6 s exist from 6 s on.
-    return sr.compare(("pid",), ("large", "small"), t_final=8.0)
+    return sr.compare_controllers(("pid",), ("large", "small"), t_final=8.0)
 
 
 @pytest.fixture(scope="module")

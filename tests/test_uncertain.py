@@ -74,7 +74,7 @@ def test_generic_model_and_perturbation_matrices():
     [
         (lambda: sr.UncertainElement("A", 0, 0, 1.0, 0.0), ValueError, "`lower` must be <= `upper`"),
         (lambda: sr.UncertainElement("C", 0, 0, 0.0, 1.0), ValueError, "`matrix` must be one of"),
-        (lambda: sr.UncertainElement("A", -1, 0, 0.0, 1.0), ValueError, "`row` must be a non-negative integer"),
+        (lambda: sr.UncertainElement("A", -1, 0, 0.0, 1.0), ValueError, "`row` must be an integer >= 0"),
         (lambda: sr.UncertainElement("A", 0, 0, float("nan"), 1.0), ValueError, "`lower` must be finite"),
         (lambda: sr.UncertainLTVModel(np.zeros((2, 3)), np.zeros((2, 1))), ValueError, "`A` must be square"),
         (lambda: sr.UncertainLTVModel(np.zeros((2, 2)), np.zeros((3, 1))), ValueError, "`B` must have shape"),
