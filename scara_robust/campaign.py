@@ -373,9 +373,9 @@ def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int]) -> list[di
     return rows
 
 
-def _columns(spec: CampaignSpec) -> list[str]:
-    drawn = ["payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0"]
-    return ["scenario", "controller", "success", "diverged", "error", *METRIC_NAMES, *drawn, "seed", "spec"]
+#: Columns of a results table, in order.
+_DRAWN = ["payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0"]
+_COLUMNS = ["scenario", "controller", "success", "diverged", "error", *METRIC_NAMES, *_DRAWN, "seed", "spec"]
 
 
 def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
@@ -500,7 +500,7 @@ def run_campaign(
         check_int(name, value, low)
     path = os.fspath(output)
     _format(path)
-    columns = _columns(spec)
+    columns = _COLUMNS
     digest = spec.digest()
     done: set[int] = set()
     stored = pd.DataFrame(columns=columns)
