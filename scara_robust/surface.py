@@ -112,8 +112,8 @@ def _grid(name: str, values: ArrayLike, minimum: float, strict: bool) -> Array:
     return arr
 
 
-def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, Array, Array, Array]:
-    """``Z₀(ρ), Z₁(ρ)`` and the nominal ``PĀ + ĀᵀP = N₀ + ηN₁`` for every ρ, shape (n_rho, n, n)."""
+def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, ...]:
+    """``Z₀, Z₁``, the nominal ``PĀ + ĀᵀP = N₀ + ηN₁``, P and ``BK₁`` for every ρ, shape (n_rho, n, n)."""
     P = np.array([riccati_solution(model, rho) for rho in rhos])
     A, B = model.A, model.B
     K1 = rhos[:, None, None] * np.einsum("ji,rjk->rik", B, P)  # ρBᵀP
@@ -130,10 +130,10 @@ def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, Arr
     in_A = np.array([el.matrix == "A" for el in model.elements], dtype=bool)
     Z0 = N0 + terms[:, in_A].sum(axis=1)
     Z1 = N1 + terms[:, ~in_A].sum(axis=1)
-    return Z0, Z1, N0, N1
+    return Z0, Z1, N0, N1, P, B @ K1
 
 
-def _hurwitz(model: UncertainLTVModel, rhos: Array, etas: Array, N0: Array, N1: Array) -> NDArray[np.bool_]:
+def _hurwitz(A: Array, etas: Array, N0: Array, N1: Array, P: Array, BK1: Array) -> NDArray[np.bool_]:
     """Hurwitz flags of ``Ā = A − ηBK₁`` by a Lyapunov argument, eigenvalues where it fails.
 
     ``PĀ + ĀᵀP = N₀ + ηN₁`` with ``N₁ = −2ρPBBᵀP ⪯ 0``, so if P ≻ 0 and it is negative
@@ -144,12 +144,11 @@ def _hurwitz(model: UncertainLTVModel, rhos: Array, etas: Array, N0: Array, N1: 
     lyap_min = np.linalg.eigvalsh(N0 + eta_min * N1)[:, -1]
     n1_max = np.linalg.eigvalsh(N1)[:, -1]
     scale = np.abs(N1).max(axis=(-1, -2)) + np.abs(N0).max(axis=(-1, -2))
-    proven = (lyap_min < 0) & (n1_max <= 1e-12 * scale)
-    hurwitz = np.ones((rhos.size, etas.size), dtype=bool)
+    proven = (np.linalg.eigvalsh(P)[:, 0] > 0) & (lyap_min < 0) & (n1_max <= 1e-12 * scale)
+    hurwitz = np.ones((P.shape[0], etas.size), dtype=bool)
     rest = np.flatnonzero(~proven)
     if rest.size:
-        BK1 = np.array([model.B @ (rho * model.B.T @ riccati_solution(model, rho)) for rho in rhos[rest]])
-        A_cl = model.A[None, None] - etas[None, :, None, None] * BK1[:, None]
+        A_cl = A[None, None] - etas[None, :, None, None] * BK1[rest][:, None]
         hurwitz[rest] = np.all(np.linalg.eigvals(A_cl).real < 0, axis=-1)
     return hurwitz
 
@@ -208,10 +207,10 @@ def design_surface(
                 max_eig[i, k] = certify(model, d, elements).max_eig
                 hurwitz[i, k] = d.hurwitz
     else:
-        Z0, Z1, N0, N1 = _structured_terms(model.subset(elements), rho_grid)
+        Z0, Z1, N0, N1, P, BK1 = _structured_terms(model.subset(elements), rho_grid)
         Z = Z0[:, None] + eta_grid[None, :, None, None] * Z1[:, None]
         max_eig = np.asarray(np.linalg.eigvalsh(Z)[..., -1], dtype=float)
-        hurwitz = _hurwitz(model, rho_grid, eta_grid, N0, N1)
+        hurwitz = _hurwitz(model.A, eta_grid, N0, N1, P, BK1)
     return DesignSurface(
         rhos=rho_grid,
         etas=eta_grid,

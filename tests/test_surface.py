@@ -71,6 +71,8 @@ def test_hurwitz_falls_back_to_eigenvalues_when_lyapunov_proof_fails():
     n = model.n_states
     N0 = np.repeat(np.eye(n)[None], 2, axis=0)
     N1 = np.zeros_like(N0)
-    flags = _hurwitz(model, rhos, etas, N0, N1)
+    P = np.array([sr.design(model, r, 1.0).P for r in rhos])
+    BK1 = np.array([model.B @ (r * model.B.T @ Pr) for r, Pr in zip(rhos, P)])
+    flags = _hurwitz(model.A, etas, N0, N1, P, BK1)
     expected = np.array([[sr.design(model, r, e).hurwitz for e in etas] for r in rhos])
     assert np.array_equal(flags, expected) and flags.all()
