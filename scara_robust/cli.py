@@ -14,7 +14,7 @@ import sys
 import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeVar
 
 import numpy as np
 
@@ -38,6 +38,8 @@ __all__ = [
     "resolve_setup",
     "write_atomic",
 ]
+
+_Loaded = TypeVar("_Loaded")
 
 #: Interval models selectable with ``--bounds``.
 BOUNDS: dict[str, Callable[[], UncertainLTVModel]] = {"paper": paper_model, "derived": derived_model}
@@ -194,6 +196,18 @@ def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenar
         )
 
 
+def _load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loaded:
+    """``load(path)``, with the option named in any error."""
+    from .inputs import InputFileError
+
+    try:
+        return load(path)
+    except OSError as err:
+        raise OSError(f"`{option}` {path!r}: {err.strerror or err}") from err
+    except InputFileError as err:
+        raise InputFileError(f"`{option}` {err}") from err
+
+
 def resolve_setup(args: argparse.Namespace) -> Setup:
     """Load the files named by ``--robot`` and ``--scenario``.
 
@@ -210,17 +224,12 @@ def resolve_setup(args: argparse.Namespace) -> Setup:
     OSError, InputFileError
         Naming the option and the file.
     """
-    from .inputs import InputFileError, load_robot, load_scenario
+    from .inputs import load_robot, load_scenario
 
     params, from_files = ScaraParams(), False
     robot = getattr(args, "robot", None)
     if robot is not None:
-        try:
-            params = load_robot(robot)
-        except OSError as err:
-            raise OSError(f"`--robot` {robot!r}: {err.strerror or err}") from err
-        except InputFileError as err:
-            raise InputFileError(f"`--robot` {err}") from err
+        params = _load_file("--robot", robot, load_robot)
         from_files = True
     scenario = getattr(args, "scenario", None)
     reference = payload = disturbance = None
@@ -233,12 +242,7 @@ def resolve_setup(args: argparse.Namespace) -> Setup:
                 f"`--scenario` must be {', '.join(repr(n) for n in SCENARIOS)} or a .toml/.json scenario file, "
                 f"found {scenario!r}"
             )
-        try:
-            scen = load_scenario(scenario)
-        except OSError as err:
-            raise OSError(f"`--scenario` {scenario!r}: {err.strerror or err}") from err
-        except InputFileError as err:
-            raise InputFileError(f"`--scenario` {err}") from err
+        scen = _load_file("--scenario", scenario, load_scenario)
         reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
         from_files = True
     return Setup(params, reference, payload, disturbance, initial, from_files)
