@@ -28,7 +28,7 @@ def main(argv: list[str]) -> int:
     pairs = [
         ("surface 50x50 (2 500 points)", "test_surface[50x50-structured]", "test_surface[50x50-reference]"),
         ("surface 200x200 (40 000 points)", "test_surface[200x200-structured]", "test_surface[200x200-reference]"),
-        ("PID 20-s run", "test_simulation_pid_20s[fast]", "test_simulation_pid_20s[interconnect]"),
+        ("PID 20-s run", "test_simulation_pid_20s[lsoda]", "test_simulation_pid_20s[interconnect]"),
     ]
     for label, fast, ref in pairs:
         if fast in mean and ref in mean:

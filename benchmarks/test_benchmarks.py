@@ -35,7 +35,7 @@ def test_surface(benchmark, model, grid, method):
     assert surface.max_eig.shape == (n, n) and surface.hurwitz.all()
 
 
-@pytest.mark.parametrize("method", ["fast", "interconnect"], ids=["fast", "interconnect"])
+@pytest.mark.parametrize("method", ["lsoda", "interconnect"], ids=["lsoda", "interconnect"])
 def test_simulation_pid_20s(benchmark, method):
     benchmark.group = "simulation: PID, large IC, 20 s"
     res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": 20.0, "method": method}, rounds=3)

@@ -1,161 +1,96 @@
-"""Robust PID design for SCARA robots carrying a time-varying payload.
+"""Robust PID design for uncertain time-varying systems, with the load-varying SCARA as flagship.
 
-Use as ``import scara_robust as sr``.
+Use as ``import scara_robust as sr``. Every name below is re-exported from the
+subpackage that defines it; each subpackage's ``__all__`` is the one source of the API.
+The layers, bottom to top (each imports only those before it)::
 
-Robot (:mod:`scara_robust.robot`)
-    ScaraParams, paper_params       -- robot data (SI), the paper's by default
-    SinusoidalPayload, ConstantPayload, paper_payload -- payload mass profiles m_p(t)
-    mass_matrix, coriolis, forward_dynamics, kinetic_energy -- Eq. (1)
+    paper, exceptions  ->  model  ->  lyapunov  ->  robustness | simulation
+                       ->  io  ->  studies  ->  plotting  ->  cli (front end)
+
+The paper's numbers (:mod:`scara_robust.paper`)
+    PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS -- (ρ*, η*) and K as printed in Section 4
+    PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2 -- the published model and Tables 1-2
+    PAPER_TRANSIENT, PAPER_T_FINAL  -- "after 6 s" of Figures 3 and 6; the 20-s horizon
+    PAPER_PAYLOAD_FRACTION, PAPER_CP -- payload m_p = 0.3 m2 (sin t + 1), I_p = c_p m_p
+    PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD -- ±5 N·m square waves, period π/5 s
+    PAPER_INITIAL_ERRORS            -- the large and small initial conditions
+Errors (:mod:`scara_robust.exceptions`)
+    ScaraRobustError                -- base of every error raised on purpose
+    ArgumentError, ArgumentValueError, ArgumentTypeError -- a bad argument, named by its parameter
+    InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
+Model (:mod:`scara_robust.model`)
+    ScaraParams, PARAM_UNITS, paper_params -- robot data (SI), the paper's by default
+    SinusoidalPayload, ConstantPayload, paper_payload, payload_range -- payload mass profiles m_p(t)
+    mass_matrix, coriolis, forward_dynamics, kinetic_energy, inertia_coefficients -- Eq. (1)
+    forward_dynamics_scalar, dynamics_terms -- the same for one state, without array overhead
     error_dynamics_jacobians        -- linearized error dynamics (Eq. 3)
     scara_plant                     -- the robot as a control.NonlinearIOSystem
-Signals (:mod:`scara_robust.signals`)
     Reference, paper_reference, sinusoidal_reference -- joint references with derivatives
     SquareWave, paper_disturbance   -- square-wave disturbance torques
-Uncertain model (:mod:`scara_robust.uncertain`)
-    UncertainElement, UncertainLTVModel -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
-    paper_model, derived_model      -- published bounds / bounds derived from the robot
-Design and certificate (:mod:`scara_robust.design`, :mod:`scara_robust.certificate`)
-    design, Design                  -- K from (ρ, η), procedure steps 2-3
-    certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
-Beyond Theorem 1 (:mod:`scara_robust.vertices`, :mod:`scara_robust.lmi`, :mod:`scara_robust.falsifier`)
-    vertex_certificate, physical_certificate, PolytopeCertificate -- exact test of P over a polytope
-    box_vertices, box_closed_loops, polytope_certificate -- the box's corners and closed loops
+    Scenario, SCENARIOS             -- initial tracking errors ('large', 'small')
+    UncertainElement, UncertainLTVModel, ELEMENT_SETS -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
+    paper_model, derived_model, pid_state_matrices -- published bounds / bounds derived from the robot
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
+The paper's method (:mod:`scara_robust.lyapunov`)
+    design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
+    certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
+    theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
+    design_surface, DesignSurface, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Figure 2)
+Beyond Theorem 1 (:mod:`scara_robust.robustness`)
+    vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
+    box_vertices, box_closed_loops, MAX_BOX_ELEMENTS -- the box's corners and closed loops
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
-    falsify, FalsifierResult        -- search for a destabilizing switching signal
+    LMI_SOLVERS, NOT_INSTALLED, cvxpy_available -- its solvers, and whether cvxpy is there
+    falsify, FalsifierResult, FALSIFIER_RULES -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
-Design surface (:mod:`scara_robust.surface`)
-    design_surface, DesignSurface   -- max λ(Z) over a (ρ, η) grid (Figure 2)
-Simulation (:mod:`scara_robust.controllers`, :mod:`scara_robust.simulation`)
-    pid_controller, sliding_mode_controller, SlidingModeGains, CONTROLLERS, make_controller
-    simulate, run_scenario, SimulationResult, Scenario, SCENARIOS, closed_loop
-Campaigns (:mod:`scara_robust.campaign`)
-    load_spec, CampaignSpec, CampaignSpecError -- Monte-Carlo campaign specs (TOML)
-    run_campaign, read_results, campaign_report -- run (local or Dask), resume, summarize
-Metrics and comparison (:mod:`scara_robust.metrics`, :mod:`scara_robust.comparison`)
-    tracking_metrics, TrackingMetrics -- errors and torques after the transient
-    compare_controllers             -- the PID vs sliding-mode table (``python -m scara_robust.compare``)
+Simulation (:mod:`scara_robust.simulation`)
+    pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
+    CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
+    ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
+    ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
+    simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
+    tracking_metrics, TrackingMetrics, metric_names, METRIC_NAMES -- errors and torques after the transient
+Files (:mod:`scara_robust.io`)
+    load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
+    write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
+Studies (:mod:`scara_robust.studies`)
+    compare_controllers, COMPARISON_COLUMNS -- the PID vs sliding-mode table (``compare`` command)
+    reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
+    load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
+    run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
+    campaign_report                 -- per-controller statistics
 Plotting (:mod:`scara_robust.plotting`)
-    plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign
-Reproduction (:mod:`scara_robust.reproduction`)
-    reproduction_table              -- the paper's claims next to the package's results
-    PAPER_GAIN, PAPER_DESIGN_POINT  -- K and (ρ*, η*) as printed in Section 4
+    plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, SIGNALS
 """
 
-from .campaign import CampaignSpec, CampaignSpecError, campaign_report, load_spec, read_results, run_campaign
-from .certificate import Certificate, UltimateBound, certify
-from .comparison import compare_controllers
-from .conservatism import CERTIFICATE_METHODS, certificate_table
-from .controllers import CONTROLLERS, SlidingModeGains, make_controller, pid_controller, sliding_mode_controller
-from .design import Design, design
-from .falsifier import FalsifierResult, falsify
-from .lmi import LMICertificate, lmi_certificate, verify_lyapunov
-from .metrics import TrackingMetrics, tracking_metrics
-from .plotting import plot_campaign, plot_response, plot_signals, plot_surface, plot_surface_contour
-from .reproduction import PAPER_DESIGN_POINT, PAPER_GAIN, reproduction_table
-from .robot import (
-    ConstantPayload,
-    ScaraParams,
-    SinusoidalPayload,
-    coriolis,
-    error_dynamics_jacobians,
-    forward_dynamics,
-    kinetic_energy,
-    mass_matrix,
-    paper_params,
-    paper_payload,
-    scara_plant,
-)
-from .signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
-from .simulation import SCENARIOS, Scenario, SimulationResult, closed_loop, run_scenario, simulate
-from .surface import DesignSurface, design_surface
-from .uncertain import (
-    PhysicalSamples,
-    UncertainElement,
-    UncertainLTVModel,
-    derived_model,
-    paper_model,
-    physical_samples,
-)
-from .vertices import (
-    PolytopeCertificate,
-    box_closed_loops,
-    box_vertices,
-    physical_certificate,
-    polytope_certificate,
-    vertex_certificate,
-)
+from .exceptions import *  # noqa: F403
+from .exceptions import __all__ as _exceptions
+from .io import *  # noqa: F403
+from .io import __all__ as _io
+from .lyapunov import *  # noqa: F403
+from .lyapunov import __all__ as _lyapunov
+from .model import *  # noqa: F403
+from .model import __all__ as _model
+from .paper import *  # noqa: F403
+from .paper import __all__ as _paper
+from .plotting import *  # noqa: F403
+from .plotting import __all__ as _plotting
+from .robustness import *  # noqa: F403
+from .robustness import __all__ as _robustness
+from .simulation import *  # noqa: F403
+from .simulation import __all__ as _simulation
+from .studies import *  # noqa: F403
+from .studies import __all__ as _studies
 
 __all__ = [
-    "CERTIFICATE_METHODS",
-    "CONTROLLERS",
-    "CampaignSpec",
-    "CampaignSpecError",
-    "Certificate",
-    "ConstantPayload",
-    "Design",
-    "DesignSurface",
-    "FalsifierResult",
-    "LMICertificate",
-    "PAPER_DESIGN_POINT",
-    "PAPER_GAIN",
-    "PhysicalSamples",
-    "PolytopeCertificate",
-    "Reference",
-    "SCENARIOS",
-    "ScaraParams",
-    "Scenario",
-    "SimulationResult",
-    "SinusoidalPayload",
-    "SlidingModeGains",
-    "SquareWave",
-    "TrackingMetrics",
-    "UltimateBound",
-    "UncertainElement",
-    "UncertainLTVModel",
-    "box_closed_loops",
-    "box_vertices",
-    "campaign_report",
-    "certificate_table",
-    "certify",
-    "closed_loop",
-    "compare_controllers",
-    "coriolis",
-    "derived_model",
-    "design",
-    "design_surface",
-    "error_dynamics_jacobians",
-    "falsify",
-    "forward_dynamics",
-    "kinetic_energy",
-    "lmi_certificate",
-    "load_spec",
-    "make_controller",
-    "mass_matrix",
-    "paper_disturbance",
-    "paper_model",
-    "paper_params",
-    "paper_payload",
-    "paper_reference",
-    "physical_certificate",
-    "physical_samples",
-    "pid_controller",
-    "plot_campaign",
-    "plot_response",
-    "plot_signals",
-    "plot_surface",
-    "plot_surface_contour",
-    "polytope_certificate",
-    "read_results",
-    "reproduction_table",
-    "run_campaign",
-    "run_scenario",
-    "scara_plant",
-    "simulate",
-    "sinusoidal_reference",
-    "sliding_mode_controller",
-    "tracking_metrics",
-    "verify_lyapunov",
-    "vertex_certificate",
+    *_paper,
+    *_exceptions,
+    *_model,
+    *_lyapunov,
+    *_robustness,
+    *_simulation,
+    *_io,
+    *_studies,
+    *_plotting,
 ]
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -1,6 +1,6 @@
 """``python -m scara_robust.compare``: the PID vs sliding-mode table.
 
-Same as ``python -m scara_robust compare``; see :func:`scara_robust.compare`.
+Same as ``python -m scara_robust compare``; see :func:`scara_robust.compare_controllers`.
 """
 
 from __future__ import annotations

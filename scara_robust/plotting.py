@@ -10,8 +10,8 @@ import numpy as np
 from ._validation import check_choice, check_real
 
 if TYPE_CHECKING:
-    from .simulation import SimulationResult
-    from .surface import DesignSurface
+    from .lyapunov.surface import DesignSurface
+    from .simulation.run import SimulationResult
 
 __all__ = ["plot_surface", "plot_surface_contour", "plot_response", "plot_signals", "plot_campaign", "SIGNALS"]
 

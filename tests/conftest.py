@@ -1,3 +1,6 @@
+import importlib.util
+import os
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -15,6 +18,26 @@ settings.register_profile(
     "ci", max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )
 settings.load_profile("ci")
+
+
+#: Optional extras by marker: the module each one installs.
+EXTRAS = {"lmi": "cvxpy", "dask": "distributed", "parquet": "pyarrow"}
+#: `make test` sets this, so that a missing extra fails the run instead of skipping its tests.
+REQUIRE_EXTRAS = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
+
+
+def _installed(module: str) -> bool:
+    return importlib.util.find_spec(module) is not None
+
+
+def pytest_runtest_setup(item):
+    for extra, module in EXTRAS.items():
+        if item.get_closest_marker(extra) is None or _installed(module):
+            continue
+        message = f"the `{extra}` extra ({module}) is not installed: pip install scara_robust[{extra}]"
+        if REQUIRE_EXTRAS:
+            pytest.fail(message + " (SCARA_ROBUST_REQUIRE_EXTRAS=1 requires it)", pytrace=False)
+        pytest.skip(message)
 
 
 @pytest.fixture(autouse=True)

@@ -112,7 +112,7 @@ def _cli_cases(tmp):
     folder.mkdir()
     design = ["design", "--rho", "3", "--eta", "90"]
     return [
-        ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`rho`"),
+        ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`--rho`"),
         ("design-eta-huge", ["design", "--rho", "3", "--eta", "1e15"], "Lyapunov equation"),
         ("design-rho-text", ["design", "--rho", "three", "--eta", "90"], "expected a number"),
         ("design-eta-inf", ["design", "--rho", "3", "--eta", "inf"], "finite"),

@@ -1,7 +1,6 @@
 """Monte-Carlo campaigns: spec validation, reproducibility, resume, local and Dask runs."""
 
 import math
-import os
 import signal
 import subprocess
 import sys
@@ -12,8 +11,8 @@ import pandas as pd
 import pytest
 
 import scara_robust as sr
-from scara_robust import campaign as cp
 from scara_robust.cli import main
+from scara_robust.studies import campaign as cp
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "campaign.toml"
 
@@ -86,13 +85,9 @@ def test_same_seed_same_table_with_a_process_pool(straight, tmp_path):
     pd.testing.assert_frame_equal(cp.read_results(tmp_path / "pool.csv"), table)
 
 
-REQUIRE_EXTRAS = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
-
-
+@pytest.mark.dask
+@pytest.mark.parquet
 def test_same_seed_same_table_with_dask(straight, tmp_path):
-    if not REQUIRE_EXTRAS:
-        pytest.importorskip("dask.distributed")
-        pytest.importorskip("pyarrow")
     spec, table = straight
     cp.run_campaign(spec, tmp_path / "dask.parquet", workers=2, scheduler="dask", chunk_size=1)
     pd.testing.assert_frame_equal(cp.read_results(tmp_path / "dask.parquet"), table)
@@ -136,14 +131,14 @@ def test_killed_process_resumes_to_the_same_table(straight, tmp_path, tiny_spec)
 
 def test_failed_run_is_a_row_not_a_crash(monkeypatch, tiny_spec, tmp_path):
     spec = cp.load_spec(tiny_spec)
-    real = cp.simulate
+    real = cp.runner.run_scenario
 
     def flaky(controller, *args, **kwargs):
-        if controller.name.startswith("smc"):
+        if controller.startswith("smc"):
             raise RuntimeError("solver exploded")
         return real(controller, *args, **kwargs)
 
-    monkeypatch.setattr(cp, "simulate", flaky)
+    monkeypatch.setattr(cp.runner, "run_scenario", flaky)
     table = cp.run_campaign(spec, tmp_path / "r.csv", runs=2)
     smc = table[table["controller"] == "smc"]
     assert len(table) == 4 and not smc["success"].any()
@@ -167,7 +162,7 @@ def test_existing_output_is_never_overwritten(straight, tmp_path):
     spec, _ = straight
     out = tmp_path / "r.csv"
     out.write_text("precious\n")
-    with pytest.raises(FileExistsError, match="pass --resume"):
+    with pytest.raises(FileExistsError, match="pass resume=True"):
         cp.run_campaign(spec, out)
     assert out.read_text() == "precious\n"
 
@@ -243,9 +238,8 @@ def test_campaign_cli_missing_spec_and_bad_toml(tmp_path, capsys):
     assert "is not valid TOML" in capsys.readouterr().err
 
 
+@pytest.mark.parquet
 def test_campaign_and_report_cli(tmp_path, capsys, tiny_spec):
-    if not REQUIRE_EXTRAS:
-        pytest.importorskip("pyarrow")
     out = tmp_path / "r.parquet"
     assert main(["campaign", str(tiny_spec), "--runs", "2", "--output", str(out)]) == 0
     assert "2 scenarios x 2 controllers = 4 rows" in capsys.readouterr().out
@@ -274,3 +268,28 @@ def test_parquet_without_pyarrow_is_a_clear_error(monkeypatch, tmp_path, tiny_sp
     assert main(["campaign", str(tiny_spec), "--output", str(tmp_path / "r.parquet")]) == 2
     assert "parquet files need pyarrow: pip install scara_robust[parquet]" in capsys.readouterr().err
     assert not (tmp_path / "r.parquet").exists()
+
+
+def test_a_campaign_row_is_run_scenario_on_the_drawn_inputs(tiny_spec):
+    # One code path: the row's metrics are those of sr.run_scenario on the same inputs, exactly.
+    spec = cp.load_spec(tiny_spec)
+    draw = cp.draw_scenario(spec, 7, 1)
+    rows = {r["controller"]: r for r in cp.run_draw(spec, draw)}
+    peak = draw["payload_peak"]
+    payload = (
+        sr.SinusoidalPayload(0.5 * peak, 0.5 * peak, draw["payload_omega"], draw["payload_phase"])
+        if draw["payload_profile"] == "sinusoidal"
+        else sr.ConstantPayload(peak)
+    )
+    for name in spec.controllers:
+        res = sr.run_scenario(
+            name,
+            sr.Scenario("x", (draw["e1_0"], draw["e2_0"]), (0.0, 0.0)),
+            t_final=spec.t_final,
+            params=sr.ScaraParams(cp=draw["cp"]),
+            reference=sr.sinusoidal_reference(draw["reference_amplitude"], draw["reference_omega"]),
+            payload=payload,
+            disturbance=sr.SquareWave(draw["disturbance_amplitude"], draw["disturbance_period"],
+                                      draw["disturbance_phase"]),
+        )
+        assert {k: rows[name][k] for k in sr.METRIC_NAMES} == res.metrics().to_dict()

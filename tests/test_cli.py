@@ -78,8 +78,8 @@ def test_compare_json(capsys):
 @pytest.mark.parametrize(
     "argv, needle",
     [
-        (["design", "--rho", "0", "--eta", "90"], "`rho` must be > 0"),
-        (["design", "--rho", "3", "--eta", "0.5"], "`eta` must be >= 1"),
+        (["design", "--rho", "0", "--eta", "90"], "`--rho` must be > 0"),
+        (["design", "--rho", "3", "--eta", "0.5"], "`--eta` must be >= 1"),
         (["design", "--rho", "nan", "--eta", "90"], "--rho"),
         (["design", "--rho", "3", "--eta", "inf"], "--eta"),
         (["design", "--rho", "abc", "--eta", "90"], "--rho"),
@@ -151,7 +151,7 @@ def test_python_dash_m_subprocess():
         text=True,
         timeout=120,
     )
-    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "`rho` must be > 0" in done.stderr
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "`--rho` must be > 0" in done.stderr
     done = subprocess.run(
         [sys.executable, "-m", "scara_robust.compare", "--help"], capture_output=True, text=True, timeout=120
     )

@@ -3,9 +3,9 @@ import pytest
 from conftest import random_model
 
 import scara_robust as sr
-from scara_robust.reproduction import PAPER_GAIN as PAPER_K
-from scara_robust.reproduction import PAPER_GAIN_DECIMALS as PAPER_K_DECIMALS
-from scara_robust.reproduction import gain_digits_matched
+from scara_robust import PAPER_GAIN as PAPER_K
+from scara_robust import PAPER_GAIN_DECIMALS as PAPER_K_DECIMALS
+from scara_robust import gain_digits_matched
 
 
 def test_gain_digits_matched_on_the_printed_gain():
@@ -49,7 +49,10 @@ def test_riccati_and_lyapunov_residuals(paper, paper_design):
     assert np.all(np.linalg.eigvalsh(P) > 0)
     assert d.hurwitz and d.spectral_abscissa < 0
     cert = sr.certify(paper, d)
-    assert cert.lyapunov_residual < 1e-12
+    # relative to the size of PĀ (‖Ā‖ ≈ 3e3): a bare 1e-12 on the (1 + ‖P‖)-scaled residual
+    # failed with some LAPACK builds at 1.4e-12, i.e. 5e-16 of ‖Ā‖‖P‖
+    scale = np.linalg.norm(d.A_cl) * np.linalg.norm(P) / (1 + np.linalg.norm(P))
+    assert cert.lyapunov_residual < 1e-14 * scale
     assert cert.riccati_mismatch < 1e-10  # step 1 of Theorem 1 gives back the Riccati P
     assert np.all(np.linalg.eigvalsh(d.Q) > 0)
 
@@ -59,7 +62,7 @@ def test_positive_part_properties(seed):
     rng = np.random.default_rng(seed)
     S = rng.normal(size=(6, 6))
     S = S + S.T
-    Sp = sr.certificate.positive_part(S)
+    Sp = sr.positive_part(S)
     assert np.linalg.eigvalsh(Sp - S).min() >= -1e-12 * np.abs(S).max()
     assert np.linalg.eigvalsh(Sp).min() >= -1e-12 * np.abs(S).max()
 

@@ -8,7 +8,12 @@ import pytest
 
 import scara_robust
 
-MODULES = sorted(m.name for m in pkgutil.iter_modules(scara_robust.__path__) if not m.name.startswith("_"))
+#: Every public module and subpackage, at any depth (``model.robot``, ``studies.campaign.spec``, ...).
+MODULES = sorted(
+    m.name.removeprefix("scara_robust.")
+    for m in pkgutil.walk_packages(scara_robust.__path__, prefix="scara_robust.")
+    if not any(part.startswith("_") for part in m.name.split("."))
+)
 
 
 def _public(module):
@@ -49,3 +54,22 @@ def test_importing_submodules_shadows_no_export():
         importlib.import_module(f"scara_robust.{name}")
     after = {n: getattr(scara_robust, n) for n in scara_robust.__all__}
     assert [n for n in before if after[n] is not before[n]] == []
+
+
+def test_no_export_shares_a_module_name():
+    # `import scara_robust.x.y` binds y on x; an export named y would be replaced by the module.
+    for name in ["", *MODULES]:
+        package = importlib.import_module(f"scara_robust.{name}".rstrip("."))
+        children = {m.name for m in pkgutil.iter_modules(getattr(package, "__path__", []))}
+        assert not children & set(getattr(package, "__all__", [])), name
+
+
+def test_every_subpackage_reexports_its_modules():
+    for name in MODULES:
+        package = importlib.import_module(f"scara_robust.{name}")
+        for child in pkgutil.iter_modules(getattr(package, "__path__", [])):
+            if child.name.startswith("_"):
+                continue
+            module = importlib.import_module(f"scara_robust.{name}.{child.name}")
+            assert set(module.__all__) <= set(package.__all__), f"{name}.{child.name}"
+            assert set(module.__all__) <= set(scara_robust.__all__), f"{name}.{child.name}"

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 import scara_robust as sr
-from scara_robust.metrics import METRIC_NAMES
+from scara_robust.simulation.metrics import METRIC_NAMES
 
 
 @pytest.fixture(scope="module")

@@ -30,7 +30,7 @@ def test_paper_surface_structure(paper):
 
 def test_surface_plot_marks_point(paper):
     s = sr.design_surface(paper, np.linspace(1, 5, 5), np.linspace(10, 100, 5), "A")
-    ax = s.plot(mark=(3, 90))
+    ax = sr.plot_surface(s, mark=(3, 90))
     assert "ρ" in ax.get_xlabel() and "η" in ax.get_ylabel()
     assert ax.get_legend() is not None
     ax2 = sr.plot_surface_contour(s, mark=(3, 90))
@@ -45,8 +45,8 @@ def test_rank2_positive_part_matches_eigendecomposition(seed):
     v[1] = 0.0
     S = u[:, :, None] * v[:, None, :]
     S = S + np.swapaxes(S, -1, -2)
-    closed = sr.certificate.rank2_positive_part(u, v)
-    literal = sr.certificate.positive_part(S)
+    closed = sr.rank2_positive_part(u, v)
+    literal = sr.positive_part(S)
     assert np.allclose(closed, literal, atol=1e-12 * np.abs(S).max())
     assert np.allclose(closed[:2], 0.0)
 
@@ -63,7 +63,7 @@ def test_perturbation_factors_rebuild_the_matrices(paper, paper_design):
 
 
 def test_hurwitz_falls_back_to_eigenvalues_when_lyapunov_proof_fails():
-    from scara_robust.surface import _hurwitz
+    from scara_robust.lyapunov.surface import _hurwitz
 
     model = random_model(1)
     rhos, etas = np.array([0.5, 2.0]), np.array([1.0, 3.0, 10.0])

@@ -13,8 +13,8 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from ._validation import check_real
-from .uncertain import UncertainLTVModel
+from .._validation import check_real
+from ..model.uncertain import UncertainLTVModel
 
 __all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
 

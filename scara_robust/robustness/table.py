@@ -20,8 +20,6 @@ scara_robust certify`` prints the table.
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 from collections.abc import Callable
 from typing import Any
@@ -29,17 +27,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ._validation import check_choice, check_int
-from .certificate import certify
-from .design import Design, design
+from .._validation import check_choice, check_instance, check_int
+from ..lyapunov.gain import Design
+from ..lyapunov.theorem1 import certify
+from ..model.robot import PayloadProfile, ScaraParams
+from ..model.signals import Reference
+from ..model.uncertain import UncertainLTVModel, physical_samples
 from .falsifier import falsify
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, lmi_certificate, verify_lyapunov
-from .robot import PayloadProfile, ScaraParams
-from .signals import Reference
-from .uncertain import UncertainLTVModel, physical_samples
-from .vertices import box_closed_loops, physical_certificate, vertex_certificate
+from .polytope import box_closed_loops, physical_certificate, vertex_certificate
 
-__all__ = ["CERTIFICATE_METHODS", "certificate_table", "add_certify_parser"]
+__all__ = ["CERTIFICATE_METHODS", "certificate_table"]
 
 #: Rows of :func:`certificate_table`, in order.
 CERTIFICATE_METHODS = (
@@ -109,10 +107,8 @@ def certificate_table(
         installed"), ``margin`` (positive means certified or no growth; NaN when there is
         none), ``seconds`` and ``detail``.
     """
-    if not isinstance(model, UncertainLTVModel):
-        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
-    if not isinstance(design, Design):
-        raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
+    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    check_instance("design", design, Design, "a Design from scara_robust.design()")
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
     lmi_times, lmi_masses = check_int("lmi_times", lmi_times, 2), check_int("lmi_masses", lmi_masses, 1)
     fine_times, fine_masses = 2 * int(n_times) - 1, 2 * int(n_masses) - 1
@@ -190,59 +186,3 @@ def certificate_table(
             row["verdict"] = "certified" if row["certified"] else "not certified"
         records.append(row)
     return pd.DataFrame(records, columns=_COLUMNS)
-
-
-def _json_value(value: Any) -> Any:
-    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
-        return None
-    if isinstance(value, np.bool_):
-        return bool(value)
-    return value
-
-
-def _cmd_certify(args: argparse.Namespace) -> str:
-    from .cli import resolve_bounds, resolve_model, resolve_setup
-
-    if args.tries < 1:
-        raise ValueError(f"`--tries` must be an integer >= 1, found {args.tries}")
-    setup = resolve_setup(args)
-    model = resolve_model(args, setup)
-    d = design(model, args.rho, args.eta)
-    table = certificate_table(
-        model,
-        d,
-        params=setup.params,
-        reference=setup.reference,
-        payload=setup.payload,
-        falsifier_tries=args.tries,
-        seed=args.seed,
-    )
-    if args.format == "json":
-        records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
-        return json.dumps(records, indent=2)
-    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {resolve_bounds(args, setup)}"
-    shown = table.drop(columns="detail").assign(
-        certified=table["certified"].map({True: "yes", False: "no", None: "-"})
-    )
-    details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
-    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details])
-
-
-def add_certify_parser(sub: Any) -> None:
-    """Register ``certify`` on the ``python -m scara_robust`` sub-parsers.
-
-    Parameters
-    ----------
-    sub : argparse._SubParsersAction
-    """
-    from .cli import _finite_float, add_setup_options
-
-    p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
-    p.add_argument("--rho", type=_finite_float, required=True, help="design parameter rho > 0")
-    p.add_argument("--eta", type=_finite_float, required=True, help="design parameter eta >= 1")
-    add_setup_options(p)
-    p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
-    p.add_argument("--seed", type=int, default=0, help="falsifier seed")
-    p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--output", help="write to this file instead of stdout")
-    p.set_defaults(func=_cmd_certify)

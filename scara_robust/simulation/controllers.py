@@ -4,7 +4,8 @@ Every controller reads the plant outputs ``q1, q2, q1_dot, q2_dot`` (rad, rad/s)
 knows the reference ``r(t)`` and its derivatives, and outputs ``Tc1, Tc2`` (N·m). An
 optional per-joint torque limit (N·m, off by default) saturates the output.
 
-Controllers are chosen by name through :data:`CONTROLLERS`.
+Controllers are chosen by name through :data:`CONTROLLERS`, whose entries carry what
+belongs to each controller: how to build it and, for a sampled law, its sample time.
 """
 
 from __future__ import annotations
@@ -17,15 +18,21 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice, check_real
-from .robot import ScaraParams, dynamics_terms
-from .signals import Reference, paper_reference
+from .._validation import check_array, check_choice, check_real
+from ..exceptions import ArgumentValueError
+from ..lyapunov.gain import design
+from ..model.robot import ScaraParams, dynamics_terms
+from ..model.signals import Reference, paper_reference
+from ..model.uncertain import paper_model
+from ..paper import PAPER_DESIGN_POINT
 
 __all__ = [
     "pid_controller",
     "SlidingModeGains",
     "sliding_mode_controller",
+    "ControllerKind",
     "CONTROLLERS",
+    "SAMPLE_TIMES",
     "make_controller",
     "check_torque_limit",
 ]
@@ -55,7 +62,7 @@ def check_torque_limit(torque_limit: Any) -> Array | None:
         return None
     limit = np.broadcast_to(check_array("torque_limit", torque_limit), (2,)).astype(float)
     if np.any(limit <= 0):
-        raise ValueError(f"`torque_limit` must be > 0 N·m, found {limit.tolist()}")
+        raise ArgumentValueError("torque_limit", f"must be > 0 N·m, found {limit.tolist()}")
     return limit
 
 
@@ -203,12 +210,10 @@ def sliding_mode_controller(
 
 
 def _pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
-    from .design import design
-    from .uncertain import paper_model
-
     K = kw.get("K")
     if K is None:
-        K = design(paper_model(), kw.get("rho", 3.0), kw.get("eta", 90.0)).K
+        rho, eta = kw.get("rho", PAPER_DESIGN_POINT[0]), kw.get("eta", PAPER_DESIGN_POINT[1])
+        K = design(paper_model(), rho, eta).K
     return pid_controller(K, kw.get("reference"), torque_limit=kw.get("torque_limit"))
 
 
@@ -226,13 +231,47 @@ def _smc_factory(variant: str) -> Callable[..., ct.NonlinearIOSystem]:
     return factory
 
 
+@dataclass(frozen=True)
+class ControllerKind:
+    """One entry of :data:`CONTROLLERS`: a controller by name and what belongs to it.
+
+    Attributes
+    ----------
+    name : str
+    build : callable
+        ``build(**options) -> control.NonlinearIOSystem``; see :func:`make_controller`.
+    sample_time : float or None
+        Period, s, at which the law runs sampled with a zero-order hold; None for a
+        continuous-time law.
+    description : str
+
+    Calling the entry builds the controller: ``CONTROLLERS['pid'](K=K)``.
+    """
+
+    name: str
+    build: Callable[..., ct.NonlinearIOSystem]
+    sample_time: float | None
+    description: str
+
+    def __call__(self, **options: Any) -> ct.NonlinearIOSystem:
+        return self.build(**options)
+
+
 #: Controllers by name: ``pid`` (designed at (ρ, η) = (3, 90) on the published model
-#: unless ``K`` is given), ``smc`` (boundary layer) and ``smc-sign`` (discontinuous).
-CONTROLLERS: dict[str, Callable[..., ct.NonlinearIOSystem]] = {
-    "pid": _pid_factory,
-    "smc": _smc_factory("boundary"),
-    "smc-sign": _smc_factory("sign"),
+#: unless ``K`` or ``rho``/``eta`` are given), ``smc`` (boundary layer, continuous) and
+#: ``smc-sign`` (discontinuous, sampled at 1 kHz: an adaptive integrator would crawl on
+#: its switching surface, and a real controller is sampled anyway).
+CONTROLLERS: dict[str, ControllerKind] = {
+    kind.name: kind
+    for kind in (
+        ControllerKind("pid", _pid_factory, None, "PID u = -K x of the paper"),
+        ControllerKind("smc", _smc_factory("boundary"), None, "sliding mode, boundary layer"),
+        ControllerKind("smc-sign", _smc_factory("sign"), 1e-3, "sliding mode, sign switching, sampled at 1 kHz"),
+    )
 }
+
+#: Sample time (s) of each sampled controller in :data:`CONTROLLERS` (read from the registry).
+SAMPLE_TIMES: dict[str, float] = {k.name: k.sample_time for k in CONTROLLERS.values() if k.sample_time is not None}
 
 
 def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:

@@ -41,42 +41,54 @@ Scenario file (every table optional; a missing one is the paper's)::
 
 from __future__ import annotations
 
+import errno
 import json
-import math
 import os
 import sys
-from collections.abc import Mapping
+import tempfile
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
-from .robot import ConstantPayload, PayloadProfile, ScaraParams, SinusoidalPayload, paper_payload
-from .signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
-from .simulation import Scenario
+from ._validation import describe, field_number, field_table
+from .exceptions import ArgumentValueError, InputFileError
+from .model.initial import Scenario
+from .model.robot import (
+    PARAM_UNITS,
+    ConstantPayload,
+    PayloadProfile,
+    ScaraParams,
+    SinusoidalPayload,
+    paper_payload,
+)
+from .model.signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
 
-__all__ = ["InputFileError", "ScenarioFile", "ROBOT_UNITS", "load_robot", "load_scenario"]
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
 
-#: Fields of the ``[robot]`` table and their units.
-ROBOT_UNITS = {
-    "m1": "kg",
-    "m2": "kg",
-    "L1": "m",
-    "L2": "m",
-    "Lc1": "m",
-    "Lc2": "m",
-    "I1": "kg·m²",
-    "I2": "kg·m²",
-    "cp": "m²",
-}
+__all__ = [
+    "ScenarioFile",
+    "ROBOT_UNITS",
+    "TABLE_FORMATS",
+    "read_mapping",
+    "load_robot",
+    "load_scenario",
+    "write_atomic",
+    "table_format",
+]
+
+#: Fields of the ``[robot]`` table and their units (those of :class:`~scara_robust.ScaraParams`).
+ROBOT_UNITS = PARAM_UNITS
 _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
     "payload": {"profile": "-", "offset": "kg", "amplitude": "kg", "omega": "rad/s", "phase": "rad", "mass": "kg"},
     "reference": {"amplitude": "rad", "omega": "rad/s"},
     "disturbance": {"amplitude": "N·m", "period": "s", "phase": "rad"},
     "initial": {"e0": "rad", "edot0": "rad/s"},
 }
-
-
-class InputFileError(ValueError):
-    """A robot or scenario file that cannot be used; the message names file and field."""
+#: Results tables by file extension.
+TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet"}
 
 
 @dataclass(frozen=True)
@@ -101,47 +113,50 @@ class ScenarioFile:
     initial: Scenario | None
 
 
-def _read(path: str | os.PathLike[str]) -> dict[str, Any]:
+def read_mapping(
+    path: str | os.PathLike[str],
+    *,
+    extensions: tuple[str, ...] = (".toml", ".json"),
+    error: type[InputFileError] = InputFileError,
+) -> dict[str, Any]:
+    """Read a TOML or JSON file (by extension) whose top level is a table.
+
+    Parameters
+    ----------
+    path : path-like
+    extensions : tuple of str
+        Accepted extensions, lower case with the dot.
+    error : type
+        The :class:`~scara_robust.exceptions.InputFileError` subclass to raise.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        If the extension is not accepted, the path is a folder, or the text is not
+        valid TOML/JSON with a table at the top level.
+    """
     text_path = os.fspath(path)
     ext = os.path.splitext(text_path)[1].lower()
-    if ext not in (".toml", ".json"):
-        raise InputFileError(f"{text_path!r}: expected a .toml or .json file")
+    if ext not in extensions:
+        raise error(f"{text_path!r}: expected a {' or '.join(extensions)} file")
     if os.path.isdir(text_path):
-        raise InputFileError(f"{text_path!r} is a directory, not a file")
+        raise error(f"{text_path!r} is a directory, not a file")
     with open(text_path, "rb") as fh:
         raw = fh.read()
     try:
-        if ext == ".json":
-            data = json.loads(raw.decode("utf-8"))
-        else:
-            if sys.version_info >= (3, 11):
-                import tomllib
-            else:  # pragma: no cover - Python 3.10
-                import tomli as tomllib
-            data = tomllib.loads(raw.decode("utf-8"))
+        text = raw.decode("utf-8")
+        data = json.loads(text) if ext == ".json" else tomllib.loads(text)
     except (ValueError, UnicodeDecodeError) as err:
-        raise InputFileError(f"{text_path!r} is not valid {ext[1:].upper()}: {err}") from err
+        raise error(f"{text_path!r} is not valid {ext[1:].upper()}: {err}") from err
     if not isinstance(data, dict):
-        raise InputFileError(f"{text_path!r}: expected a table of fields at the top level")
+        raise error(f"{text_path!r}: expected a table of fields at the top level")
     return data
-
-
-def _number(path: str, name: str, value: Any, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputFileError(f"{path!r}: field `{name}` must be a finite number in {unit}, found {value!r}")
-    return float(value)
-
-
-def _table(path: str, data: Mapping[str, Any], key: str, allowed: Mapping[str, str]) -> dict[str, Any]:
-    table = data.get(key, {})
-    if not isinstance(table, Mapping):
-        raise InputFileError(f"{path!r}: `{key}` must be a table, found {table!r}")
-    for name in table:
-        if name not in allowed:
-            raise InputFileError(
-                f"{path!r}: unknown field `{key}.{name}`; valid: {', '.join(f'{key}.{n}' for n in allowed)}"
-            )
-    return dict(table)
 
 
 def _top(path: str, data: Mapping[str, Any], tables: tuple[str, ...]) -> str:
@@ -150,7 +165,7 @@ def _top(path: str, data: Mapping[str, Any], tables: tuple[str, ...]) -> str:
             raise InputFileError(f"{path!r}: unknown field `{key}`; valid: name, {', '.join(tables)}")
     name = data.get("name", os.path.splitext(os.path.basename(path))[0])
     if not isinstance(name, str):
-        raise InputFileError(f"{path!r}: field `name` must be a string, found {name!r}")
+        raise InputFileError(f"{path!r}: field `name` must be a string, found {describe(name)}")
     return name
 
 
@@ -176,15 +191,15 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
         outside its physical range (the message names the field and its unit).
     """
     text_path = os.fspath(path)
-    data = _read(text_path)
+    data = read_mapping(text_path)
     _top(text_path, data, ("robot",))
-    table = _table(text_path, data, "robot", ROBOT_UNITS)
+    table = field_table(repr(text_path), data, "robot", ROBOT_UNITS)
     values = {}
     for f in fields(ScaraParams):
         unit = ROBOT_UNITS[f.name]
         if f.name not in table:
             raise InputFileError(f"{text_path!r}: missing field `robot.{f.name}` [{unit}]")
-        values[f.name] = _number(text_path, f"robot.{f.name}", table[f.name], unit)
+        values[f.name] = field_number(f"{text_path!r}:", f"robot.{f.name}", table[f.name], unit)
     try:
         return ScaraParams(**values)
     except ValueError as err:
@@ -212,9 +227,9 @@ def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
         Naming the field, as for :func:`load_robot`.
     """
     text_path = os.fspath(path)
-    data = _read(text_path)
+    data = read_mapping(text_path)
     name = _top(text_path, data, tuple(_SCENARIO_FIELDS))
-    tables = {key: _table(text_path, data, key, allowed) for key, allowed in _SCENARIO_FIELDS.items()}
+    tables = {key: field_table(repr(text_path), data, key, allowed) for key, allowed in _SCENARIO_FIELDS.items()}
 
     def num(key: str, field: str, default: float | None = None) -> float:
         table = tables[key]
@@ -223,7 +238,7 @@ def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
                 unit = _SCENARIO_FIELDS[key][field]
                 raise InputFileError(f"{text_path!r}: missing field `{key}.{field}` [{unit}]")
             return default
-        return _number(text_path, f"{key}.{field}", table[field], _SCENARIO_FIELDS[key][field])
+        return field_number(f"{text_path!r}:", f"{key}.{field}", table[field], _SCENARIO_FIELDS[key][field])
 
     try:
         payload: PayloadProfile = paper_payload()
@@ -267,10 +282,75 @@ def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
                     raise InputFileError(
                         f"{text_path!r}: field `initial.{key}` must be a pair of numbers in {unit}, found {value!r}"
                     )
-                pair[key] = tuple(_number(text_path, f"initial.{key}", v, unit) for v in value)
+                pair[key] = tuple(field_number(f"{text_path!r}:", f"initial.{key}", v, unit) for v in value)
             initial = Scenario(name, pair["e0"], pair["edot0"])  # type: ignore[arg-type]
     except InputFileError:
         raise
     except ValueError as err:
         raise InputFileError(f"{text_path!r}: {err}") from err
     return ScenarioFile(name, payload, reference, disturbance, initial)
+
+
+def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> None:
+    """Call ``write(tmp_path)`` then rename the temporary file onto `path`.
+
+    The temporary file sits in the target folder, so the rename is atomic: an
+    interrupted or failed write leaves an existing `path` as it was and no temporary
+    behind.
+
+    Parameters
+    ----------
+    path : path-like
+        Destination file.
+    write : callable
+        ``write(tmp_path) -> None`` writes the whole content to ``tmp_path``.
+
+    Raises
+    ------
+    OSError
+        If the folder does not exist or is not writable, or `path` is a folder.
+    """
+    text_path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(text_path))
+    if os.path.isdir(text_path):
+        raise IsADirectoryError(errno.EISDIR, "is a directory", text_path)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.splitext(text_path)[1])
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, text_path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def table_format(name: str, path: str | os.PathLike[str]) -> str:
+    """The format of a results table from its extension, checking that it can be read or written.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the error.
+    path : path-like
+
+    Returns
+    -------
+    {'csv', 'parquet'}
+
+    Raises
+    ------
+    ArgumentValueError
+        If the extension is not ``.csv`` or ``.parquet``, or parquet is asked for without pyarrow.
+    """
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in TABLE_FORMATS:
+        raise ArgumentValueError(name, f"must end in .csv or .parquet, found {os.fspath(path)!r}")
+    if TABLE_FORMATS[ext] == "parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError as err:
+            raise ArgumentValueError(
+                name, f"{os.fspath(path)!r}: parquet files need pyarrow: pip install scara_robust[parquet], or use .csv"
+            ) from err
+    return TABLE_FORMATS[ext]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice
+from .._validation import check_array, check_choice
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "NOT_INSTALLED", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
 

@@ -22,11 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice, check_int, check_symmetric
-from .design import Design
-from .robot import PayloadProfile, ScaraParams
-from .signals import Reference
-from .uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
+from .._validation import check_array, check_choice, check_int, check_symmetric
+from ..lyapunov.gain import Design
+from ..model.robot import PayloadProfile, ScaraParams
+from ..model.signals import Reference
+from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
 
 __all__ = [
     "PolytopeCertificate",

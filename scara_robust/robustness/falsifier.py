@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_int, check_real, check_symmetric
+from .._validation import check_array, check_int, check_real, check_symmetric
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 

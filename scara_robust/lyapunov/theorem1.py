@@ -20,9 +20,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from ._validation import check_choice, check_real
-from .design import Design
-from .uncertain import ELEMENT_SETS, UncertainLTVModel
+from .._validation import check_choice, check_real
+from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
+from .gain import Design
 
 __all__ = ["Certificate", "UltimateBound", "certify", "theorem1_z", "positive_part", "rank2_positive_part"]
 

@@ -23,10 +23,12 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_callable, check_real
+from .._validation import check_array, check_callable, check_real
+from ..paper import PAPER_PAYLOAD_FRACTION
 
 __all__ = [
     "ScaraParams",
+    "PARAM_UNITS",
     "SinusoidalPayload",
     "ConstantPayload",
     "paper_params",
@@ -45,6 +47,20 @@ __all__ = [
 
 Array = NDArray[np.float64]
 PayloadProfile = Callable[[Any], Any]
+
+
+#: Unit of every field of :class:`ScaraParams` (the one list of them).
+PARAM_UNITS: dict[str, str] = {
+    "m1": "kg",
+    "m2": "kg",
+    "L1": "m",
+    "L2": "m",
+    "Lc1": "m",
+    "Lc2": "m",
+    "I1": "kg·m²",
+    "I2": "kg·m²",
+    "cp": "m²",
+}
 
 
 @dataclass(frozen=True)
@@ -94,7 +110,7 @@ class ScaraParams:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            unit = {"m": "kg", "L": "m", "I": "kg·m²", "c": "m²"}[f.name[0]]
+            unit = PARAM_UNITS[f.name]
             strict = f.name[0] in "mL"
             checked = check_real(f"{f.name} [{unit}]", value, positive=strict, nonnegative=not strict)
             object.__setattr__(self, f.name, checked)
@@ -207,7 +223,7 @@ def paper_payload(params: ScaraParams | None = None) -> SinusoidalPayload:
     Paper, Section 4.
     """
     m2 = (params or ScaraParams()).m2
-    return SinusoidalPayload(offset=0.3 * m2, amplitude=0.3 * m2, omega=1.0)
+    return SinusoidalPayload(offset=PAPER_PAYLOAD_FRACTION * m2, amplitude=PAPER_PAYLOAD_FRACTION * m2, omega=1.0)
 
 
 def payload_range(payload: PayloadProfile, times: ArrayLike | None = None) -> tuple[float, float]:

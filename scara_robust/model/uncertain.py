@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice, check_int, check_real
+from .._validation import check_array, check_choice, check_int, check_real
+from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
 from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
 from .signals import Reference, paper_reference
 
@@ -283,12 +284,6 @@ def pid_state_matrices(a_star: ArrayLike, b_star: ArrayLike) -> tuple[Array, Arr
     return A, B
 
 
-#: Published A* (rows 5-6, columns 4-6 of A) and B*; paper Section 4.
-PAPER_A_STAR = np.array([[-0.30, -0.28, -0.42], [-2.56, -4.26, -2.49]])
-PAPER_B_STAR = np.array([[-2.18, 1.74], [1.74, -8.98]])
-#: Upper bounds of Tables 1 and 2 (lower bounds all 0).
-PAPER_TABLE1 = np.array([[1.75, 2.38, 2.00], [3.18, 4.70, 3.23]])
-PAPER_TABLE2 = np.array([[0.97, 1.92], [1.92, 5.08]])
 
 
 def paper_model() -> UncertainLTVModel:

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_callable, check_real
+from .._validation import check_array, check_callable, check_real
+from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD
 
 __all__ = ["Reference", "paper_reference", "sinusoidal_reference", "SquareWave", "paper_disturbance"]
 
@@ -167,8 +168,8 @@ class SquareWave:
     [5.0, 5.0]
     """
 
-    amplitude: float = 5.0
-    period: float = np.pi / 5
+    amplitude: float = PAPER_DISTURBANCE_AMPLITUDE
+    period: float = PAPER_DISTURBANCE_PERIOD
     phase: float = 0.0
     signs: tuple[float, float] = (1.0, 1.0)
 

@@ -11,7 +11,7 @@ solution P is fixed, ``K = η K₁`` with ``K₁ = ρBᵀP``, and every E_j of a
 
 Every E_j is rank one (``E_j = a_j b_jᵀ``), so every Ψ_j is ``u vᵀ + v uᵀ`` with
 ``u = P a_j`` and its positive part has a closed form
-(:func:`scara_robust.certificate.rank2_positive_part`): each ρ costs one Riccati solve
+(:func:`scara_robust.lyapunov.theorem1.rank2_positive_part`): each ρ costs one Riccati solve
 and a few small matrix products, all batched over ρ, and each grid point one batched 6x6
 symmetric eigenvalue. The Hurwitz flags come from a Lyapunov argument: ``PĀ + ĀᵀP =
 N₀ + ηN₁`` with ``N₁ = −2ρPBBᵀP ⪯ 0``, so one eigenvalue per ρ proves all η at once;
@@ -21,16 +21,16 @@ closed-loop eigenvalues are computed only where that proof fails.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array, check_choice
-from .certificate import certify, rank2_positive_part
-from .design import design, riccati_solution
-from .uncertain import ELEMENT_SETS, UncertainLTVModel
+from .._validation import check_array, check_choice
+from ..exceptions import ArgumentValueError
+from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
+from .gain import design, riccati_solution
+from .theorem1 import certify, rank2_positive_part
 
 __all__ = ["DesignSurface", "design_surface", "SURFACE_METHODS"]
 
@@ -94,21 +94,15 @@ class DesignSurface:
         i, k = np.unravel_index(int(np.argmin(masked)), masked.shape)
         return float(self.rhos[i]), float(self.etas[k]), float(self.max_eig[i, k])
 
-    def plot(self, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
-        """3D plot; see :func:`scara_robust.plotting.plot_surface`."""
-        from .plotting import plot_surface
-
-        return plot_surface(self, mark=mark, ax=ax)
-
 
 def _grid(name: str, values: ArrayLike, minimum: float, strict: bool) -> Array:
     arr = check_array(name, values, ndim=1)
     if arr.size == 0:
-        raise ValueError(f"`{name}` must hold at least one value, found none")
+        raise ArgumentValueError(name, "must hold at least one value, found none")
     bad = arr <= minimum if strict else arr < minimum
     if bad.any():
         op = ">" if strict else ">="
-        raise ValueError(f"`{name}` must be {op} {minimum}, found {arr[bad][0]}")
+        raise ArgumentValueError(name, f"must be {op} {minimum}, found {arr[bad][0]}")
     return arr
 
 

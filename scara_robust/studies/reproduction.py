@@ -13,28 +13,16 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ._validation import check_array
-from .certificate import certify
+from .._validation import check_array
+from ..lyapunov.gain import design
+from ..lyapunov.surface import DesignSurface, design_surface
+from ..lyapunov.theorem1 import certify
+from ..model.uncertain import paper_model
+from ..paper import PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS
+from ..simulation.metrics import METRIC_NAMES
 from .comparison import compare_controllers
-from .design import design
-from .metrics import METRIC_NAMES
-from .surface import DesignSurface, design_surface
-from .uncertain import paper_model
 
-__all__ = [
-    "PAPER_GAIN",
-    "PAPER_GAIN_DECIMALS",
-    "PAPER_DESIGN_POINT",
-    "gain_digits_matched",
-    "reproduction_table",
-]
-
-#: The gain K at (ρ, η) = (3, 90) as printed in the paper's Section 4, shape (2, 6).
-PAPER_GAIN = np.array([[-156.0, -10.9, -294.0, -5.5, -173.0, 2.4], [10.9, -156.0, 14.9, -260.0, 28.0, -150.0]])
-#: Decimal places printed for each entry of :data:`PAPER_GAIN`.
-PAPER_GAIN_DECIMALS = np.array([[0, 1, 0, 1, 0, 1], [1, 0, 1, 0, 0, 0]])
-#: The paper's selected design parameters (ρ*, η*) (Section 4, Figure 2).
-PAPER_DESIGN_POINT = (3.0, 90.0)
+__all__ = ["gain_digits_matched", "reproduction_table"]
 
 _COLUMNS = ["claim", "source", "paper", "package", "unit", "holds"]
 

@@ -1,0 +1,77 @@
+"""``campaign``: a Monte-Carlo campaign from a TOML spec."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from typing import Any
+
+from ..studies.campaign.runner import SCHEDULERS, run_campaign
+from ..studies.campaign.spec import SPEC_FIELDS, load_spec
+from ._common import CommandLineError, output_exists, resolve_setup
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``campaign``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
+    p = sub.add_parser(
+        "campaign",
+        help="Monte-Carlo campaign: draw scenarios from a TOML spec, simulate every controller",
+        description="Fields of the spec (TOML): controllers, t_final [s], rho, eta, payload_profiles, runs, seed, "
+        + ", ".join(f"{n} [{v[0]}]" for n, v in SPEC_FIELDS.items())
+        + "; each drawn field is a number or {min = ..., max = ...}. See examples/campaign.toml.",
+    )
+    p.add_argument("spec", help="campaign spec, TOML")
+    p.add_argument("--robot", metavar="FILE", help="robot file (default: the paper's robot); cp is drawn by the spec")
+    p.add_argument("--runs", type=int, help="number of scenarios (default: the spec's)")
+    p.add_argument("--seed", type=int, help="seed (default: the spec's)")
+    p.add_argument("--workers", type=int, default=1, help="processes or dask workers (default 1)")
+    p.add_argument("--scheduler", choices=SCHEDULERS, default="local")
+    p.add_argument("--address", help="address of a running dask scheduler (with --scheduler dask)")
+    # dest is not `output`: the summary line goes to stdout, the table to this file
+    p.add_argument("--output", dest="results", help="results file, .csv or .parquet (default results.csv)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted campaign in --output")
+    p.add_argument("--chunk-size", type=int, default=4, help="scenarios per task (default 4)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> str:
+    """Run the campaign; the summary line to print.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    spec = load_spec(args.spec)
+    if args.robot is not None:
+        spec = replace(spec, robot=resolve_setup(args).params)
+    output = args.results or "results.csv"
+    if output_exists(output) and not args.resume:
+        raise CommandLineError(f"`--output` {output!r} exists; pass --resume to continue it, or choose another file")
+    table = run_campaign(
+        spec,
+        output,
+        runs=args.runs,
+        seed=args.seed,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        address=args.address,
+        resume=args.resume,
+        chunk_size=args.chunk_size,
+        progress=True,
+    )
+    failures = int((~table["success"].astype(bool)).sum())
+    return (
+        f"campaign: {table['scenario'].nunique()} scenarios x {len(spec.controllers)} controllers "
+        f"= {len(table)} rows in {output} ({failures} failed runs)"
+    )

@@ -1,0 +1,77 @@
+"""``certify``: every certificate of one design (Theorem 1, vertex, physical, LMI, falsifier)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from ..lyapunov.gain import design
+from ..robustness.table import certificate_table
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``certify``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
+    p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
+    p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
+    p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
+    add_setup_options(p)
+    p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
+    p.add_argument("--seed", type=int, default=0, help="falsifier seed")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--output", help="write to this file instead of stdout")
+    p.set_defaults(func=run)
+
+
+def _json_value(value: Any) -> Any:
+    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        return None
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def run(args: argparse.Namespace) -> str:
+    """Run the certificate table; the text or JSON to print.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    if args.tries < 1:
+        raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
+    setup = resolve_setup(args)
+    model = resolve_model(args, setup)
+    d = design(model, args.rho, args.eta)
+    table = certificate_table(
+        model,
+        d,
+        params=setup.params,
+        reference=setup.reference,
+        payload=setup.payload,
+        falsifier_tries=args.tries,
+        seed=args.seed,
+    )
+    if args.format == "json":
+        records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        return json.dumps(records, indent=2)
+    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {resolve_bounds(args, setup)}"
+    shown = table.drop(columns="detail").assign(
+        certified=table["certified"].map({True: "yes", False: "no", None: "-"})
+    )
+    details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
+    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details])

@@ -1,0 +1,16 @@
+"""The plant: the SCARA of Eq. (1), its signals, initial conditions and uncertain models.
+
+The bottom layer of the package; it imports only :mod:`scara_robust.paper` and the
+validation helpers.
+"""
+
+from .initial import *  # noqa: F403
+from .initial import __all__ as _initial
+from .robot import *  # noqa: F403
+from .robot import __all__ as _robot
+from .signals import *  # noqa: F403
+from .signals import __all__ as _signals
+from .uncertain import *  # noqa: F403
+from .uncertain import __all__ as _uncertain
+
+__all__ = [*_robot, *_signals, *_initial, *_uncertain]

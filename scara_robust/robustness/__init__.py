@@ -1,0 +1,15 @@
+"""Beyond Theorem 1: exact polytope tests, common-P LMIs, the falsifier, the certificate table.
+
+Imports :mod:`scara_robust.model` and :mod:`scara_robust.lyapunov` below it.
+"""
+
+from .falsifier import *  # noqa: F403
+from .falsifier import __all__ as _falsifier
+from .lmi import *  # noqa: F403
+from .lmi import __all__ as _lmi
+from .polytope import *  # noqa: F403
+from .polytope import __all__ as _polytope
+from .table import *  # noqa: F403
+from .table import __all__ as _table
+
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table]

@@ -1,0 +1,320 @@
+"""Closed-loop runs of a controller on the nonlinear SCARA (paper Section 4).
+
+:func:`simulate` integrates one loop with an engine chosen by name
+(:data:`~scara_robust.simulation.engines.ENGINES`); :func:`run_scenario` builds a named
+controller for the paper's signals (or yours) and simulates it. Campaigns, the
+comparison and the command line all run through :func:`run_scenario`.
+
+Times in s, angles in rad, torques in N·m, masses in kg.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import control as ct
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_choice, check_instance, check_real
+from ..exceptions import ArgumentValueError
+from ..model.initial import SCENARIOS, Scenario
+from ..model.robot import ConstantPayload, PayloadProfile, ScaraParams, paper_payload
+from ..model.signals import Reference, SquareWave, paper_disturbance, paper_reference
+from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
+from .controllers import CONTROLLERS, make_controller
+from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Trajectory, integrate
+from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
+from .metrics import TrackingMetrics, tracking_metrics
+
+__all__ = ["SimulationResult", "simulate", "run_scenario"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """One closed-loop run.
+
+    Attributes
+    ----------
+    response : control.TimeResponseData
+        python-control's response (``.to_pandas()`` gives a table); outputs ``q1, q2,
+        q1_dot, q2_dot, Tc1, Tc2, Td1, Td2``.
+    t : ndarray, shape (k,)
+        Sample times, s.
+    e : ndarray, shape (2, k)
+        ``r - q``, rad.
+    edot : ndarray, shape (2, k)
+        ``ṙ - q̇``, rad/s.
+    torque : ndarray, shape (2, k)
+        Control torque T_c, N·m.
+    disturbance : ndarray, shape (2, k)
+        T_d, N·m.
+    payload : ndarray, shape (k,)
+        m_p(t), kg.
+    success : bool
+        False when the integrator failed or the run diverged.
+    diverged : bool
+        The error exceeded ``divergence_limit``; the run stopped there.
+    message : str
+    controller, scenario : str
+    method : str
+        The engine that integrated the run (a key of :data:`scara_robust.ENGINES`).
+    """
+
+    response: ct.TimeResponseData
+    t: Array
+    e: Array
+    edot: Array
+    torque: Array
+    disturbance: Array
+    payload: Array
+    success: bool
+    diverged: bool
+    message: str
+    controller: str
+    scenario: str
+    method: str = DEFAULT_ENGINE
+
+    def metrics(self, t_transient: float = PAPER_TRANSIENT) -> TrackingMetrics:
+        """:func:`scara_robust.tracking_metrics` of this run after `t_transient` (s)."""
+        return tracking_metrics(self.t, self.e, self.torque, t_transient=t_transient)
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Time series: t, e1, e2, e1_dot, e2_dot, Tc1, Tc2, Td1, Td2, m_p."""
+        return pd.DataFrame(
+            {
+                "t": self.t,
+                "e1": self.e[0],
+                "e2": self.e[1],
+                "e1_dot": self.edot[0],
+                "e2_dot": self.edot[1],
+                "Tc1": self.torque[0],
+                "Tc2": self.torque[1],
+                "Td1": self.disturbance[0],
+                "Td2": self.disturbance[1],
+                "m_p": self.payload,
+            }
+        )
+
+
+def _result(loop: ClosedLoop, traj: Trajectory, scenario: str, method: str) -> SimulationResult:
+    t, X = traj.t, traj.x
+    Y = loop.outputs(t, X)
+    response = ct.TimeResponseData(
+        t,
+        Y,
+        X,
+        None,
+        output_labels=list(OUTPUT_LABELS),
+        state_labels=loop.state_labels,
+        title=f"{loop.controller.name}, scenario {scenario}",
+        issiso=False,
+    )
+    # element by element: a user's reference need not be vectorized
+    r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+    rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+    return SimulationResult(
+        response=response,
+        t=t,
+        e=r - Y[0:2],
+        edot=rd - Y[2:4],
+        torque=Y[4:6],
+        disturbance=Y[6:8],
+        payload=np.broadcast_to(np.asarray(loop.payload(t), dtype=float), t.shape).copy(),
+        success=traj.success,
+        diverged=traj.diverged,
+        message=traj.message,
+        controller=loop.controller.name,
+        scenario=scenario,
+        method=method,
+    )
+
+
+def _engine_name(method: str | None, sample_time: float | None) -> str:
+    if method == "fast":  # the name of 0.1, kept for old scripts
+        warnings.warn(
+            "simulate(method='fast') is deprecated: it names a speed, not an algorithm; use method='lsoda' "
+            "(continuous controllers) or 'rk4' (sampled), or leave method unset",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        method = None
+    if method is None:
+        return SAMPLED_ENGINE if sample_time is not None else DEFAULT_ENGINE
+    name = check_choice("method", method, tuple(ENGINES))
+    if sample_time is not None and not ENGINES[name].sampled:
+        sampled = ", ".join(repr(n) for n, e in ENGINES.items() if e.sampled)
+        raise ArgumentValueError("method", f"must be {sampled} for a sampled controller, found {name!r}")
+    return name
+
+
+def simulate(
+    controller: ct.NonlinearIOSystem | str,
+    scenario: Scenario | str = "large",
+    *,
+    params: ScaraParams | None = None,
+    payload: PayloadProfile | None = None,
+    reference: Reference | None = None,
+    disturbance: SquareWave | None = None,
+    t_final: float = PAPER_T_FINAL,
+    dt: float = 1e-3,
+    x0: ArrayLike | None = None,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    divergence_limit: float = DIVERGENCE_LIMIT,
+    method: str | None = None,
+    sample_time: float | None = None,
+) -> SimulationResult:
+    """Simulate one controller on the nonlinear SCARA.
+
+    Parameters
+    ----------
+    controller : control.NonlinearIOSystem or str
+        A controller system (inputs ``q1, q2, q1_dot, q2_dot``, outputs ``Tc1, Tc2``)
+        or a name from :data:`scara_robust.CONTROLLERS` (which brings its sample time).
+    scenario : Scenario or {'large', 'small'}
+        Initial tracking error.
+    params : ScaraParams, optional
+    payload : callable, optional
+        ``m_p(t)`` in kg (default: the paper's sinusoid).
+    reference : Reference, optional
+        Must be the reference the controller tracks (default: the paper's).
+    disturbance : SquareWave, optional
+        Default: ±5 N·m, period π/5 s.
+    t_final : float
+        Horizon, s (> 0).
+    dt : float
+        Output sample spacing, s (> 0), for the continuous engines.
+    x0 : array_like, shape (4 + n_c,), optional
+        Full initial state (plant then controller), overriding `scenario`.
+    rtol, atol : float
+        Tolerances of the adaptive engines.
+    divergence_limit : float
+        A run whose ``max |e|`` exceeds this (rad) stops and is flagged diverged.
+    method : {'lsoda', 'interconnect', 'rk4'}, optional
+        The engine, from :data:`scara_robust.ENGINES`. Default ``'lsoda'`` for a
+        continuous controller and ``'rk4'`` for a sampled one. ``'interconnect'`` is the
+        reference path (python-control's ``interconnect`` and ``input_output_response``,
+        RK45). ``'fast'``, the name of version 0.1, is a deprecated alias of the default.
+    sample_time : float, optional
+        Run the controller sampled with this period (s, > 0) and a zero-order hold,
+        integrated by ``'rk4'`` with that step (the output grid is then the sample
+        grid). Default: the registry's sample time for a named controller, none for a
+        system.
+
+    Returns
+    -------
+    SimulationResult
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> res = sr.simulate("pid", "small", t_final=0.5)
+    >>> res.e.shape[0], res.success, res.method
+    (2, True, 'lsoda')
+    """
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    if isinstance(controller, str):
+        name = check_choice("controller", controller, tuple(CONTROLLERS))
+        if sample_time is None:
+            sample_time = CONTROLLERS[name].sample_time
+        controller = make_controller(name, params=params, reference=reference)
+    check_instance("controller", controller, ct.NonlinearIOSystem, "a name or a control.NonlinearIOSystem")
+    if isinstance(scenario, str):
+        scenario = SCENARIOS[check_choice("scenario", scenario, tuple(SCENARIOS))]
+    check_instance("scenario", scenario, Scenario, "a name or a Scenario")
+    t_final = check_real("t_final", t_final, positive=True)
+    dt = check_real("dt", dt, positive=True)
+    rtol = check_real("rtol", rtol, positive=True)
+    atol = check_real("atol", atol, positive=True)
+    limit = check_real("divergence_limit", divergence_limit, positive=True)
+    if sample_time is not None:
+        sample_time = check_real("sample_time", sample_time, positive=True)
+    engine = _engine_name(method, sample_time)
+    loop = ClosedLoop(
+        controller,
+        params,
+        payload if payload is not None else paper_payload(params),
+        reference,
+        disturbance or paper_disturbance(),
+        sample_time,
+    )
+    if x0 is None:
+        x_init = np.concatenate([scenario.initial_state(reference), np.zeros(int(controller.nstates))])
+    else:
+        x_init = check_array("x0", x0, shape=(loop.n_states,))
+    traj = integrate(
+        ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
+    )
+    return _result(loop, traj, scenario.name, engine)
+
+
+def run_scenario(
+    controller: str,
+    scenario: Scenario | str,
+    *,
+    payload_on: bool = True,
+    t_final: float = PAPER_T_FINAL,
+    torque_limit: Any = None,
+    params: ScaraParams | None = None,
+    method: str | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    disturbance: SquareWave | None = None,
+    K: ArrayLike | None = None,
+) -> SimulationResult:
+    """Run a named controller on a scenario (the paper's signals unless given).
+
+    Parameters
+    ----------
+    controller : {'pid', 'smc', 'smc-sign'}
+        A name from :data:`scara_robust.CONTROLLERS`; a sampled one (``smc-sign``, 1 ms)
+        runs with its sample time.
+    scenario : Scenario or {'large', 'small'}
+    payload_on : bool
+        False sets ``m_p = 0`` (the setting of Figures 4-5).
+    t_final : float
+        Horizon, s.
+    torque_limit : float or array_like of shape (2,), optional
+        Per-joint saturation, N·m.
+    params : ScaraParams, optional
+        The robot (default: the paper's); the sliding-mode law uses it without payload.
+    method : {'lsoda', 'interconnect', 'rk4'}, optional
+        The engine (see :func:`simulate`).
+    reference, payload, disturbance : optional
+        Default: the paper's ``sin t, cos t``, ``0.3 m2 (sin t + 1)`` and ±5 N·m square waves.
+    K : array_like, shape (2, 6), optional
+        PID gain (default: designed at (3, 90) on the published model).
+
+    Returns
+    -------
+    SimulationResult
+    """
+    name = check_choice("controller", controller, tuple(CONTROLLERS))
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    options: dict[str, Any] = {"params": params, "reference": reference, "torque_limit": torque_limit}
+    if K is not None and name == "pid":
+        options["K"] = K
+    ctrl = make_controller(name, **options)
+    if payload_on:
+        profile = payload if payload is not None else paper_payload(params)
+    else:
+        profile = ConstantPayload(0.0)
+    return simulate(
+        ctrl,
+        scenario,
+        params=params,
+        payload=profile,
+        reference=reference,
+        disturbance=disturbance,
+        t_final=t_final,
+        method=method,
+        sample_time=CONTROLLERS[name].sample_time,
+    )

@@ -1,0 +1,11 @@
+"""Monte-Carlo robustness campaigns: specs (:mod:`.spec`), runs (:mod:`.runner`), statistics (:mod:`.report`)."""
+
+from ...exceptions import CampaignSpecError as CampaignSpecError  # where the old module had it
+from .report import *  # noqa: F403
+from .report import __all__ as _report
+from .runner import *  # noqa: F403
+from .runner import __all__ as _runner
+from .spec import *  # noqa: F403
+from .spec import __all__ as _spec
+
+__all__ = [*_spec, *_runner, *_report]

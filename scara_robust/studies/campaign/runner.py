@@ -1,0 +1,297 @@
+"""Running a campaign: every controller on every drawn scenario, chunked, resumable, local or on Dask.
+
+:func:`run_campaign` simulates the scenarios of a :class:`~scara_robust.CampaignSpec` in
+chunks, locally (one process, or a pool of processes) or on a ``dask.distributed``
+cluster (extra ``dask``), and rewrites the results file atomically after every chunk, so
+an interrupted campaign keeps every chunk it finished and ``resume=True`` runs only the
+rest. A failed run (diverged, solver error) becomes a row with its error; it never stops
+the campaign. Each run goes through :func:`scara_robust.run_scenario`, like every other
+run of the package.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import replace
+from typing import Any
+
+import pandas as pd
+from tqdm import tqdm
+
+from ..._validation import check_choice, check_instance, check_int
+from ...exceptions import ArgumentValueError
+from ...io import table_format, write_atomic
+from ...lyapunov.gain import design
+from ...model.initial import Scenario
+from ...model.robot import ConstantPayload, SinusoidalPayload
+from ...model.signals import SquareWave, sinusoidal_reference
+from ...model.uncertain import paper_model
+from ...simulation.metrics import METRIC_NAMES
+from ...simulation.run import run_scenario
+from .spec import SPEC_FIELDS, CampaignSpec, draw_scenario
+
+__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "run_draw", "run_campaign", "read_results"]
+
+#: Where :func:`run_campaign` can run.
+SCHEDULERS = ("local", "dask")
+
+
+def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Simulate every controller of `spec` on one drawn scenario; one row each.
+
+    A run that raises or diverges gives a row with ``success = False`` and its
+    ``error``; metrics that do not exist are NaN.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    draw : mapping
+        From :func:`draw_scenario`.
+
+    Returns
+    -------
+    list of dict
+        One row per controller: the drawn inputs, ``controller``, ``success``,
+        ``diverged``, ``error`` and the metrics of :func:`scara_robust.tracking_metrics`.
+    """
+    params = replace(spec.robot, cp=draw["cp"])
+    peak = draw["payload_peak"]
+    if draw["payload_profile"] == "sinusoidal":
+        payload: Any = SinusoidalPayload(0.5 * peak, 0.5 * peak, draw["payload_omega"], draw["payload_phase"])
+    else:
+        payload = ConstantPayload(peak)
+    reference = sinusoidal_reference(draw["reference_amplitude"], draw["reference_omega"])
+    wave = SquareWave(draw["disturbance_amplitude"], draw["disturbance_period"], draw["disturbance_phase"])
+    scenario = Scenario(f"mc-{draw['scenario']}", (draw["e1_0"], draw["e2_0"]), (0.0, 0.0))
+    limit = None if math.isinf(draw["torque_limit"]) else draw["torque_limit"]
+    K = design(paper_model(), spec.rho, spec.eta).K if "pid" in spec.controllers else None
+    rows = []
+    for name in spec.controllers:
+        row: dict[str, Any] = dict(draw)
+        row["controller"] = name
+        metrics = dict.fromkeys(METRIC_NAMES, math.nan)
+        try:
+            result = run_scenario(
+                name,
+                scenario,
+                t_final=spec.t_final,
+                torque_limit=limit,
+                params=params,
+                reference=reference,
+                payload=payload,
+                disturbance=wave,
+                K=K,
+            )
+            row.update(success=result.success, diverged=result.diverged, error="" if result.success else result.message)
+            if result.success:
+                metrics = result.metrics().to_dict()
+        except Exception as err:  # a failed scenario is data, not a crash
+            row.update(success=False, diverged=False, error=f"{type(err).__name__}: {err}")
+        row.update(metrics)
+        rows.append(row)
+    return rows
+
+
+def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int]) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    for i in indices:
+        rows.extend(run_draw(spec, draw_scenario(spec, seed, i)))
+    return rows
+
+
+#: Columns of a results table, in order.
+_DRAWN = ("payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0")
+RESULT_COLUMNS = ("scenario", "controller", "success", "diverged", "error", *METRIC_NAMES, *_DRAWN, "seed", "spec")
+
+
+def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
+    """Read a campaign results file (``.csv`` or ``.parquet``).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (scenario, controller); ``error`` is a string (empty when none).
+
+
+    Raises
+    ------
+    OSError
+        If it cannot be read.
+    ValueError
+        If the extension is not ``.csv`` or ``.parquet`` or the file is not a campaign table.
+    """
+    fmt = table_format("path", path)
+    frame = pd.read_csv(path, keep_default_na=False, na_values=["", "NaN", "nan"]) if fmt == "csv" else (
+        pd.read_parquet(path)
+    )
+    missing = {"scenario", "controller", "success", "seed", "spec"} - set(frame.columns)
+    if missing:
+        found = f"{os.fspath(path)!r} is not a campaign table: missing columns {sorted(missing)}"
+        raise ArgumentValueError("path", found)
+    frame["error"] = ["" if isinstance(v, float) and math.isnan(v) else str(v) for v in frame["error"]]
+    return frame
+
+
+def _write(path: str, frame: pd.DataFrame) -> None:
+    if table_format("output", path) == "csv":
+        write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False))
+    else:
+        write_atomic(path, lambda tmp: frame.to_parquet(tmp, index=False))
+
+
+def _normalize(frame: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
+    frame = frame[columns].sort_values(["scenario", "controller"], kind="stable").reset_index(drop=True)
+    return frame.astype({"scenario": int, "seed": int, "success": bool, "diverged": bool, "error": str})
+
+
+def _chunks(indices: Sequence[int], size: int) -> Iterator[list[int]]:
+    for start in range(0, len(indices), size):
+        yield list(indices[start : start + size])
+
+
+def run_campaign(
+    spec: CampaignSpec,
+    output: str | os.PathLike[str],
+    *,
+    runs: int | None = None,
+    seed: int | None = None,
+    workers: int = 1,
+    scheduler: str = "local",
+    address: str | None = None,
+    resume: bool = False,
+    chunk_size: int = 4,
+    progress: bool = False,
+    on_chunk: Callable[[int], None] | None = None,
+) -> pd.DataFrame:
+    """Run a campaign and store one row per (scenario, controller) in `output`.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    output : path
+        ``.csv`` or ``.parquet`` file, rewritten atomically after every chunk, sorted by
+        scenario and controller.
+    runs, seed : int, optional
+        Number of scenarios and seed (default: the spec's).
+    workers : int
+        Processes (local) or workers of the ``LocalCluster`` (dask), >= 1. One local
+        worker runs in this process.
+    scheduler : {'local', 'dask'}
+    address : str, optional
+        Address of a running dask scheduler (default: start a ``LocalCluster``).
+    resume : bool
+        Continue an existing `output` of the same spec and seed, running only the
+        scenarios it lacks. Without it, an existing `output` is an error (never
+        overwritten).
+    chunk_size : int
+        Scenarios per task (>= 1).
+    progress : bool
+        A tqdm bar over scenarios on stderr.
+    on_chunk : callable, optional
+        Called with the number of scenarios stored after each chunk is written.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The whole table, as stored.
+    """
+    check_instance("spec", spec, CampaignSpec, "a CampaignSpec (see load_spec)")
+    check_choice("scheduler", scheduler, SCHEDULERS)
+    runs = spec.runs if runs is None else runs
+    seed = spec.seed if seed is None else seed
+    checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
+    for name, value, low in checks:
+        check_int(name, value, low)
+    path = os.fspath(output)
+    table_format("output", path)
+    columns = list(RESULT_COLUMNS)
+    digest = spec.digest()
+    done: set[int] = set()
+    stored = pd.DataFrame(columns=columns)
+    if os.path.exists(path):
+        if not resume:
+            raise FileExistsError(f"{path!r} exists; pass resume=True to continue it, or choose another file")
+        stored = read_results(path)
+        other = stored[(stored["spec"] != digest) | (stored["seed"] != seed)]
+        if len(other):
+            raise ArgumentValueError("resume", f"cannot continue {path!r}: it holds rows of another spec or seed")
+        counts = stored.groupby("scenario")["controller"].nunique()
+        done = set(counts[counts == len(spec.controllers)].index.astype(int))
+        stored = stored[stored["scenario"].isin(done)]
+    todo = [i for i in range(int(runs)) if i not in done]
+    bar = tqdm(
+        total=int(runs), initial=len(done), disable=not progress, file=sys.stderr, desc="campaign", unit="scenario"
+    )
+
+    def store(rows: list[dict[str, Any]]) -> None:
+        nonlocal stored
+        fresh = pd.DataFrame(rows).assign(seed=int(seed), spec=digest)
+        stored = _normalize(pd.concat([stored, fresh], ignore_index=True) if len(stored) else fresh, columns)
+        _write(path, stored)
+        bar.update(len({r["scenario"] for r in rows}))
+        if on_chunk is not None:
+            on_chunk(int(stored["scenario"].nunique()))
+
+    try:
+        for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size)):
+            store(rows)
+    finally:
+        bar.close()
+    if not len(stored):
+        stored = _normalize(pd.DataFrame(columns=columns), columns)
+    return stored
+
+
+def _execute(
+    spec: CampaignSpec, seed: int, todo: list[int], workers: int, scheduler: str, address: str | None, size: int
+) -> Iterable[list[dict[str, Any]]]:
+    chunks = list(_chunks(todo, size))
+    if not chunks:
+        return
+    if scheduler == "dask":
+        yield from _execute_dask(spec, seed, chunks, workers, address)
+    elif workers == 1:
+        for chunk in chunks:
+            yield _run_chunk(spec, seed, chunk)
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = [pool.submit(_run_chunk, spec, seed, chunk) for chunk in chunks]
+            try:
+                for future in as_completed(futures):
+                    yield future.result()
+            finally:
+                for future in futures:
+                    future.cancel()
+
+
+def _execute_dask(
+    spec: CampaignSpec, seed: int, chunks: list[list[int]], workers: int, address: str | None
+) -> Iterable[list[dict[str, Any]]]:
+    try:
+        from dask.distributed import Client, LocalCluster
+        from dask.distributed import as_completed as dask_completed
+    except ImportError as err:
+        raise ArgumentValueError("scheduler", "'dask' needs the `dask` extra: pip install scara_robust[dask]") from err
+    # dask.distributed is not typed: its calls are untyped for mypy
+    cluster = (
+        None
+        if address
+        else LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None)  # type: ignore[no-untyped-call]
+    )
+    client = Client(address if address else cluster)  # type: ignore[no-untyped-call]
+    try:
+        futures = [client.submit(_run_chunk, spec, seed, chunk, pure=False) for chunk in chunks]
+        for future in dask_completed(futures):  # type: ignore[no-untyped-call]
+            yield future.result()
+    finally:
+        client.close()  # type: ignore[no-untyped-call]
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,280 @@
+"""Campaign specs: what a Monte-Carlo campaign draws, validated field by field.
+
+A campaign is described by a :class:`CampaignSpec`, usually read from a TOML file
+(:func:`load_spec`; ``examples/campaign.toml`` documents every field). Scenario ``i`` of
+a campaign with seed ``s`` is drawn from ``numpy.random.default_rng([s, i])`` alone
+(:func:`draw_scenario`), so it is the same however the campaign is split, ordered,
+interrupted or distributed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..._validation import field_number
+from ...exceptions import CampaignSpecError
+from ...io import read_mapping
+from ...model.robot import ScaraParams
+from ...paper import (
+    PAPER_CP,
+    PAPER_DESIGN_POINT,
+    PAPER_DISTURBANCE_AMPLITUDE,
+    PAPER_DISTURBANCE_PERIOD,
+    PAPER_PAYLOAD_FRACTION,
+    PAPER_T_FINAL,
+    PAPER_TRANSIENT,
+)
+from ...simulation.controllers import CONTROLLERS
+
+__all__ = [
+    "Range",
+    "CampaignSpec",
+    "SPEC_FIELDS",
+    "PAYLOAD_PROFILES",
+    "load_spec",
+    "spec_from_dict",
+    "draw_scenario",
+]
+
+_WHERE = "campaign spec"
+
+#: Payload mass profiles a campaign can draw.
+PAYLOAD_PROFILES = ("sinusoidal", "constant")
+
+
+@dataclass(frozen=True)
+class Range:
+    """A uniform distribution on ``[low, high]``; ``low == high`` is a constant."""
+
+    low: float
+    high: float
+
+    def draw(self, rng: np.random.Generator) -> float:
+        """One value (a constant consumes no randomness)."""
+        return self.low if self.low == self.high else float(rng.uniform(self.low, self.high))
+
+
+#: Drawn numeric fields: name -> (unit, lower limit, strict, paper's value). The limit
+#: is inclusive unless ``strict``.
+SPEC_FIELDS: dict[str, tuple[str, float, bool, float]] = {
+    "payload_peak": ("kg", 0.0, False, 2 * PAPER_PAYLOAD_FRACTION * ScaraParams().m2),
+    "payload_omega": ("rad/s", 0.0, True, 1.0),
+    "payload_phase": ("rad", -math.inf, False, 0.0),
+    "cp": ("m²", 0.0, False, PAPER_CP),
+    "disturbance_amplitude": ("N·m", 0.0, False, PAPER_DISTURBANCE_AMPLITUDE),
+    "disturbance_period": ("s", 0.0, True, PAPER_DISTURBANCE_PERIOD),
+    "disturbance_phase": ("rad", -math.inf, False, 0.0),
+    "reference_amplitude": ("rad", 0.0, False, 1.0),
+    "reference_omega": ("rad/s", 0.0, True, 1.0),
+    "initial_error": ("rad", -math.inf, False, 0.05),
+    "torque_limit": ("N·m", 0.0, True, math.inf),
+}
+
+
+def _default_ranges() -> dict[str, Range]:
+    return {name: Range(v[3], v[3]) for name, v in SPEC_FIELDS.items()}
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    """What a campaign draws and runs.
+
+    Attributes
+    ----------
+    controllers : tuple of str
+        Names from :data:`scara_robust.CONTROLLERS` (at least one, no repeats).
+    t_final : float
+        Horizon of every run, s (> 6, so the after-transient metrics exist).
+    rho, eta : float
+        The PID design K(ρ, η) on the published model (fixed for the campaign).
+    payload_profiles : tuple of str
+        Drawn uniformly: ``'sinusoidal'`` is ``m_p(t) = (peak/2)(1 + sin(ωt + φ))``,
+        ``'constant'`` is ``m_p = peak``.
+    ranges : dict of str to Range
+        One :class:`Range` per entry of :data:`SPEC_FIELDS`. ``initial_error`` is drawn
+        independently for each joint (``e(0)``; ``ė(0) = 0``); ``torque_limit = inf``
+        means no saturation. The reference is ``r = a (sin ωt, cos ωt)``.
+    runs : int
+        Default number of scenarios.
+    seed : int
+        Default seed.
+    robot : ScaraParams
+        The robot (default: the paper's); its ``cp`` is replaced by the drawn one.
+    """
+
+    controllers: tuple[str, ...] = ("pid", "smc")
+    t_final: float = PAPER_T_FINAL
+    rho: float = PAPER_DESIGN_POINT[0]
+    eta: float = PAPER_DESIGN_POINT[1]
+    payload_profiles: tuple[str, ...] = ("sinusoidal",)
+    ranges: Mapping[str, Range] = field(default_factory=_default_ranges)
+    runs: int = 100
+    seed: int = 0
+    robot: ScaraParams = field(default_factory=ScaraParams)
+
+    def digest(self) -> str:
+        """Short hash of everything that determines the drawn scenarios and runs."""
+        data = asdict(self)
+        data.pop("runs")
+        text = json.dumps(data, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _error(name: str, message: str) -> CampaignSpecError:
+    return CampaignSpecError(f"{_WHERE} field `{name}`: {message}")
+
+
+def _number(name: str, value: Any, unit: str, *, allow_inf: bool = False) -> float:
+    return field_number(_WHERE, name, value, unit, error=CampaignSpecError, allow_inf=allow_inf)
+
+
+def _range(name: str, value: Any) -> Range:
+    unit, limit, strict, _ = SPEC_FIELDS[name]
+    if isinstance(value, Mapping):
+        unknown = set(value) - {"min", "max"}
+        if unknown or set(value) != {"min", "max"}:
+            raise _error(name, f"expected a number or {{min = ..., max = ...}}, found keys {sorted(value)}")
+        allow_inf = name == "torque_limit"
+        low = _number(name, value["min"], unit, allow_inf=allow_inf)
+        high = _number(name, value["max"], unit, allow_inf=allow_inf)
+    else:
+        low = high = _number(name, value, unit, allow_inf=name == "torque_limit")
+    if low > high:
+        raise _error(name, f"min {low:g} {unit} > max {high:g} {unit}")
+    for v in (low, high):
+        if (v <= limit) if strict else (v < limit):
+            op = ">" if strict else ">="
+            raise _error(name, f"expected values {op} {limit:g} {unit}, found {v:g}")
+    return Range(low, high)
+
+
+def spec_from_dict(data: Mapping[str, Any]) -> CampaignSpec:
+    """Validate a campaign description (as read from TOML) into a :class:`CampaignSpec`.
+
+    Parameters
+    ----------
+    data : mapping
+        Field names to values: a number, ``{min, max}``, or a list for
+        ``controllers`` and ``payload_profiles``.
+
+    Returns
+    -------
+    CampaignSpec
+
+
+    Raises
+    ------
+    CampaignSpecError
+        Naming the first bad field: unknown field, wrong type, min > max, a value
+        outside its physical range (negative mass, period <= 0, ...), an unknown or
+        empty controller list.
+    """
+    if not isinstance(data, Mapping):
+        raise CampaignSpecError(f"campaign spec must be a table of fields, found {type(data).__name__}")
+    known = {"controllers", "t_final", "rho", "eta", "payload_profiles", "runs", "seed", *SPEC_FIELDS}
+    for name in data:
+        if name not in known:
+            raise _error(name, f"unknown field; valid fields are {', '.join(sorted(known))}")
+    kwargs: dict[str, Any] = {}
+    if "controllers" in data:
+        names = data["controllers"]
+        if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+            raise _error("controllers", f"expected a list of names, found {names!r}")
+        if not names:
+            raise _error("controllers", f"expected at least one of {', '.join(CONTROLLERS)}, found an empty list")
+        for n in names:
+            if n not in CONTROLLERS:
+                raise _error("controllers", f"unknown controller {n!r}; valid: {', '.join(CONTROLLERS)}")
+        if len(set(names)) != len(names):
+            raise _error("controllers", f"expected no repeats, found {names!r}")
+        kwargs["controllers"] = tuple(names)
+    if "payload_profiles" in data:
+        profiles = data["payload_profiles"]
+        if not isinstance(profiles, (list, tuple)) or not profiles or not all(p in PAYLOAD_PROFILES for p in profiles):
+            raise _error("payload_profiles", f"expected a non-empty list from {PAYLOAD_PROFILES}, found {profiles!r}")
+        kwargs["payload_profiles"] = tuple(profiles)
+    if "t_final" in data:
+        kwargs["t_final"] = _number("t_final", data["t_final"], "s")
+        if not PAPER_TRANSIENT < kwargs["t_final"]:
+            raise _error("t_final", f"expected a horizon > {PAPER_TRANSIENT:g} s (metrics are taken after "
+                         f"{PAPER_TRANSIENT:g} s), found {kwargs['t_final']:g}")
+    if "rho" in data:
+        kwargs["rho"] = _number("rho", data["rho"], "-")
+        if not 0 < kwargs["rho"] < math.inf:
+            raise _error("rho", f"expected a finite number > 0, found {kwargs['rho']:g}")
+    if "eta" in data:
+        kwargs["eta"] = _number("eta", data["eta"], "-")
+        if not 1 <= kwargs["eta"] < math.inf:
+            raise _error("eta", f"expected a finite number >= 1, found {kwargs['eta']:g}")
+    for name, low in (("runs", 1), ("seed", 0)):
+        if name in data:
+            value = data[name]
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise _error(name, f"expected an integer >= {low}, found {value!r}")
+            kwargs[name] = value
+    ranges = _default_ranges()
+    for name in SPEC_FIELDS:
+        if name in data:
+            ranges[name] = _range(name, data[name])
+    return CampaignSpec(ranges=ranges, **kwargs)
+
+
+def load_spec(path: str | os.PathLike[str]) -> CampaignSpec:
+    """Read and validate a campaign TOML file.
+
+    Parameters
+    ----------
+    path : path-like
+        The spec file (see ``examples/campaign.toml``).
+
+    Returns
+    -------
+    CampaignSpec
+
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    CampaignSpecError
+        If it is not valid TOML or a field is bad (the message names it).
+    """
+    return spec_from_dict(read_mapping(path, extensions=(".toml",), error=CampaignSpecError))
+
+
+def draw_scenario(spec: CampaignSpec, seed: int, index: int) -> dict[str, Any]:
+    """The inputs of scenario `index`, drawn from ``default_rng([seed, index])``.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    seed : int
+        Campaign seed (>= 0).
+    index : int
+        Scenario number (>= 0).
+
+
+    Returns
+    -------
+    dict
+        ``scenario`` (the index), ``payload_profile`` and one value per
+        :data:`SPEC_FIELDS` entry, with ``initial_error`` split into ``e1_0``, ``e2_0``.
+    """
+    rng = np.random.default_rng([int(seed), int(index)])
+    out: dict[str, Any] = {"scenario": int(index)}
+    out["payload_profile"] = spec.payload_profiles[int(rng.integers(len(spec.payload_profiles)))]
+    for name in SPEC_FIELDS:
+        if name == "initial_error":
+            out["e1_0"] = spec.ranges[name].draw(rng)
+            out["e2_0"] = spec.ranges[name].draw(rng)
+        else:
+            out[name] = spec.ranges[name].draw(rng)
+    return out

@@ -1,0 +1,198 @@
+"""The import graph of the package, read from its source (ast): no cycle, and nothing imports upward.
+
+Every module is placed on a layer (``LAYERS``, bottom first). A module may import its own
+subpackage and any layer below its own, never one above nor a sibling on its own layer
+(robustness and simulation stay independent); front ends (the command line)
+sit on top and no other module imports them or ``argparse``. Imports inside functions and
+under ``TYPE_CHECKING`` count like module-level ones: a cycle hidden in a function is a
+cycle all the same.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "scara_robust"
+PACKAGE = "scara_robust"
+
+#: Layers, bottom first. A module belongs to the first entry that is its name or a prefix of it.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("scara_robust.exceptions", "scara_robust.paper"),
+    ("scara_robust._validation",),
+    ("scara_robust.model",),
+    ("scara_robust.lyapunov",),
+    ("scara_robust.robustness", "scara_robust.simulation"),
+    ("scara_robust.io",),
+    ("scara_robust.studies",),
+    ("scara_robust.plotting",),
+    ("scara_robust",),  # the package's __init__: re-exports the library
+    ("scara_robust.cli", "scara_robust.compare", "scara_robust.__main__"),
+)
+FRONT_ENDS = LAYERS[-1]
+
+
+def module_name(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _resolve(module: str, is_package: bool, node: ast.ImportFrom) -> str:
+    if node.level == 0:
+        return node.module or ""
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def import_graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """Module -> the package modules it imports (anywhere in its source)."""
+    files = {module_name(p, root): p for p in root.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for module, path in files.items():
+        targets: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets.update(a.name for a in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                base = _resolve(module, path.name == "__init__.py", node)
+                targets.add(base)
+                # `from . import x` imports the submodule x when there is one
+                targets.update(f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in files)
+        graph[module] = {t for t in targets if t in files and t != module}
+    return graph
+
+
+def imports_argparse(root: Path = ROOT) -> set[str]:
+    found = set()
+    for path in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.level == 0:
+                names = [node.module or ""]
+            if any(n.split(".")[0] == "argparse" for n in names):
+                found.add(module_name(path, root))
+    return found
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def layer(module: str) -> tuple[int, str]:
+    """(rank, group) of a module: the most specific entry of LAYERS that contains it."""
+    best: tuple[int, str] | None = None
+    for rank, group in enumerate(LAYERS):
+        for prefix in group:
+            # the package itself is its __init__ alone; every other entry covers its submodules
+            if module == prefix or (prefix != PACKAGE and module.startswith(prefix + ".")):
+                if best is None or len(prefix) > len(best[1]):
+                    best = (rank, prefix)
+    if best is None:
+        raise AssertionError(f"module {module} is on no layer of LAYERS")
+    return best
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    bad = []
+    for module, targets in graph.items():
+        rank, group = layer(module)
+        for target in targets:
+            t_rank, t_group = layer(target)
+            if t_group == group:
+                continue
+            # a package __init__ may import its own children
+            if target.startswith(module + "."):
+                continue
+            # siblings on one layer stay apart, except front ends, which may share the CLI
+            if t_rank > rank or (t_rank == rank and rank != len(LAYERS) - 1):
+                bad.append(f"{module} -> {target}")
+    return sorted(bad)
+
+
+def check(root: Path = ROOT) -> list[str]:
+    """Every violation of the architecture's rules in the tree at `root`."""
+    graph = import_graph(root)
+    problems = [f"cycle: {' <-> '.join(c)}" for c in cycles(graph)]
+    try:
+        problems += [f"upward import: {edge}" for edge in upward_imports(graph)]
+    except AssertionError as err:
+        problems.append(str(err))
+    front = {m for m in graph if layer(m)[1] in FRONT_ENDS} if not any("on no layer" in p for p in problems) else set()
+    for module, targets in graph.items():
+        if module in front:
+            continue
+        problems += [f"{module} imports the front end {t}" for t in sorted(targets) if t in front]
+    problems += [f"{m} imports argparse" for m in sorted(imports_argparse(root) - front)]
+    return problems
+
+
+def test_no_cycle_no_upward_import_no_argparse_below_the_cli():
+    assert check() == []
+
+
+def test_every_module_is_on_a_layer():
+    for module in import_graph():
+        layer(module)
+
+
+def test_the_library_does_not_import_the_front_end():
+    graph = import_graph()
+    library = [m for m in graph if layer(m)[1] not in FRONT_ENDS]
+    assert library and not [m for m in library if any(layer(t)[1] in FRONT_ENDS for t in graph[m])]
+
+
+@pytest.mark.parametrize(
+    ("files", "expected"),
+    [
+        ({"a.py": "from . import b\n", "b.py": "def f():\n    from . import a\n"}, "cycle"),
+        ({"model/__init__.py": "", "model/x.py": "from ..lyapunov import y\n", "lyapunov/__init__.py": "",
+          "lyapunov/y.py": ""}, "upward import: scara_robust.model.x -> scara_robust.lyapunov.y"),
+        ({"io.py": "import argparse\n"}, "scara_robust.io imports argparse"),
+        ({"io.py": "def f():\n    from .cli import main\n", "cli/__init__.py": ""}, "imports the front end"),
+    ],
+    ids=["hidden-cycle", "upward", "argparse", "front-end"],
+)
+def test_the_checker_finds_each_fault(tmp_path, files, expected):
+    # The rules must be able to fail: plant each fault in a small fake package.
+    root = tmp_path / PACKAGE
+    for name, text in {"__init__.py": "", **files}.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+    problems = check(root)
+    assert any(expected in p for p in problems), problems
