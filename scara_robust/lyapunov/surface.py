@@ -106,15 +106,22 @@ def _grid(name: str, values: ArrayLike, minimum: float, strict: bool) -> Array:
     return arr
 
 
-def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, ...]:
-    """``Z₀, Z₁``, the nominal ``PĀ + ĀᵀP = N₀ + ηN₁``, P and ``BK₁`` for every ρ, shape (n_rho, n, n)."""
+def _sym(M: Array) -> Array:
+    return np.asarray(M + np.swapaxes(M, -1, -2), dtype=float)
+
+
+def _structured_terms(model: UncertainLTVModel, elements: str, rhos: Array) -> tuple[Array, ...]:
+    """``Z₀, Z₁``, the nominal ``PĀ + ĀᵀP = N₀ + ηN₁``, P and ``BK₁`` for every ρ, shape (n_rho, n, n).
+
+    The gain is designed on the whole model's nominal (A, B); Z is built on
+    ``model.subset(elements)``, whose nominal holds the left-out elements at their lower bounds.
+    """
     P = np.array([riccati_solution(model, rho) for rho in rhos])
     A, B = model.A, model.B
     K1 = rhos[:, None, None] * np.einsum("ji,rjk->rik", B, P)  # ρBᵀP
-    G = P @ B @ K1
-    N0 = P @ A
-    N0 = N0 + np.swapaxes(N0, -1, -2)
-    N1 = -(G + np.swapaxes(G, -1, -2))
+    N0 = _sym(P @ A)
+    N1 = -_sym(P @ B @ K1)
+    model = model.subset(elements)
     a, b = model.perturbation_factors(K1)  # E_j = a_j b_jᵀ: a (N, n), b (n_rho, N, n)
     u = np.einsum("rik,jk->rji", P, a)  # P a_j
     Psi = u[..., :, None] * b[..., None, :]
@@ -122,8 +129,8 @@ def _structured_terms(model: UncertainLTVModel, rhos: Array) -> tuple[Array, ...
     lower, width = model.lower_bounds(), model.upper_bounds() - model.lower_bounds()
     terms = lower[:, None, None] * Psi + width[:, None, None] * rank2_positive_part(u, b)
     in_A = np.array([el.matrix == "A" for el in model.elements], dtype=bool)
-    Z0 = N0 + terms[:, in_A].sum(axis=1)
-    Z1 = N1 + terms[:, ~in_A].sum(axis=1)
+    Z0 = _sym(P @ model.A) + terms[:, in_A].sum(axis=1)
+    Z1 = -_sym(P @ model.B @ K1) + terms[:, ~in_A].sum(axis=1)
     return Z0, Z1, N0, N1, P, B @ K1
 
 
@@ -165,7 +172,7 @@ def design_surface(
     etas : array_like, shape (n_eta,)
         η values (>= 1).
     elements : {'all', 'A', 'B'}
-        Which uncertain elements enter Z.
+        Which uncertain elements vary and enter Z; the others stay at their lower bounds.
     method : {'structured', 'reference'}
         ``'structured'`` (default) uses ``Z = Z₀(ρ) + η Z₁(ρ)``; ``'reference'`` runs
         :func:`design` and :func:`certify` point by point, literally as the paper does.
@@ -201,7 +208,7 @@ def design_surface(
                 max_eig[i, k] = certify(model, d, elements).max_eig
                 hurwitz[i, k] = d.hurwitz
     else:
-        Z0, Z1, N0, N1, P, BK1 = _structured_terms(model.subset(elements), rho_grid)
+        Z0, Z1, N0, N1, P, BK1 = _structured_terms(model, elements, rho_grid)
         Z = Z0[:, None] + eta_grid[None, :, None, None] * Z1[:, None]
         max_eig = np.asarray(np.linalg.eigvalsh(Z)[..., -1], dtype=float)
         hurwitz = _hurwitz(model.A, eta_grid, N0, N1, P, BK1)

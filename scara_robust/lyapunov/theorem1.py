@@ -210,7 +210,8 @@ def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> 
     design : Design
         From :func:`scara_robust.design`; supplies K, Ā and Q.
     elements : {'all', 'A', 'B'}
-        Which uncertain elements enter Z.
+        Which uncertain elements vary and enter Z; the others stay at their lower bounds
+        (see :meth:`UncertainLTVModel.subset`).
 
     Returns
     -------
@@ -251,7 +252,8 @@ def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> 
     mismatch = np.linalg.norm(P - design.P) / np.linalg.norm(design.P)
     E = sub.perturbation_matrices(design.K)
     lower, upper = sub.lower_bounds(), sub.upper_bounds()
-    Z, Phi, Psi, Psi_plus = theorem1_z(P, A_cl, E, lower, upper)
+    # elements left out of `elements` sit at their lower bounds, folded into sub's nominal
+    Z, Phi, Psi, Psi_plus = theorem1_z(P, sub.A - sub.B @ design.K, E, lower, upper)
     max_eig = float(np.linalg.eigvalsh(Z)[-1])
     return Certificate(
         Z=Z,

@@ -150,12 +150,29 @@ class UncertainLTVModel:
         return len(self.elements)
 
     def subset(self, elements: str = "all") -> UncertainLTVModel:
-        """The same model keeping only the ΔA (``'A'``) or ΔB (``'B'``) elements, or all."""
+        """The same model with only the ΔA (``'A'``) or ΔB (``'B'``) elements varying, or all.
+
+        The elements left out stay at their lower bounds: each one's lower bound is added
+        to its entry of the nominal A or B, so the subset describes the same matrices
+        with fewer of them varying.
+
+        Parameters
+        ----------
+        elements : {'all', 'A', 'B'}
+
+        Returns
+        -------
+        UncertainLTVModel
+        """
         check_choice("elements", elements, ELEMENT_SETS)
         if elements == "all":
             return self
+        nominal = {"A": self.A.copy(), "B": self.B.copy()}
+        for el in self.elements:
+            if el.matrix != elements:
+                nominal[el.matrix][el.row, el.col] += el.lower
         kept = tuple(el for el in self.elements if el.matrix == elements)
-        return UncertainLTVModel(self.A, self.B, kept, name=f"{self.name} [{elements} only]")
+        return UncertainLTVModel(nominal["A"], nominal["B"], kept, name=f"{self.name} [{elements} only]")
 
     def lower_bounds(self) -> Array:
         """Lower bounds, shape (N,)."""

@@ -213,8 +213,8 @@ def vertex_certificate(model: UncertainLTVModel, design: Design, elements: str =
     design : Design
         Supplies K and P (the Riccati/Lyapunov P of Theorem 1's step 1).
     elements : {'all', 'A', 'B'}
-        Which uncertain elements vary; the others stay at their lower bounds (the
-        nominal matrices).
+        Which uncertain elements vary; the others stay at their lower bounds (see
+        :meth:`UncertainLTVModel.subset`).
 
     Returns
     -------
