@@ -19,7 +19,7 @@ Errors (:mod:`scara_robust.exceptions`)
     ArgumentError, ArgumentValueError, ArgumentTypeError -- a bad argument, named by its parameter
     InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
 Model (:mod:`scara_robust.model`)
-    ScaraParams, PARAM_UNITS, paper_params -- robot data (SI), the paper's by default
+    ScaraParams, PARAM_UNITS, PARAM_LIMITS, paper_params -- robot data (SI, plausible ranges), the paper's by default
     SinusoidalPayload, ConstantPayload, paper_payload, payload_range -- payload mass profiles m_p(t)
     mass_matrix, coriolis, forward_dynamics, kinetic_energy, inertia_coefficients -- Eq. (1)
     forward_dynamics_scalar, dynamics_terms -- the same for one state, without array overhead
@@ -36,12 +36,13 @@ The paper's method (:mod:`scara_robust.lyapunov`)
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
     theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
     design_surface, DesignSurface, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Figure 2)
+    MAX_SURFACE_POINTS, surface_memory -- the largest grid of one call and its memory
 Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
     box_vertices, box_closed_loops, MAX_BOX_ELEMENTS -- the box's corners and closed loops
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
     LMI_SOLVERS, NOT_INSTALLED, cvxpy_available -- its solvers, and whether cvxpy is there
-    falsify, FalsifierResult, FALSIFIER_RULES -- search for a destabilizing switching signal
+    falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
@@ -50,6 +51,7 @@ Simulation (:mod:`scara_robust.simulation`)
     ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
     simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
     tracking_metrics, TrackingMetrics, metric_names, METRIC_NAMES -- errors and torques after the transient
+    run_status, STATUSES, TRACKING_TOLERANCE -- does a run track: tracking, not-tracking, diverged, failed, too-short
 Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
     write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables

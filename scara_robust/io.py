@@ -51,7 +51,7 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from ._validation import describe, field_number, field_table
-from .exceptions import ArgumentValueError, InputFileError
+from .exceptions import ArgumentError, ArgumentValueError, InputFileError
 from .model.initial import Scenario
 from .model.robot import (
     PARAM_UNITS,
@@ -202,8 +202,9 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
         values[f.name] = field_number(f"{text_path!r}:", f"robot.{f.name}", table[f.name], unit)
     try:
         return ScaraParams(**values)
-    except ValueError as err:
-        raise InputFileError(f"{text_path!r}: {err}") from err
+    except ArgumentError as err:  # name the file's field: `robot.m1` [kg]
+        field, _, unit = err.argument.partition(" ")
+        raise InputFileError(f"{text_path!r}: field `robot.{field}` {unit} {err.problem}") from err
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
@@ -291,12 +292,19 @@ def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
     return ScenarioFile(name, payload, reference, disturbance, initial)
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> None:
     """Call ``write(tmp_path)`` then rename the temporary file onto `path`.
 
     The temporary file sits in the target folder, so the rename is atomic: an
     interrupted or failed write leaves an existing `path` as it was and no temporary
-    behind.
+    behind. The file gets the mode a plain ``open()`` would give it (``0o666`` less the
+    umask).
 
     Parameters
     ----------
@@ -318,6 +326,8 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
     os.close(fd)
     try:
         write(tmp)
+        # mkstemp creates 0600; give the file the mode a plain open() would (0644 under umask 022)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, text_path)
     except BaseException:
         if os.path.exists(tmp):

@@ -110,6 +110,12 @@ def _cli_cases(tmp):
     pair.write_text("[initial]\ne0 = [0.1]\n")
     folder = tmp / "folder.toml"
     folder.mkdir()
+    heavy = tmp / "heavy.toml"
+    heavy.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("m2 = 3.45", "m2 = 1e30"))
+    outside = tmp / "outside.toml"
+    outside.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("Lc1 = 0.178", "Lc1 = 5.0"))
+    empty = tmp / "empty.toml"
+    empty.write_text("")
     design = ["design", "--rho", "3", "--eta", "90"]
     return [
         ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`--rho`"),
@@ -125,7 +131,7 @@ def _cli_cases(tmp):
         ("robot-directory", [*design, "--robot", str(folder)], "is a directory"),
         ("robot-bad-toml", [*design, "--robot", str(bad_toml)], "not valid TOML"),
         ("robot-unknown-field", [*design, "--robot", str(unknown)], "unknown field `robot.colour`"),
-        ("robot-negative-mass", [*design, "--robot", str(negative)], "m1 [kg]"),
+        ("robot-negative-mass", [*design, "--robot", str(negative)], "field `robot.m1` [kg] must be > 0"),
         ("robot-wrong-type", [*design, "--robot", str(typed)], "`robot.L2` must be a finite number in m"),
         ("robot-extension", [*design, "--robot", str(tmp / "robot.yaml")], "expected a .toml or .json file"),
         ("scenario-name", ["simulate", "--scenario", "medium"], "`--scenario` must be 'large', 'small'"),
@@ -140,6 +146,23 @@ def _cli_cases(tmp):
         ("output-unwritable", [*design, "--output", "/proc/scara_robust_k.json"], "scara_robust: error"),
         ("plot-unwritable", ["simulate", "--t-final", "0.2", "--plot", "/proc/x.png"], "scara_robust: error"),
         ("report-missing", ["campaign-report", str(tmp / "none.csv")], "No such file"),
+        ("surface-huge-grid", ["surface", "--rho", "0.1:10:100000", "--eta", "1:200:100000"],
+         "`--rho` x `--eta` is a grid of 10,000,000,000 points (about 8.64e+03 GB of memory)"),
+        ("surface-num-1", ["surface", "--rho", "1:10:1", "--eta", "1:2:2"], "NUM = 1 would keep START alone"),
+        ("surface-mark-alone", ["surface", "--rho", "1:2:2", "--eta", "1:2:2", "--mark", "1,2"], "`--mark`"),
+        ("robot-heavy", [*design, "--robot", str(heavy)], "field `robot.m2` [kg] must be <= 1000 kg"),
+        ("robot-com-outside", [*design, "--robot", str(outside)], "field `robot.Lc1` [m] must be <= L1 = 0.3 m"),
+        ("report-not-a-table", ["campaign-report", str(EXAMPLES / "campaign.toml")],
+         "`RESULTS` must end in .csv or .parquet"),
+        ("simulate-output-folder", ["simulate", "--output", str(tmp / "no" / "dir" / "x.csv")],
+         f"`--output` {str(tmp / 'no' / 'dir' / 'x.csv')!r}: No such file or directory"),
+        ("design-scenario", [*design, "--scenario", "small"], "unrecognized arguments: --scenario small"),
+        ("design-scenario-file", [*design, "--scenario", str(EXAMPLES / "scenario-paper.toml")],
+         "unrecognized arguments: --scenario"),
+        ("certify-named-scenario", ["certify", "--rho", "3", "--eta", "90", "--scenario", "small"],
+         "means nothing for this command"),
+        ("typo", [*design, "--elemnts", "A"], "design: unrecognized arguments: --elemnts A; did you mean --elements?"),
+        ("campaign-empty-spec", ["campaign", str(empty), "--output", str(tmp / "r.csv")], "is empty"),
     ]
 
 
@@ -157,7 +180,9 @@ CLI_NAMES = [
     "robot-unknown-field", "robot-negative-mass", "robot-wrong-type", "robot-extension", "scenario-name",
     "scenario-period", "scenario-pair", "simulate-t-final", "simulate-torque-limit", "compare-t-final",
     "certify-tries", "output-directory", "output-missing-folder", "output-unwritable", "plot-unwritable",
-    "report-missing",
+    "report-missing", "surface-huge-grid", "surface-num-1", "surface-mark-alone", "robot-heavy", "robot-com-outside",
+    "report-not-a-table", "simulate-output-folder", "design-scenario", "design-scenario-file",
+    "certify-named-scenario", "typo", "campaign-empty-spec",
 ]
 
 
@@ -170,6 +195,7 @@ def test_cli_refuses_bad_input(capsys, tmp_path, cli_cases, name):
     assert out == ""
     assert err.count("\n") == 1 and err.startswith("scara_robust: error:")
     assert "Traceback" not in err and needle in err
+    assert "scara_robust: error: scara_robust" not in err  # the prefix once
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written, no temporary left
 
 
@@ -185,3 +211,53 @@ def test_failed_command_keeps_an_existing_output(capsys, tmp_path):
     assert out.read_text() == "precious\n"
     assert main(["design", "--rho", "3", "--eta", "90", "--output", str(out), "--format", "json"]) == 0
     assert out.read_text().startswith("{")
+
+
+def test_output_path_is_checked_before_computing(capsys, tmp_path, monkeypatch):
+    # A bad --output fails at once: the simulation never starts.
+    ran = []
+    monkeypatch.setattr("scara_robust.cli._simulate.run_scenario", lambda *a, **k: ran.append(1))
+    assert main(["simulate", "--output", str(tmp_path / "missing" / "x.csv")]) == 2
+    assert ran == [] and "missing" in capsys.readouterr().err
+
+
+def test_output_files_get_the_mode_of_a_normal_file(tmp_path, capsys):
+    import os
+
+    old = os.umask(0o022)
+    try:
+        out = tmp_path / "k.json"
+        assert main(["design", "--rho", "3", "--eta", "90", "--format", "json", "--output", str(out)]) == 0
+        assert (out.stat().st_mode & 0o777) == 0o644
+        os.umask(0o077)
+        out.unlink()
+        assert main(["design", "--rho", "3", "--eta", "90", "--format", "json", "--output", str(out)]) == 0
+        assert (out.stat().st_mode & 0o777) == 0o600
+    finally:
+        os.umask(old)
+
+
+def test_no_warning_reaches_the_user_on_overflow():
+    # K of (3, 1e9) makes the box's frozen vertices grow at 2e9 1/s: an overflow is a result.
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-m", "scara_robust", "certify", "--rho", "3", "--eta", "1e9", "--tries", "2"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert done.returncode == 0 and done.stderr == ""
+    assert "grows beyond 1e+300 within one dwell of 0.01 s" in done.stdout and "grew by inf" not in done.stdout
+
+
+def test_version_and_examples_in_help(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out.startswith(f"scara_robust {sr.__version__}")
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = capsys.readouterr().out
+    assert "examples:" in text and "python -m scara_robust design --rho 3 --eta 90" in text
+    with pytest.raises(SystemExit):
+        main(["surface", "--help"])
+    assert "START:STOP:NUM, NUM evenly spaced values" in capsys.readouterr().out

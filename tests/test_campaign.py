@@ -243,13 +243,15 @@ def test_campaign_and_report_cli(tmp_path, capsys, tiny_spec):
     out = tmp_path / "r.parquet"
     assert main(["campaign", str(tiny_spec), "--runs", "2", "--output", str(out)]) == 0
     assert "2 scenarios x 2 controllers = 4 rows" in capsys.readouterr().out
-    assert main(["campaign-report", str(out)]) == 0
-    text = capsys.readouterr().out
-    assert "max_abs_error_after_6s q50" in text and "failure_rate" in text
     png = tmp_path / "r-report.png"
+    assert main(["campaign-report", str(out), "--plot", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "max_abs_error_after_6s q50" in text and "failure_rate" in text and "tracking" in text
     assert png.exists() and png.stat().st_size > 10_000
+    png.unlink()
     assert main(["campaign-report", str(out), "--format", "json"]) == 0
     assert '"controller":"pid"' in capsys.readouterr().out.replace(" ", "")
+    assert not png.exists()  # the figure is written only when --plot asks for it
     assert main(["campaign-report", str(tmp_path / "nothing.csv")]) == 2
     assert capsys.readouterr().err.startswith("scara_robust: error:")
 

@@ -72,7 +72,10 @@ def test_compare_json(capsys):
         "max_abs_torque_after_6s",
         "chattering_index",
         "control_energy",
+        "status",
+        "status_reason",
     }
+    assert {row["status"] for row in rows} == {"tracking"}
 
 
 @pytest.mark.parametrize(

@@ -35,7 +35,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--scheduler", choices=SCHEDULERS, default="local")
     p.add_argument("--address", help="address of a running dask scheduler (with --scheduler dask)")
     # dest is not `output`: the summary line goes to stdout, the table to this file
-    p.add_argument("--output", dest="results", help="results file, .csv or .parquet (default results.csv)")
+    p.add_argument("--output", dest="results_output", help="results file, .csv or .parquet (default results.csv)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted campaign in --output")
     p.add_argument("--chunk-size", type=int, default=4, help="scenarios per task (default 4)")
     p.set_defaults(func=run)
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> str:
     spec = load_spec(args.spec)
     if args.robot is not None:
         spec = replace(spec, robot=resolve_setup(args).params)
-    output = args.results or "results.csv"
+    output = args.results_output or "results.csv"
     if output_exists(output) and not args.resume:
         raise CommandLineError(f"`--output` {output!r} exists; pass --resume to continue it, or choose another file")
     table = run_campaign(

@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
     p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
-    add_setup_options(p)
+    add_setup_options(p, scenario="signals")
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
     p.add_argument("--format", choices=("text", "json"), default="text")

@@ -32,11 +32,15 @@ __all__ = [
     "add_setup_options",
     "emit",
     "error_message",
+    "check_outputs",
+    "write_text",
+    "OUTPUT_OPTIONS",
     "finite_float",
     "parse_range",
     "resolve_bounds",
     "resolve_model",
     "resolve_setup",
+    "RANGE_HELP",
     "save_figure",
     "output_exists",
 ]
@@ -82,7 +86,8 @@ class Parser(argparse.ArgumentParser):
         ----------
         message : str
         """
-        raise CommandLineError(f"{self.prog}: {message}")
+        command = self.prog.removeprefix("scara_robust").strip()  # main() adds "scara_robust: error:"
+        raise CommandLineError(f"{command}: {message}" if command else message)
 
 
 def error_message(err: BaseException) -> str:
@@ -101,6 +106,10 @@ def error_message(err: BaseException) -> str:
     else:
         text = str(err)
     return " ".join(text.split())
+
+
+#: How a range option is written, for ``--help``.
+RANGE_HELP = "START:STOP:NUM, NUM evenly spaced values from START to STOP inclusive (NUM >= 2, or 1 with START = STOP)"
 
 
 def parse_range(text: str) -> np.ndarray:
@@ -132,6 +141,11 @@ def parse_range(text: str) -> np.ndarray:
         raise argparse.ArgumentTypeError(f"START and STOP must be finite, found {text!r}")
     if num < 1:
         raise argparse.ArgumentTypeError(f"NUM must be >= 1, found {num}")
+    if num == 1 and start != stop:
+        raise argparse.ArgumentTypeError(
+            f"NUM = 1 would keep START alone and drop STOP in {text!r}; write {parts[0]}:{parts[0]}:1 for one "
+            "value, or NUM >= 2"
+        )
     return np.linspace(start, stop, num)
 
 
@@ -167,24 +181,68 @@ def _write(option: str, path: str, write: Callable[[str], None]) -> None:
         raise CommandLineError(f"`{option}` {path!r}: {err.strerror or err}") from err
 
 
+def write_text(option: str, path: str, text: str) -> None:
+    """Write `text` atomically to `path`, naming `option` in any error.
+
+    Parameters
+    ----------
+    option : str
+    path : str
+    text : str
+    """
+    text = text if text.endswith("\n") else text + "\n"
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    _write(option, path, write)
+
+
 def emit(text: str, output: str | None) -> None:
-    """Print `text`, or write it atomically to `output` (the ``--output`` file).
+    """Print `text` (nothing if empty), or write it atomically to `output` (the ``--output`` file).
 
     Parameters
     ----------
     text : str
     output : str or None
     """
-    text = text if text.endswith("\n") else text + "\n"
-    if output is None:
-        sys.stdout.write(text)
-        return
+    if output is not None:
+        write_text("--output", output, text)
+    elif text:
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
 
-    def write(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
 
-    _write("--output", output, write)
+#: Attributes of a command's arguments that name files it writes, and their options.
+OUTPUT_OPTIONS = {"output": "--output", "series_output": "--output", "results_output": "--output", "plot": "--plot"}
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuse, before any computation, output paths that cannot be written.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Raises
+    ------
+    CommandLineError
+        Naming the option and the path the user gave: a folder, or a file in a folder
+        that does not exist or is not writable.
+    """
+    for attr, option in OUTPUT_OPTIONS.items():
+        path = getattr(args, attr, None)
+        if path is None:
+            continue
+        folder = os.path.dirname(os.path.abspath(path))
+        if os.path.isdir(path):
+            raise CommandLineError(f"`{option}` {path!r}: is a directory")
+        if not os.path.isdir(folder):
+            raise CommandLineError(
+                f"`{option}` {path!r}: No such file or directory: the folder {folder!r} does not exist"
+            )
+        if not os.access(folder, os.W_OK):
+            raise CommandLineError(f"`{option}` {path!r}: the folder {folder!r} is not writable")
 
 
 def save_figure(option: str, path: str, fig: Any) -> None:
@@ -216,8 +274,8 @@ class Setup:
         None where the paper's apply.
     initial : Scenario or None
         Initial condition (named, or from the scenario file).
-    from_files : bool
-        True when a robot or scenario file was given.
+    robot_file : bool
+        True when a robot file was given: the bounds then default to those derived from it.
     """
 
     params: ScaraParams
@@ -225,7 +283,7 @@ class Setup:
     payload: PayloadProfile | None
     disturbance: SquareWave | None
     initial: Scenario | None
-    from_files: bool
+    robot_file: bool
 
     def signals(self) -> dict[str, Any]:
         """Keyword arguments for :func:`scara_robust.run_scenario` and :func:`scara_robust.compare_controllers`.
@@ -238,32 +296,42 @@ class Setup:
                 "disturbance": self.disturbance}
 
 
-def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenario: bool = True) -> None:
-    """Add ``--robot FILE``, ``--scenario NAME|FILE`` and ``--bounds`` to a sub-command.
+def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenario: str | None = "run") -> None:
+    """Add ``--robot FILE``, ``--scenario`` and ``--bounds`` to a sub-command.
 
     Parameters
     ----------
     p : argparse.ArgumentParser
     bounds : bool
         Add ``--bounds``.
-    scenario : bool
-        Add ``--scenario``.
+    scenario : {'run', 'signals'} or None
+        ``'run'``: ``--scenario NAME|FILE`` (initial condition and signals of a run);
+        ``'signals'``: ``--scenario FILE`` (the reference and payload of the robot's
+        physical set; a named initial condition means nothing there); None: no option.
     """
     p.add_argument("--robot", metavar="FILE", help="robot file (.toml/.json, see examples/robot-paper.toml)")
-    if scenario:
+    if scenario == "run":
         p.add_argument(
             "--scenario",
             metavar="NAME|FILE",
             help="initial condition 'large' or 'small', or a scenario file (payload, reference, disturbance, "
             "initial error; see examples/scenario-paper.toml)",
         )
+    elif scenario == "signals":
+        p.set_defaults(scenario_kind="signals")
+        p.add_argument(
+            "--scenario",
+            metavar="FILE",
+            help="scenario file whose reference and payload define the robot's physical set "
+            "(see examples/scenario-paper.toml)",
+        )
     if bounds:
         p.add_argument(
             "--bounds",
             choices=sorted(BOUNDS),
             default=None,
-            help="interval model of the PID design: published Tables 1-2 ('paper', the default without files) "
-            "or derived from the robot ('derived', the default with --robot or a scenario file)",
+            help="interval model of the PID design: published Tables 1-2 ('paper', the default without --robot) "
+            "or derived from the robot ('derived', the default with --robot)",
         )
 
 
@@ -293,30 +361,33 @@ def resolve_setup(args: argparse.Namespace) -> Setup:
     CommandLineError
         Naming the option and the file.
     """
-    params, from_files = ScaraParams(), False
+    params = ScaraParams()
     robot = getattr(args, "robot", None)
     if robot is not None:
         params = _load_file("--robot", robot, load_robot)
-        from_files = True
     scenario = getattr(args, "scenario", None)
     reference = payload = disturbance = None
     initial: Scenario | None = None
     if scenario is not None and scenario in SCENARIOS:
+        if getattr(args, "scenario_kind", "run") != "run":
+            raise CommandLineError(
+                f"`--scenario` takes a scenario file here (its reference and payload); an initial condition "
+                f"such as {scenario!r} means nothing for this command"
+            )
         initial = SCENARIOS[scenario]
     elif scenario is not None:
         if not scenario.lower().endswith((".toml", ".json")):
-            raise CommandLineError(
-                f"`--scenario` must be {', '.join(repr(n) for n in SCENARIOS)} or a .toml/.json scenario file, "
-                f"found {scenario!r}"
-            )
+            named = ", ".join(repr(n) for n in SCENARIOS)
+            raise CommandLineError(f"`--scenario` must be {named} or a .toml/.json scenario file, found {scenario!r}")
         scen = _load_file("--scenario", scenario, load_scenario)
         reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
-        from_files = True
-    return Setup(params, reference, payload, disturbance, initial, from_files)
+    return Setup(params, reference, payload, disturbance, initial, robot is not None)
 
 
 def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
-    """``--bounds``, or its default: ``'derived'`` with files, else ``'paper'``.
+    """``--bounds``, or its default: ``'derived'`` with a robot file, else ``'paper'``.
+
+    A scenario file never changes the default: the bounds belong to the robot.
 
     Parameters
     ----------
@@ -327,7 +398,7 @@ def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
     -------
     {'paper', 'derived'}
     """
-    return getattr(args, "bounds", None) or ("derived" if setup.from_files else "paper")
+    return getattr(args, "bounds", None) or ("derived" if setup.robot_file else "paper")
 
 
 def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
@@ -345,13 +416,12 @@ def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
     Raises
     ------
     CommandLineError
-        If published bounds are asked for with a robot or scenario file.
+        If published bounds are asked for with a robot file.
     """
     if resolve_bounds(args, setup) == "paper":
-        if setup.from_files:
+        if setup.robot_file:
             raise CommandLineError(
-                "`--bounds paper` holds only for the paper's robot and signals; with --robot or a scenario file "
-                "use --bounds derived"
+                "`--bounds paper` holds only for the paper's robot (Tables 1-2); with --robot use --bounds derived"
             )
         return paper_model()
     return derived_model(setup.params, setup.reference, setup.payload)

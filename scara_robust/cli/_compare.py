@@ -85,10 +85,11 @@ def run(args: argparse.Namespace) -> str:
     elapsed = time.perf_counter() - start
     sys.stderr.write(f"compare: {len(table)} runs in {elapsed:.1f} s\n")
     if args.format == "json":
-        keys = ["controller", "scenario", "payload", *METRIC_NAMES]
+        keys = ["controller", "scenario", "payload", *METRIC_NAMES, "status", "status_reason"]
         return json.dumps(table[keys].to_dict(orient="records"), indent=2)
     if args.format == "csv":
         return str(table.to_csv(index=False))
+    shown = table.drop(columns="status_reason")
     if args.format == "markdown":
-        return table.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(table)
-    return str(table.to_string(index=False, float_format="%.4g"))
+        return shown.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(shown)
+    return str(shown.to_string(index=False, float_format="%.4g"))

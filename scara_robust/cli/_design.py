@@ -24,7 +24,7 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     ----------
     p : argparse.ArgumentParser
     """
-    add_setup_options(p)
+    add_setup_options(p, scenario=None)  # the bounds come from the robot, never from a scenario
     p.add_argument("--elements", choices=ELEMENT_SETS, default="all", help="uncertain elements entering Theorem 1's Z")
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 from typing import Any
 
 from ..plotting import plot_campaign
@@ -24,7 +23,7 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser("campaign-report", help="per-controller statistics of a campaign, and a figure")
     p.add_argument("results", help="results file of `campaign` (.csv or .parquet)")
     p.add_argument("--format", choices=("text", "csv", "json"), default="text")
-    p.add_argument("--plot", metavar="FILE.png", help="figure path (default: RESULTS-report.png)")
+    p.add_argument("--plot", metavar="FILE.png", help="also save a figure of the metrics per controller")
     p.add_argument("--output", help="write the statistics to this file instead of stdout")
     p.set_defaults(func=run)
 
@@ -42,10 +41,11 @@ def run(args: argparse.Namespace) -> str:
     """
     results = read_results(args.results)
     report = campaign_report(results)
-    plot = args.plot or os.path.splitext(args.results)[0] + "-report.png"
-    save_figure("--plot", plot, plot_campaign(results))
+    if args.plot is not None:
+        save_figure("--plot", args.plot, plot_campaign(results))
     if args.format == "json":
         return str(report.reset_index().to_json(orient="records", indent=2))
     if args.format == "csv":
         return str(report.to_csv())
-    return str(report.T.to_string(float_format="%.4g")) + f"\nfigure: {plot}"
+    figure = f"\nfigure: {args.plot}" if args.plot is not None else ""
+    return str(report.T.to_string(float_format="%.4g")) + figure

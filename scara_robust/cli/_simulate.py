@@ -8,11 +8,20 @@ from typing import Any
 
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
-from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
+from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_response
 from ..simulation.controllers import CONTROLLERS
-from ..simulation.run import run_scenario
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_model, resolve_setup, save_figure
+from ..simulation.metrics import TRACKING_TOLERANCE
+from ..simulation.run import SimulationResult, run_scenario
+from ._common import (
+    CommandLineError,
+    add_setup_options,
+    finite_float,
+    resolve_model,
+    resolve_setup,
+    save_figure,
+    write_text,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -30,14 +39,41 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--payload", choices=("on", "off"), default="on")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help="horizon, s (> 0)")
     p.add_argument("--torque-limit", type=finite_float, default=None, help="per-joint saturation, N·m (> 0)")
-    p.add_argument("--format", choices=("csv", "json"), default="csv")
-    p.add_argument("--output", help="write to this file instead of stdout")
+    p.add_argument(
+        "--tolerance",
+        type=finite_float,
+        default=TRACKING_TOLERANCE,
+        help=f"max |e| after the transient, rad, for the run to count as tracking (default {TRACKING_TOLERANCE:g})",
+    )
+    p.add_argument(
+        "--format",
+        choices=("text", "csv", "json"),
+        default="text",
+        help="text: a summary (status, metrics, files); csv, json: the time series (json with status and metrics)",
+    )
+    p.add_argument(
+        "--output",
+        dest="series_output",
+        metavar="FILE",
+        help="write the time series to FILE (.json: JSON, otherwise CSV) instead of stdout",
+    )
     p.add_argument("--plot", metavar="FILE.png", help="save a figure laid out like the paper's Figure 3")
     p.set_defaults(func=run)
 
 
+def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
+    lines = [
+        f"{res.controller} on scenario {res.scenario}, payload {payload}, {res.t[-1]:g} s ({res.method})",
+        f"status: {res.status} ({res.status_reason})",
+    ]
+    if res.has_metrics:
+        lines += [f"  {name} = {value:.4g}" for name, value in res.metrics().to_dict().items()]
+    lines += files or ["time series: not written (use --output FILE or --format csv|json)"]
+    return "\n".join(lines)
+
+
 def run(args: argparse.Namespace) -> str:
-    """Simulate; the CSV or JSON to print.
+    """Simulate; the summary, CSV or JSON to print.
 
     Parameters
     ----------
@@ -51,6 +87,8 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--t-final` must be > 0 s, found {args.t_final}")
     if args.torque_limit is not None and args.torque_limit <= 0:
         raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {args.torque_limit}")
+    if args.tolerance <= 0:
+        raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
     setup = resolve_setup(args)
     K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K if args.controller == "pid" else None
     initial = setup.initial or SCENARIOS["large"]
@@ -61,22 +99,33 @@ def run(args: argparse.Namespace) -> str:
         t_final=args.t_final,
         torque_limit=args.torque_limit,
         K=K,
+        tracking_tolerance=args.tolerance,
         **setup.signals(),
     )
+    files = []
     if args.plot is not None:
         save_figure("--plot", args.plot, plot_response(res))
-    frame = res.to_pandas()
-    if not res.success:
-        raise CommandLineError(f"`--controller {args.controller}`: the run failed: {res.message}")
-    if args.format == "json":
-        return json.dumps(
+        files.append(f"figure: {args.plot}")
+    as_json = args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json"))
+    if as_json:
+        series = json.dumps(
             {
                 "controller": args.controller,
                 "scenario": initial.name,
                 "payload": args.payload,
-                # the metrics are taken after the transient; a shorter run has none
-                "metrics": res.metrics().to_dict() if (res.t >= PAPER_TRANSIENT).sum() >= 2 else None,
-                "series": frame.to_dict(orient="list"),
+                "status": res.status,
+                "status_reason": res.status_reason,
+                "method": res.method,
+                # the metrics are taken after the transient; a shorter run has none (status too-short)
+                "metrics": res.metrics().to_dict() if res.has_metrics else None,
+                "series": res.to_pandas().to_dict(orient="list"),
             }
         )
-    return str(frame.to_csv(index=False))
+    else:
+        series = str(res.to_pandas().to_csv(index=False))
+    if args.series_output is not None:
+        write_text("--output", args.series_output, series)
+        files.append(f"time series: {args.series_output}")
+    elif args.format != "text":
+        return series
+    return _summary(res, args.payload, files) if args.format == "text" else ""

@@ -6,9 +6,17 @@ import argparse
 import json
 from typing import Any
 
-from ..lyapunov.surface import design_surface
+from ..lyapunov.surface import MAX_SURFACE_POINTS, design_surface, surface_memory
 from ..plotting import plot_surface
-from ._common import parse_range, resolve_model, resolve_setup, save_figure
+from ._common import (
+    RANGE_HELP,
+    CommandLineError,
+    finite_float,
+    parse_range,
+    resolve_model,
+    resolve_setup,
+    save_figure,
+)
 from ._design import add_model_options
 
 __all__ = ["add_parser", "run"]
@@ -22,13 +30,27 @@ def add_parser(sub: Any) -> None:
     sub : argparse._SubParsersAction
     """
     p = sub.add_parser("surface", help="max eig Z over a (rho, eta) grid (Figure 2)")
-    p.add_argument("--rho", type=parse_range, required=True, metavar="START:STOP:NUM")
-    p.add_argument("--eta", type=parse_range, required=True, metavar="START:STOP:NUM")
+    p.add_argument("--rho", type=parse_range, required=True, metavar="START:STOP:NUM", help=f"rho grid: {RANGE_HELP}")
+    p.add_argument("--eta", type=parse_range, required=True, metavar="START:STOP:NUM", help=f"eta grid: {RANGE_HELP}")
     add_model_options(p)
     p.add_argument("--format", choices=("text", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
+    p.add_argument(
+        "--mark",
+        type=_point,
+        metavar="RHO,ETA",
+        help="(rho, eta) to mark on the --plot figure (default: the grid's best Hurwitz point)",
+    )
     p.set_defaults(func=run)
+
+
+def _point(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected RHO,ETA, found {text!r}")
+    rho, eta = (finite_float(part) for part in parts)
+    return rho, eta
 
 
 def run(args: argparse.Namespace) -> str:
@@ -42,12 +64,20 @@ def run(args: argparse.Namespace) -> str:
     -------
     str
     """
+    points = args.rho.size * args.eta.size
+    if points > MAX_SURFACE_POINTS:
+        raise CommandLineError(
+            f"`--rho` x `--eta` is a grid of {points:,} points (about {surface_memory(points, 6) / 1e9:.3g} GB of "
+            f"memory); at most {MAX_SURFACE_POINTS:,} points: use fewer, or several commands"
+        )
+    if args.mark is not None and args.plot is None:
+        raise CommandLineError("`--mark` marks a point on the --plot figure; give --plot FILE.png too")
     model = resolve_model(args, resolve_setup(args))
     surface = design_surface(model, args.rho, args.eta, args.elements)
     frame = surface.to_frame()
     if args.plot is not None:
-        mark = None
-        if surface.hurwitz.any():
+        mark = args.mark
+        if mark is None and surface.hurwitz.any():
             rho, eta, _ = surface.best()
             mark = (rho, eta)
         save_figure("--plot", args.plot, plot_surface(surface, mark=mark).figure)

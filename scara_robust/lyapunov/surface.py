@@ -32,10 +32,31 @@ from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from .gain import design, riccati_solution
 from .theorem1 import certify, rank2_positive_part
 
-__all__ = ["DesignSurface", "design_surface", "SURFACE_METHODS"]
+__all__ = ["DesignSurface", "design_surface", "SURFACE_METHODS", "MAX_SURFACE_POINTS", "surface_memory"]
 
 Array = NDArray[np.float64]
 SURFACE_METHODS = ("structured", "reference")
+#: Largest grid (n_rho × n_eta points) one :func:`design_surface` call evaluates: about
+#: 0.9 GB of working memory for a 6-state model (see :func:`surface_memory`) and a few
+#: seconds; split larger sweeps into several calls.
+MAX_SURFACE_POINTS = 1_000_000
+
+
+def surface_memory(n_points: int, n_states: int) -> int:
+    """Working memory of the structured surface, bytes: three float64 n x n matrices per point.
+
+    Parameters
+    ----------
+    n_points : int
+        Grid points, n_rho × n_eta.
+    n_states : int
+        n.
+
+    Returns
+    -------
+    int
+    """
+    return 3 * 8 * int(n_points) * int(n_states) ** 2
 
 
 @dataclass(frozen=True)
@@ -199,6 +220,13 @@ def design_surface(
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("method", method, SURFACE_METHODS)
     shape = (rho_grid.size, eta_grid.size)
+    if shape[0] * shape[1] > MAX_SURFACE_POINTS:
+        need = surface_memory(shape[0] * shape[1], model.n_states) / 1e9
+        raise ArgumentValueError(
+            "rhos",
+            f"× `etas` is a grid of {shape[0] * shape[1]:,} points (about {need:.3g} GB of memory); "
+            f"at most {MAX_SURFACE_POINTS:,} points are evaluated in one call",
+        )
     if method == "reference":
         max_eig = np.empty(shape)
         hurwitz = np.empty(shape, dtype=bool)

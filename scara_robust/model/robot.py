@@ -24,11 +24,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_callable, check_real
+from ..exceptions import ArgumentValueError
 from ..paper import PAPER_PAYLOAD_FRACTION
 
 __all__ = [
     "ScaraParams",
     "PARAM_UNITS",
+    "PARAM_LIMITS",
     "SinusoidalPayload",
     "ConstantPayload",
     "paper_params",
@@ -60,6 +62,23 @@ PARAM_UNITS: dict[str, str] = {
     "I1": "kg·m²",
     "I2": "kg·m²",
     "cp": "m²",
+}
+
+
+#: Plausible range of every field of :class:`ScaraParams`: (lower, upper, lower is strict).
+#: Wide enough for any SCARA from a desktop arm to a heavy industrial one; beyond it a
+#: number is a typo or a unit mistake (grams for kilograms), and the dynamics would
+#: overflow double precision long before they meant anything.
+PARAM_LIMITS: dict[str, tuple[float, float, bool]] = {
+    "m1": (0.0, 1e3, True),
+    "m2": (0.0, 1e3, True),
+    "L1": (0.0, 10.0, True),
+    "L2": (0.0, 10.0, True),
+    "Lc1": (0.0, 10.0, True),
+    "Lc2": (0.0, 10.0, True),
+    "I1": (0.0, 1e3, False),
+    "I2": (0.0, 1e3, False),
+    "cp": (0.0, 10.0, False),
 }
 
 
@@ -109,11 +128,21 @@ class ScaraParams:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            value = getattr(self, f.name)
             unit = PARAM_UNITS[f.name]
-            strict = f.name[0] in "mL"
-            checked = check_real(f"{f.name} [{unit}]", value, positive=strict, nonnegative=not strict)
+            low, high, strict = PARAM_LIMITS[f.name]
+            checked = check_real(f"{f.name} [{unit}]", getattr(self, f.name), positive=strict, nonnegative=not strict)
+            if checked > high:
+                raise ArgumentValueError(
+                    f"{f.name} [{unit}]", f"must be <= {high:g} {unit} for a SCARA, found {checked:g}"
+                )
             object.__setattr__(self, f.name, checked)
+        for centre, length in (("Lc1", "L1"), ("Lc2", "L2")):
+            if getattr(self, centre) > getattr(self, length):
+                raise ArgumentValueError(
+                    f"{centre} [m]",
+                    f"must be <= {length} = {getattr(self, length):g} m (the centre of mass lies on the link), "
+                    f"found {getattr(self, centre):g}",
+                )
 
 
 def paper_params(**overrides: float) -> ScaraParams:

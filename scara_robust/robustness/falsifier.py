@@ -19,6 +19,7 @@ not a proof.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,10 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_int, check_real, check_symmetric
 
-__all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
+__all__ = ["FalsifierResult", "FALSIFIER_RULES", "FALSIFIER_OVERFLOW", "falsify"]
 
 Array = NDArray[np.float64]
 NDArrayInt = NDArray[np.integer[Any]]
+
+#: Size of a one-dwell transition matrix beyond which the trajectory is not followed in double precision.
+FALSIFIER_OVERFLOW = 1e300
 
 #: Vertex-selection rules, tried in turn over the tries.
 FALSIFIER_RULES = ("norm", "lyapunov", "random")
@@ -62,6 +66,11 @@ class FalsifierResult:
         T, s.
     dwell : float
         τ, s.
+    overflow : bool
+        True when some vertex's transition matrix over one dwell exceeds 1e300 (double
+        precision cannot follow the trajectory): held there, ‖x‖ grows beyond 1e300
+        within one dwell. `sequence` then holds that vertex, `growth_rate` its frozen
+        growth rate (largest real part of its eigenvalues) and `growth_factor` is inf.
     """
 
     found: bool
@@ -74,10 +83,17 @@ class FalsifierResult:
     n_tries: int
     horizon: float
     dwell: float
+    overflow: bool = False
 
     @property
     def message(self) -> str:
         """One sentence saying what the result means."""
+        if self.overflow:
+            return (
+                f"unstable trajectory found: ‖x‖ grows beyond {FALSIFIER_OVERFLOW:.0e} within one dwell of "
+                f"{self.dwell:g} s at vertex {int(self.sequence[0])} "
+                f"(its frozen growth rate {self.growth_rate:.4g} 1/s)"
+            )
         if self.found:
             return (
                 f"unstable trajectory found: ‖x‖ grew by {self.growth_factor:.3g} in {self.horizon:g} s "
@@ -87,6 +103,24 @@ class FalsifierResult:
             f"no counterexample found in {self.n_tries} tries (worst growth factor {self.growth_factor:.3g} "
             f"over {self.horizon:g} s)"
         )
+
+
+def _overflow(A_v: Array, vertices: NDArrayInt, n_tries: int, horizon: float, dwell: float) -> FalsifierResult:
+    rates = np.linalg.eigvals(A_v[vertices]).real.max(axis=1)
+    worst = int(np.argmax(rates))
+    return FalsifierResult(
+        found=True,
+        growth_factor=math.inf,
+        growth_rate=float(rates[worst]),
+        late_rate=float(rates[worst]),
+        rule="overflow",
+        sequence=np.full(1, vertices[worst], dtype=np.int64),
+        x0=np.zeros(A_v.shape[1]),
+        n_tries=n_tries,
+        horizon=horizon,
+        dwell=dwell,
+        overflow=True,
+    )
 
 
 def falsify(
@@ -147,7 +181,12 @@ def falsify(
         rules.remove("lyapunov")
     steps = int(round(horizon / dwell))
     half = steps // 2
-    Phi = scipy.linalg.expm(A_v * dwell)  # (V, n, n), exact over one dwell
+    with np.errstate(over="ignore", invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an overflow is a result here, reported below
+        Phi = scipy.linalg.expm(A_v * dwell)  # (V, n, n), exact over one dwell
+    huge = ~(np.abs(Phi).max(axis=(1, 2)) <= FALSIFIER_OVERFLOW)
+    if huge.any():
+        return _overflow(A_v, np.flatnonzero(huge), int(n_tries), steps * dwell, dwell)
     rng = np.random.default_rng(seed)
     best: tuple[float, float, str, NDArrayInt, Array] | None = None
     log_norm: float

@@ -14,7 +14,31 @@ from .._validation import check_array, check_real
 from ..exceptions import ArgumentValueError
 from ..paper import PAPER_TRANSIENT
 
-__all__ = ["TrackingMetrics", "tracking_metrics", "metric_names", "METRIC_NAMES"]
+__all__ = [
+    "TrackingMetrics",
+    "tracking_metrics",
+    "metric_names",
+    "METRIC_NAMES",
+    "STATUSES",
+    "TRACKING_TOLERANCE",
+    "run_status",
+]
+
+#: The status of a run, one of:
+#: ``tracking`` (the integrator finished and max |e| after the transient is within the
+#: tolerance), ``not-tracking`` (finished, error above the tolerance), ``diverged`` (the
+#: error or the state left its limits and the run stopped), ``failed`` (the integrator or
+#: the controller failed) and ``too-short`` (the run ended before the transient was over,
+#: so tracking cannot be judged).
+STATUSES = ("tracking", "not-tracking", "diverged", "failed", "too-short")
+
+#: Default tolerance (rad) on max |e| after the transient for a run to count as tracking.
+#: 0.05 rad (2.9°) is the small initial error of Figure 6 and 2.5 times the paper's 0.02 rad
+#: performance bound: a run that tracks ends up well inside it (the paper's PID: 0.022 rad,
+#: both sliding-mode laws: 0.007 rad), one that does not is far outside (metres of tip
+#: error, or tens of radians). It tells tracking from not tracking; it is not a
+#: performance specification, which the metrics give.
+TRACKING_TOLERANCE = 0.05
 
 
 @dataclass(frozen=True)
@@ -142,3 +166,44 @@ def tracking_metrics(
         control_energy=float(np.trapezoid((torque**2).sum(axis=0), t)),
         t_transient=t0,
     )
+
+
+def run_status(
+    metrics: TrackingMetrics | None,
+    *,
+    success: bool,
+    diverged: bool,
+    message: str,
+    tolerance: float = TRACKING_TOLERANCE,
+    t_transient: float = PAPER_TRANSIENT,
+) -> tuple[str, str]:
+    """The status of a run (one of :data:`STATUSES`) and the reason for it.
+
+    Parameters
+    ----------
+    metrics : TrackingMetrics or None
+        The run's metrics, or None when the run ended before the transient was over.
+    success, diverged : bool
+        How the integration ended.
+    message : str
+        The integrator's message.
+    tolerance : float
+        Largest max |e| after the transient (rad) that counts as tracking.
+    t_transient : float
+        End of the transient, s.
+
+    Returns
+    -------
+    status : str
+    reason : str
+    """
+    if diverged:
+        return "diverged", message
+    if not success:
+        return "failed", message
+    if metrics is None:
+        return "too-short", f"the run ends before the {t_transient:g}-s transient is over; tracking is not judged"
+    worst = metrics.max_abs_error
+    if worst <= tolerance:
+        return "tracking", f"max |e| after {t_transient:g} s = {worst:.3g} rad <= {tolerance:g} rad"
+    return "not-tracking", f"max |e| after {t_transient:g} s = {worst:.3g} rad > {tolerance:g} rad"

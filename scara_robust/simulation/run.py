@@ -28,7 +28,7 @@ from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
 from .controllers import CONTROLLERS, make_controller
 from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
-from .metrics import TrackingMetrics, tracking_metrics
+from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
 
 __all__ = ["SimulationResult", "simulate", "run_scenario"]
 
@@ -57,13 +57,22 @@ class SimulationResult:
     payload : ndarray, shape (k,)
         m_p(t), kg.
     success : bool
-        False when the integrator failed or the run diverged.
+        False when the integrator failed or the run diverged (see `status` for whether it tracks).
     diverged : bool
         The error exceeded ``divergence_limit``; the run stopped there.
     message : str
     controller, scenario : str
     method : str
         The engine that integrated the run (a key of :data:`scara_robust.ENGINES`).
+    status : str
+        One of :data:`scara_robust.STATUSES`: ``tracking`` means the run finished and
+        max |e| after `t_transient` is within `tracking_tolerance`.
+    status_reason : str
+        Why, in words and numbers.
+    t_transient : float
+        End of the transient for `status` and :meth:`metrics`, s.
+    tracking_tolerance : float
+        Tolerance of `status`, rad.
     """
 
     response: ct.TimeResponseData
@@ -79,10 +88,20 @@ class SimulationResult:
     controller: str
     scenario: str
     method: str = DEFAULT_ENGINE
+    status: str = "failed"
+    status_reason: str = ""
+    t_transient: float = PAPER_TRANSIENT
+    tracking_tolerance: float = TRACKING_TOLERANCE
 
-    def metrics(self, t_transient: float = PAPER_TRANSIENT) -> TrackingMetrics:
-        """:func:`scara_robust.tracking_metrics` of this run after `t_transient` (s)."""
-        return tracking_metrics(self.t, self.e, self.torque, t_transient=t_transient)
+    def metrics(self, t_transient: float | None = None) -> TrackingMetrics:
+        """:func:`scara_robust.tracking_metrics` of this run after `t_transient` (s; default the run's)."""
+        t0 = self.t_transient if t_transient is None else t_transient
+        return tracking_metrics(self.t, self.e, self.torque, t_transient=t0)
+
+    @property
+    def has_metrics(self) -> bool:
+        """True if at least two samples follow the transient (so :meth:`metrics` exists)."""
+        return int((self.t >= self.t_transient).sum()) >= 2
 
     def to_pandas(self) -> pd.DataFrame:
         """Time series: t, e1, e2, e1_dot, e2_dot, Tc1, Tc2, Td1, Td2, m_p."""
@@ -102,7 +121,9 @@ class SimulationResult:
         )
 
 
-def _result(loop: ClosedLoop, traj: Trajectory, scenario: str, method: str) -> SimulationResult:
+def _result(
+    loop: ClosedLoop, traj: Trajectory, scenario: str, method: str, t_transient: float, tolerance: float
+) -> SimulationResult:
     t, X = traj.t, traj.x
     Y = loop.outputs(t, X)
     response = ct.TimeResponseData(
@@ -118,10 +139,21 @@ def _result(loop: ClosedLoop, traj: Trajectory, scenario: str, method: str) -> S
     # element by element: a user's reference need not be vectorized
     r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
     rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+    e = r - Y[0:2]
+    after = t >= t_transient
+    metrics = tracking_metrics(t, e, Y[4:6], t_transient=t_transient) if after.sum() >= 2 else None
+    status, reason = run_status(
+        metrics,
+        success=traj.success,
+        diverged=traj.diverged,
+        message=traj.message,
+        tolerance=tolerance,
+        t_transient=t_transient,
+    )
     return SimulationResult(
         response=response,
         t=t,
-        e=r - Y[0:2],
+        e=e,
         edot=rd - Y[2:4],
         torque=Y[4:6],
         disturbance=Y[6:8],
@@ -132,6 +164,10 @@ def _result(loop: ClosedLoop, traj: Trajectory, scenario: str, method: str) -> S
         controller=loop.controller.name,
         scenario=scenario,
         method=method,
+        status=status,
+        status_reason=reason,
+        t_transient=t_transient,
+        tracking_tolerance=tolerance,
     )
 
 
@@ -169,6 +205,8 @@ def simulate(
     divergence_limit: float = DIVERGENCE_LIMIT,
     method: str | None = None,
     sample_time: float | None = None,
+    t_transient: float = PAPER_TRANSIENT,
+    tracking_tolerance: float = TRACKING_TOLERANCE,
 ) -> SimulationResult:
     """Simulate one controller on the nonlinear SCARA.
 
@@ -206,6 +244,11 @@ def simulate(
         integrated by ``'rk4'`` with that step (the output grid is then the sample
         grid). Default: the registry's sample time for a named controller, none for a
         system.
+    t_transient : float
+        End of the transient, s (>= 0): metrics and status look at ``t >= t_transient``.
+    tracking_tolerance : float
+        A finished run is ``tracking`` when max |e| after the transient is at most this,
+        rad (> 0; default :data:`scara_robust.TRACKING_TOLERANCE`, 0.05 rad).
 
     Returns
     -------
@@ -234,6 +277,8 @@ def simulate(
     rtol = check_real("rtol", rtol, positive=True)
     atol = check_real("atol", atol, positive=True)
     limit = check_real("divergence_limit", divergence_limit, positive=True)
+    t_transient = check_real("t_transient", t_transient, nonnegative=True)
+    tolerance = check_real("tracking_tolerance", tracking_tolerance, positive=True)
     if sample_time is not None:
         sample_time = check_real("sample_time", sample_time, positive=True)
     engine = _engine_name(method, sample_time)
@@ -252,7 +297,7 @@ def simulate(
     traj = integrate(
         ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
     )
-    return _result(loop, traj, scenario.name, engine)
+    return _result(loop, traj, scenario.name, engine, t_transient, tolerance)
 
 
 def run_scenario(
@@ -268,6 +313,8 @@ def run_scenario(
     payload: PayloadProfile | None = None,
     disturbance: SquareWave | None = None,
     K: ArrayLike | None = None,
+    t_transient: float = PAPER_TRANSIENT,
+    tracking_tolerance: float = TRACKING_TOLERANCE,
 ) -> SimulationResult:
     """Run a named controller on a scenario (the paper's signals unless given).
 
@@ -291,6 +338,8 @@ def run_scenario(
         Default: the paper's ``sin t, cos t``, ``0.3 m2 (sin t + 1)`` and ±5 N·m square waves.
     K : array_like, shape (2, 6), optional
         PID gain (default: designed at (3, 90) on the published model).
+    t_transient, tracking_tolerance : float
+        See :func:`simulate`.
 
     Returns
     -------
@@ -317,4 +366,6 @@ def run_scenario(
         t_final=t_final,
         method=method,
         sample_time=CONTROLLERS[name].sample_time,
+        t_transient=t_transient,
+        tracking_tolerance=tracking_tolerance,
     )

@@ -7,6 +7,7 @@ scenario with the metrics of :func:`scara_robust.tracking_metrics`.
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -23,7 +24,7 @@ from ..simulation.run import run_scenario
 __all__ = ["compare_controllers", "COMPARISON_COLUMNS"]
 
 #: Columns of :func:`compare_controllers`' table.
-COMPARISON_COLUMNS = ("controller", "scenario", "payload", "success", *METRIC_NAMES)
+COMPARISON_COLUMNS = ("controller", "scenario", "payload", "success", "status", *METRIC_NAMES, "status_reason")
 
 
 def compare_controllers(
@@ -50,13 +51,16 @@ def compare_controllers(
     progress : bool
         Show a tqdm progress bar on stderr.
     **setup
-        ``params``, ``reference``, ``payload``, ``disturbance``, ``K``, passed to
-        :func:`scara_robust.run_scenario` (default: the paper's).
+        ``params``, ``reference``, ``payload``, ``disturbance``, ``K``,
+        ``tracking_tolerance``, passed to :func:`scara_robust.run_scenario` (default: the
+        paper's signals, 0.05 rad).
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``controller, scenario, payload, success`` and the metric names.
+        Columns :data:`COMPARISON_COLUMNS`: ``controller, scenario, payload, success``,
+        ``status`` (one of :data:`scara_robust.STATUSES`), the metric names (NaN for a run
+        without them) and ``status_reason``.
     """
     pairs = [(c, s) for c in controllers for s in scenarios]
     rows: list[dict[str, Any]] = []
@@ -67,7 +71,9 @@ def compare_controllers(
             "scenario": s if isinstance(s, str) else s.name,
             "payload": "on" if payload_on else "off",
             "success": res.success,
+            "status": res.status,
+            "status_reason": res.status_reason,
         }
-        row.update(res.metrics().to_dict())
+        row.update(res.metrics().to_dict() if res.has_metrics else dict.fromkeys(METRIC_NAMES, math.nan))
         rows.append(row)
     return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))

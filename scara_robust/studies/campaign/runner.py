@@ -44,7 +44,8 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     """Simulate every controller of `spec` on one drawn scenario; one row each.
 
     A run that raises or diverges gives a row with ``success = False`` and its
-    ``error``; metrics that do not exist are NaN.
+    ``error``; metrics that do not exist are NaN. ``status`` says whether the run tracks
+    (see :data:`scara_robust.STATUSES`); a run that raises is ``failed``.
 
     Parameters
     ----------
@@ -56,7 +57,8 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     -------
     list of dict
         One row per controller: the drawn inputs, ``controller``, ``success``,
-        ``diverged``, ``error`` and the metrics of :func:`scara_robust.tracking_metrics`.
+        ``diverged``, ``error``, ``status``, ``status_reason`` and the metrics of
+        :func:`scara_robust.tracking_metrics`.
     """
     params = replace(spec.robot, cp=draw["cp"])
     peak = draw["payload_peak"]
@@ -87,10 +89,12 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
                 K=K,
             )
             row.update(success=result.success, diverged=result.diverged, error="" if result.success else result.message)
-            if result.success:
+            row.update(status=result.status, status_reason=result.status_reason)
+            if result.success and result.has_metrics:
                 metrics = result.metrics().to_dict()
         except Exception as err:  # a failed scenario is data, not a crash
-            row.update(success=False, diverged=False, error=f"{type(err).__name__}: {err}")
+            error = f"{type(err).__name__}: {err}"
+            row.update(success=False, diverged=False, error=error, status="failed", status_reason=error)
         row.update(metrics)
         rows.append(row)
     return rows
@@ -105,7 +109,19 @@ def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int]) -> list[di
 
 #: Columns of a results table, in order.
 _DRAWN = ("payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0")
-RESULT_COLUMNS = ("scenario", "controller", "success", "diverged", "error", *METRIC_NAMES, *_DRAWN, "seed", "spec")
+RESULT_COLUMNS = (
+    "scenario",
+    "controller",
+    "status",
+    "success",
+    "diverged",
+    "error",
+    *METRIC_NAMES,
+    *_DRAWN,
+    "status_reason",
+    "seed",
+    "spec",
+)
 
 
 def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
@@ -132,11 +148,12 @@ def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
     frame = pd.read_csv(path, keep_default_na=False, na_values=["", "NaN", "nan"]) if fmt == "csv" else (
         pd.read_parquet(path)
     )
-    missing = {"scenario", "controller", "success", "seed", "spec"} - set(frame.columns)
+    missing = {"scenario", "controller", "status", "success", "seed", "spec"} - set(frame.columns)
     if missing:
         found = f"{os.fspath(path)!r} is not a campaign table: missing columns {sorted(missing)}"
         raise ArgumentValueError("path", found)
-    frame["error"] = ["" if isinstance(v, float) and math.isnan(v) else str(v) for v in frame["error"]]
+    for text in ("error", "status_reason"):
+        frame[text] = ["" if isinstance(v, float) and math.isnan(v) else str(v) for v in frame[text]]
     return frame
 
 
@@ -149,7 +166,10 @@ def _write(path: str, frame: pd.DataFrame) -> None:
 
 def _normalize(frame: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
     frame = frame[columns].sort_values(["scenario", "controller"], kind="stable").reset_index(drop=True)
-    return frame.astype({"scenario": int, "seed": int, "success": bool, "diverged": bool, "error": str})
+    return frame.astype(
+        {"scenario": int, "seed": int, "success": bool, "diverged": bool, "error": str, "status": str,
+         "status_reason": str}
+    )
 
 
 def _chunks(indices: Sequence[int], size: int) -> Iterator[list[int]]:

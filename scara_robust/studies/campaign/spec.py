@@ -247,7 +247,13 @@ def load_spec(path: str | os.PathLike[str]) -> CampaignSpec:
     CampaignSpecError
         If it is not valid TOML or a field is bad (the message names it).
     """
-    return spec_from_dict(read_mapping(path, extensions=(".toml",), error=CampaignSpecError))
+    data = read_mapping(path, extensions=(".toml",), error=CampaignSpecError)
+    if not data:
+        raise CampaignSpecError(
+            f"campaign spec {os.fspath(path)!r} is empty: give at least one field (examples/campaign.toml "
+            "documents them all); a campaign never runs on defaults it did not ask for"
+        )
+    return spec_from_dict(data)
 
 
 def draw_scenario(spec: CampaignSpec, seed: int, index: int) -> dict[str, Any]:
