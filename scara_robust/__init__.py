@@ -58,6 +58,7 @@ Files (:mod:`scara_robust.io`)
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS -- the PID vs sliding-mode table (``compare`` command)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
+    error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
     campaign_report                 -- per-controller statistics

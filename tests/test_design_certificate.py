@@ -153,3 +153,23 @@ def test_ultimate_bound_makes_vdot_negative(paper, paper_design):
 def test_bad_design_input(paper, call, exc, match):
     with pytest.raises(exc, match=match):
         call(paper)
+
+
+def test_rounding_spread_by_corner_enumeration(paper):
+    """Every one of the 2^10 corners of ±0.005 on the ten printed entries of A*, B*: K's spread."""
+    import itertools
+
+    K0 = sr.design(paper, 3, 90).K
+    entries = [(paper.A, r, c) for r in (4, 5) for c in (3, 4, 5)] + [(paper.B, r, c) for r in (4, 5) for c in (0, 1)]
+    gains = []
+    for signs in itertools.product((-0.005, 0.005), repeat=len(entries)):
+        A, B = paper.A.copy(), paper.B.copy()
+        for (matrix, r, c), step in zip(entries, signs):
+            (A if matrix is paper.A else B)[r, c] += step
+        gains.append(sr.design(sr.UncertainLTVModel(A, B), 3, 90).K)
+    spread = np.abs(np.array(gains) - K0).max(axis=0)
+    # the three entries the paper prints differently (README: ±0.33, ±0.33, ±0.60)
+    assert spread[0, 1] == pytest.approx(0.33, abs=0.005) and spread[1, 0] == pytest.approx(0.33, abs=0.005)
+    assert spread[1, 2] == pytest.approx(0.60, abs=0.005)
+    half_digit = 0.5 * 10.0 ** (-PAPER_K_DECIMALS)
+    assert np.all(np.abs(K0 - PAPER_K) <= spread + half_digit)

@@ -207,3 +207,19 @@ def test_divergence_is_flagged_and_frozen_by_every_engine():
         res = sr.simulate(sr.pid_controller(-K), "small", t_final=3.0, method=method)
         assert res.diverged and not res.success and res.message.startswith("diverged by t =")
         assert res.t[-1] < 3.0
+
+
+@pytest.mark.parametrize("method", ["lsoda", "interconnect"])
+def test_peak_torque_is_the_trajectorys_not_the_samples(method):
+    # Small IC: the PID torque peaks near t = 0.5 ms, between the 1-ms samples (15.02 N·m at t = 0).
+    res = sr.run_scenario("pid", "small", t_final=0.01, method=method)
+    fine = sr.simulate("pid", "small", t_final=0.01, dt=1e-6)  # a 1-µs output grid, independently
+    sampled, truth = float(np.abs(res.torque).max()), float(np.abs(fine.torque).max())
+    assert sampled == pytest.approx(15.016, abs=1e-3) and truth == pytest.approx(15.214, abs=1e-3)
+    assert res.peak_torque == pytest.approx(truth, abs=1e-3)
+    assert res.metrics(t_transient=0.0).peak_torque == res.peak_torque
+
+
+def test_a_sampled_controller_peaks_at_its_samples():
+    res = sr.run_scenario("smc-sign", "small", t_final=0.05)
+    assert res.peak_torque == float(np.abs(res.torque).max())

@@ -84,12 +84,15 @@ def output_grid(t_final: float, dt: float) -> Array:
 class Engine(ABC):
     """An integration algorithm for the shared segment loop of :func:`integrate`.
 
-    Subclasses set ``name`` and ``sampled`` (True if the engine can hold a sampled
-    controller's output) and implement :meth:`advance`.
+    Subclasses set ``name``, ``sampled`` (True if the engine can hold a sampled
+    controller's output) and ``dense`` (True if :meth:`advance` returns the state at any
+    times asked for, so a peak between output samples can be found), and implement
+    :meth:`advance`.
     """
 
     name: ClassVar[str]
     sampled: ClassVar[bool] = False
+    dense: ClassVar[bool] = True
 
     def grid(self, loop: ClosedLoop, t_final: float, dt: float) -> tuple[Array, Array]:
         """Segment edges and output times, s: by default the disturbance's switching instants and `dt`.
@@ -183,6 +186,7 @@ class RK4Engine(Engine):
 
     name = "rk4"
     sampled = True
+    dense = False
 
     def grid(self, loop: ClosedLoop, t_final: float, dt: float) -> tuple[Array, Array]:
         """Steps of the sample time (or of `dt` for a continuous controller); outputs at every step.
@@ -235,8 +239,10 @@ def integrate(
     rtol: float,
     atol: float,
     divergence_limit: float,
+    t0: float = 0.0,
+    t_out: Array | None = None,
 ) -> Trajectory:
-    """The shared segment loop: integrate `loop` from `x0` over ``[0, t_final]`` with `engine`.
+    """The shared segment loop: integrate `loop` from `x0` over ``[t0, t_final]`` with `engine`.
 
     Parameters
     ----------
@@ -252,15 +258,24 @@ def integrate(
         Tolerances of adaptive engines.
     divergence_limit : float
         Tracking error (rad) beyond which the run stops, checked at every segment's end.
+    t0 : float
+        Start time, s (default 0).
+    t_out : ndarray, shape (k,), optional
+        Output times in ``[t0, t_final]`` for a dense engine (default: its own grid).
 
     Returns
     -------
     Trajectory
         On the output grid, up to where the run stopped.
     """
-    edges, t_out = engine.grid(loop, t_final, dt)
+    if t_out is None:
+        edges, t_out = engine.grid(loop, t_final, dt)
+    else:
+        if not engine.dense:
+            raise ValueError(f"engine {engine.name!r} gives the state on its own grid only; `t_out` needs a dense one")
+        edges = np.concatenate([[t0], loop.disturbance.switching_times(t0, t_final), [t_final]])
     first = np.searchsorted(t_out, edges, side="right")
-    times: list[Array] = [np.zeros(1)]
+    times: list[Array] = [np.full(1, t0)]
     states: list[Array] = [np.asarray(x0, dtype=float)[:, None]]
     x = states[0][:, 0]
     success, diverged, message = True, False, "completed"

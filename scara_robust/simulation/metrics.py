@@ -116,7 +116,12 @@ METRIC_NAMES = metric_names(PAPER_TRANSIENT)
 
 
 def tracking_metrics(
-    t: ArrayLike, e: ArrayLike, torque: ArrayLike, *, t_transient: float = PAPER_TRANSIENT
+    t: ArrayLike,
+    e: ArrayLike,
+    torque: ArrayLike,
+    *,
+    t_transient: float = PAPER_TRANSIENT,
+    peak_torque: float | None = None,
 ) -> TrackingMetrics:
     """Compute :class:`TrackingMetrics` from sampled signals.
 
@@ -130,6 +135,10 @@ def tracking_metrics(
         Control torques, N·m.
     t_transient : float
         End of the transient, s (>= 0); at least two samples must follow it.
+    peak_torque : float, optional
+        The trajectory's peak ``max |T_ci(t)|`` where it is known beyond the samples, N·m
+        (see :class:`~scara_robust.SimulationResult`); the metric is the larger of it and
+        the sampled peak. NaN or None: the sampled peak.
 
     Returns
     -------
@@ -160,7 +169,8 @@ def tracking_metrics(
     return TrackingMetrics(
         max_abs_error=float(np.abs(ea).max()),
         rms_error=float(rms),
-        peak_torque=float(np.abs(torque).max()),
+        peak_torque=float(np.abs(torque).max()) if peak_torque is None or np.isnan(peak_torque)
+        else max(float(peak_torque), float(np.abs(torque).max())),
         max_abs_torque=float(np.abs(tqa).max()),
         chattering_index=float(np.abs(np.diff(tqa, axis=1)).sum() / duration),
         control_energy=float(np.trapezoid((torque**2).sum(axis=0), t)),

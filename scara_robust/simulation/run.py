@@ -26,7 +26,7 @@ from ..model.robot import ConstantPayload, PayloadProfile, ScaraParams, paper_pa
 from ..model.signals import Reference, SquareWave, paper_disturbance, paper_reference
 from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
 from .controllers import CONTROLLERS, make_controller
-from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Trajectory, integrate
+from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
 
@@ -73,6 +73,10 @@ class SimulationResult:
         End of the transient for `status` and :meth:`metrics`, s.
     tracking_tolerance : float
         Tolerance of `status`, rad.
+    peak_torque : float
+        ``max |T_ci(t)|`` of the trajectory, N·m: the largest sample, refined between the
+        samples around the largest local maxima where the engine is dense (a continuous
+        controller's torque can peak between two 1-ms samples); NaN when not computed.
     """
 
     response: ct.TimeResponseData
@@ -92,11 +96,12 @@ class SimulationResult:
     status_reason: str = ""
     t_transient: float = PAPER_TRANSIENT
     tracking_tolerance: float = TRACKING_TOLERANCE
+    peak_torque: float = float("nan")
 
     def metrics(self, t_transient: float | None = None) -> TrackingMetrics:
         """:func:`scara_robust.tracking_metrics` of this run after `t_transient` (s; default the run's)."""
         t0 = self.t_transient if t_transient is None else t_transient
-        return tracking_metrics(self.t, self.e, self.torque, t_transient=t0)
+        return tracking_metrics(self.t, self.e, self.torque, t_transient=t0, peak_torque=self.peak_torque)
 
     @property
     def has_metrics(self) -> bool:
@@ -121,8 +126,47 @@ class SimulationResult:
         )
 
 
+#: Local maxima of |T_c| on the output grid whose neighbourhood is searched for the true peak.
+PEAK_CANDIDATES = 5
+#: Points of the fine grid over the two sample intervals around a candidate.
+PEAK_POINTS = 41
+
+
+def _peak_torque(
+    engine: Engine, loop: ClosedLoop, t: Array, X: Array, torque: Array, rtol: float, atol: float
+) -> float:
+    """``max |T_c(t)|`` of the trajectory: the sampled peak, refined around the largest local maxima.
+
+    Each candidate sample i is re-integrated from sample i - 1 to i + 1 on a fine grid with
+    the same engine; a sampled controller holds its torque, so its samples are exact.
+    """
+    mag = np.abs(torque).max(axis=0)
+    peak = float(mag.max()) if mag.size else float("nan")
+    if not engine.dense or loop.sample_time is not None or mag.size < 2:
+        return peak
+    padded = np.concatenate([[-np.inf], mag, [-np.inf]])
+    local = np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]))
+    for i in local[np.argsort(mag[local])[-PEAK_CANDIDATES:]]:
+        a, b = max(int(i) - 1, 0), min(int(i) + 1, mag.size - 1)
+        fine = np.linspace(t[a], t[b], PEAK_POINTS)[1:]
+        traj = integrate(
+            engine, loop, X[:, a], float(t[b]), dt=float(fine[1] - fine[0]), rtol=rtol, atol=atol,
+            divergence_limit=np.inf, t0=float(t[a]), t_out=fine,
+        )
+        if traj.success:
+            peak = max(peak, float(np.abs(loop.outputs(traj.t, traj.x)[4:6]).max()))
+    return peak
+
+
 def _result(
-    loop: ClosedLoop, traj: Trajectory, scenario: str, method: str, t_transient: float, tolerance: float
+    loop: ClosedLoop,
+    traj: Trajectory,
+    scenario: str,
+    engine: Engine,
+    t_transient: float,
+    tolerance: float,
+    rtol: float,
+    atol: float,
 ) -> SimulationResult:
     t, X = traj.t, traj.x
     Y = loop.outputs(t, X)
@@ -140,8 +184,9 @@ def _result(
     r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
     rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
     e = r - Y[0:2]
+    peak = _peak_torque(engine, loop, t, X, Y[4:6], rtol, atol)
     after = t >= t_transient
-    metrics = tracking_metrics(t, e, Y[4:6], t_transient=t_transient) if after.sum() >= 2 else None
+    metrics = tracking_metrics(t, e, Y[4:6], t_transient=t_transient, peak_torque=peak) if after.sum() >= 2 else None
     status, reason = run_status(
         metrics,
         success=traj.success,
@@ -163,11 +208,12 @@ def _result(
         message=traj.message,
         controller=loop.controller.name,
         scenario=scenario,
-        method=method,
+        method=engine.name,
         status=status,
         status_reason=reason,
         t_transient=t_transient,
         tracking_tolerance=tolerance,
+        peak_torque=peak,
     )
 
 
@@ -297,7 +343,7 @@ def simulate(
     traj = integrate(
         ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
     )
-    return _result(loop, traj, scenario.name, engine, t_transient, tolerance)
+    return _result(loop, traj, scenario.name, ENGINES[engine], t_transient, tolerance, rtol, atol)
 
 
 def run_scenario(

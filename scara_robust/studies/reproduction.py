@@ -17,12 +17,15 @@ from .._validation import check_array
 from ..lyapunov.gain import design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
+from ..model.robot import ScaraParams
+from ..model.signals import SquareWave
 from ..model.uncertain import paper_model
-from ..paper import PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS
+from ..paper import PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..simulation.metrics import METRIC_NAMES
+from ..simulation.run import run_scenario
 from .comparison import compare_controllers
 
-__all__ = ["gain_digits_matched", "reproduction_table"]
+__all__ = ["gain_digits_matched", "reproduction_table", "error_sensitivity"]
 
 _COLUMNS = ["claim", "source", "paper", "package", "unit", "holds"]
 
@@ -131,3 +134,46 @@ def reproduction_table(comparison: pd.DataFrame | None = None) -> pd.DataFrame:
     ]
     table = pd.DataFrame(rows, columns=_COLUMNS)
     return table.astype({"package": float, "holds": bool})
+
+
+def error_sensitivity(t_final: float = PAPER_T_FINAL) -> pd.DataFrame:
+    """Where the PID's max |e| after 6 s (large initial condition) comes from.
+
+    Runs the paper's PID (K at (3, 90), published model) on the large initial condition
+    while changing one thing at a time: the length of link 2 (which the paper does not
+    give; 0.4 m here), the payload (on or off) and the disturbance's phase (not given; 0
+    here). The max after 6 s is at the tail of the slow closed-loop transient, which a
+    second column shows by starting one second later.
+
+    Parameters
+    ----------
+    t_final : float
+        Horizon, s (> 7).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case: ``case``, ``L2 [m]``, ``payload``, ``phase [rad]``,
+        ``max |e| after 6 s [rad]``, ``at t [s]`` (where it is reached) and
+        ``max |e| after 7 s [rad]``.
+    """
+    K = design(paper_model(), *PAPER_DESIGN_POINT).K
+    cases: list[tuple[str, float, bool, float]] = [("this package", 0.4, True, 0.0)]
+    cases += [(f"L2 = {L2:g} m", L2, True, 0.0) for L2 in (0.2, 0.3, 0.5)]
+    cases += [("payload off", 0.4, False, 0.0)]
+    cases += [(f"phase = {k}π/2", 0.4, True, k * np.pi / 2) for k in (1, 2, 3)]
+    rows = []
+    for label, L2, payload_on, phase in cases:
+        params = ScaraParams(L2=L2, Lc2=min(ScaraParams().Lc2, L2))
+        res = run_scenario(
+            "pid", "large", params=params, payload_on=payload_on, disturbance=SquareWave(phase=phase), K=K,
+            t_final=t_final,
+        )
+        error = np.abs(res.e).max(axis=0)
+        after = res.t >= PAPER_TRANSIENT
+        worst = int(np.argmax(np.where(after, error, -np.inf)))
+        rows.append((label, L2, "on" if payload_on else "off", phase, float(error[worst]), float(res.t[worst]),
+                     float(error[res.t >= PAPER_TRANSIENT + 1.0].max())))
+    columns = ["case", "L2 [m]", "payload", "phase [rad]", "max |e| after 6 s [rad]", "at t [s]",
+               "max |e| after 7 s [rad]"]
+    return pd.DataFrame(rows, columns=columns)
