@@ -277,3 +277,12 @@ def test_certificate_table_bad_input(paper, paper_design):
         sr.certificate_table(paper, paper_design, lmi_solver="MOSEK")
     with pytest.raises(ValueError, match="`lmi_masses` must be an integer >= 1"):
         sr.certificate_table(paper, paper_design, lmi_masses=0)
+
+
+def test_falsifier_reports_huge_growth_by_its_order_of_magnitude(paper, paper_design):
+    result = sr.falsify(sr.box_closed_loops(paper, paper_design.K), paper_design.P, n_tries=3)
+    assert result.found and result.growth_factor == np.inf
+    assert "grew by a factor of 10^" in result.message and "inf" not in result.message
+    assert float(result.message.split("10^")[1].split()[0]) == pytest.approx(
+        result.growth_rate * result.horizon / np.log(10), abs=0.5
+    )

@@ -85,6 +85,12 @@ class FalsifierResult:
     dwell: float
     overflow: bool = False
 
+    def _factor(self) -> str:
+        # beyond double precision the factor is still known through its logarithm
+        if math.isfinite(self.growth_factor):
+            return f"{self.growth_factor:.3g}"
+        return f"a factor of 10^{self.growth_rate * self.horizon / math.log(10):.0f}"
+
     @property
     def message(self) -> str:
         """One sentence saying what the result means."""
@@ -96,7 +102,7 @@ class FalsifierResult:
             )
         if self.found:
             return (
-                f"unstable trajectory found: ‖x‖ grew by {self.growth_factor:.3g} in {self.horizon:g} s "
+                f"unstable trajectory found: ‖x‖ grew by {self._factor()} in {self.horizon:g} s "
                 f"(rate {self.growth_rate:.4g} 1/s, rule '{self.rule}')"
             )
         return (
