@@ -31,6 +31,9 @@ Model (:mod:`scara_robust.model`)
     UncertainElement, UncertainLTVModel, ELEMENT_SETS -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
     paper_model, derived_model, pid_state_matrices -- published bounds / bounds derived from the robot
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
+    state_space, as_element         -- a continuous-time control.StateSpace / an element from its fields
+    PolytopicModel                  -- (A(t), B(t)) in the convex hull of vertices; box_hull() for Theorem 1
+    pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
@@ -54,6 +57,7 @@ Simulation (:mod:`scara_robust.simulation`)
     run_status, STATUSES, TRACKING_TOLERANCE -- does a run track: tracking, not-tracking, diverged, failed, too-short
 Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
+    load_model, MODEL_FORMS         -- your plant's file: an interval model or a polytope
     write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS -- the PID vs sliding-mode table (``compare`` command)

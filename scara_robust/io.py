@@ -50,9 +50,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
+import control as ct
+import numpy as np
+from numpy.typing import NDArray
+
 from ._validation import describe, field_number, field_table
 from .exceptions import ArgumentError, ArgumentValueError, InputFileError
+from .model.augment import integral_augment, pid_augment
 from .model.initial import Scenario
+from .model.polytopic import PolytopicModel
 from .model.robot import (
     PARAM_UNITS,
     ConstantPayload,
@@ -62,6 +68,7 @@ from .model.robot import (
     paper_payload,
 )
 from .model.signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
+from .model.uncertain import UncertainElement, UncertainLTVModel
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -69,6 +76,8 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 __all__ = [
+    "load_model",
+    "MODEL_FORMS",
     "ScenarioFile",
     "ROBOT_UNITS",
     "TABLE_FORMATS",
@@ -87,6 +96,10 @@ _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
     "disturbance": {"amplitude": "N·m", "period": "s", "phase": "rad"},
     "initial": {"e0": "rad", "edot0": "rad/s"},
 }
+#: ``form`` of a model file: the matrices as they are, or augmented (see :func:`load_model`).
+MODEL_FORMS = ("state", "pid", "integral")
+_MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices")
+_ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
 #: Results tables by file extension.
 TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet"}
 
@@ -364,3 +377,132 @@ def table_format(name: str, path: str | os.PathLike[str]) -> str:
                 name, f"{os.fspath(path)!r}: parquet files need pyarrow: pip install scara_robust[parquet], or use .csv"
             ) from err
     return TABLE_FORMATS[ext]
+
+
+def _matrix(where: str, field: str, value: Any, shape: tuple[int | None, int | None]) -> NDArray[np.float64]:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise InputFileError(f"{where} field `{field}` must be a table of numbers (a list of rows), found "
+                             f"{describe(value)}") from err
+    if arr.ndim != 2 or 0 in arr.shape:
+        raise InputFileError(f"{where} field `{field}` must be a matrix (a list of equal rows), found "
+                             f"{describe(value)}")
+    if any(want is not None and want != got for want, got in zip(shape, arr.shape)):
+        want = "(" + ", ".join("n" if w is None else str(w) for w in shape) + ")"
+        raise InputFileError(f"{where} field `{field}` must have shape {want}, found {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputFileError(f"{where} field `{field}` must hold finite numbers, found NaN or inf")
+    return arr
+
+
+def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicModel:
+    """Read a plant file: an interval model (A, B and elements) or a polytope (vertices).
+
+    The format (TOML or JSON; ``examples/plant-dc-motor.toml`` and
+    ``examples/plant-polytope.toml`` document it): ``name``; either ``A``, ``B`` (lists
+    of rows, in the SI units of the plant's state and input) with ``[[elements]]``
+    tables (``matrix`` = "A" or "B", 0-based ``row`` and ``col``, ``lower`` and ``upper``
+    in the units of that entry), or ``[[vertices]]`` tables each with ``A`` and ``B``.
+    ``form`` says what A and B are: ``"state"`` (default) the model as designed on,
+    ``"pid"`` a second-order plant with state [q, q̇] turned into the PID form
+    (:func:`scara_robust.pid_augment`; elements on the plant's own A and B), ``"integral"``
+    a plant with outputs ``C`` given integral action (:func:`scara_robust.integral_augment`).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    UncertainLTVModel or PolytopicModel
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        Naming the file and the field: missing ``B``, shapes that do not match, a vertex
+        of another size, a non-finite entry, an element outside its matrix, ...
+    """
+    text_path = os.fspath(path)
+    where = f"{text_path!r}:"
+    data = read_mapping(text_path)
+    for key in data:
+        if key not in _MODEL_KEYS:
+            raise InputFileError(f"{where} unknown field `{key}`; valid: {', '.join(_MODEL_KEYS)}")
+    name = data.get("name", os.path.splitext(os.path.basename(text_path))[0])
+    if not isinstance(name, str):
+        raise InputFileError(f"{where} field `name` must be a string, found {describe(name)}")
+    form = data.get("form", "state")
+    if form not in MODEL_FORMS:
+        raise InputFileError(f"{where} field `form` must be one of {', '.join(MODEL_FORMS)}, found {describe(form)}")
+    if "vertices" in data:
+        if any(key in data for key in ("A", "B", "elements")) or form != "state":
+            raise InputFileError(f"{where} a polytope gives `vertices` only (no `A`, `B`, `elements` or `form`)")
+        vertices = data["vertices"]
+        if not isinstance(vertices, list) or not vertices or not all(isinstance(v, Mapping) for v in vertices):
+            raise InputFileError(f"{where} field `vertices` must be a list of tables with A and B, found "
+                                 f"{describe(vertices)}")
+        As: list[NDArray[np.float64]] = []
+        Bs: list[NDArray[np.float64]] = []
+        for i, vertex in enumerate(vertices):
+            for key in ("A", "B"):
+                if key not in vertex:
+                    raise InputFileError(f"{where} missing field `vertices[{i}].{key}`")
+            n = As[0].shape[0] if As else None
+            m = Bs[0].shape[1] if Bs else None
+            A = _matrix(where, f"vertices[{i}].A", vertex["A"], (n, n))
+            if A.shape[0] != A.shape[1]:
+                raise InputFileError(f"{where} field `vertices[{i}].A` must be square, found {A.shape}")
+            As.append(A)
+            Bs.append(_matrix(where, f"vertices[{i}].B", vertex["B"], (A.shape[0], m)))
+        return PolytopicModel(np.array(As), np.array(Bs), name=name)
+    for key in ("A", "B"):
+        if key not in data:
+            raise InputFileError(f"{where} missing field `{key}` (or give `vertices` for a polytope)")
+    A = _matrix(where, "A", data["A"], (None, None))
+    if A.shape[0] != A.shape[1]:
+        raise InputFileError(f"{where} field `A` must be square, found {A.shape}")
+    B = _matrix(where, "B", data["B"], (A.shape[0], None))
+    elements = []
+    raw = data.get("elements", [])
+    if not isinstance(raw, list):
+        raise InputFileError(f"{where} field `elements` must be a list of tables, found {describe(raw)}")
+    for k, table in enumerate(raw):
+        label = f"elements[{k}]"
+        fields_ = field_table(where.rstrip(":"), {label: table}, label, _ELEMENT_KEYS)
+        for key in _ELEMENT_KEYS:
+            if key not in fields_:
+                raise InputFileError(f"{where} missing field `{label}.{key}`")
+        matrix, row, col = fields_["matrix"], fields_["row"], fields_["col"]
+        if matrix not in ("A", "B"):
+            raise InputFileError(f"{where} field `{label}.matrix` must be 'A' or 'B', found {describe(matrix)}")
+        for key, value in (("row", row), ("col", col)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise InputFileError(f"{where} field `{label}.{key}` must be a 0-based index >= 0, found "
+                                     f"{describe(value)}")
+        shape = A.shape if matrix == "A" else B.shape
+        if row >= shape[0] or col >= shape[1]:
+            raise InputFileError(f"{where} field `{label}`: Δ{matrix}[{row}, {col}] lies outside {matrix} of "
+                                 f"shape {shape}")
+        lower = field_number(where, f"{label}.lower", fields_["lower"], "the units of the entry")
+        upper = field_number(where, f"{label}.upper", fields_["upper"], "the units of the entry")
+        if lower > upper:
+            raise InputFileError(f"{where} field `{label}`: lower {lower:g} > upper {upper:g}")
+        elements.append(UncertainElement(matrix, row, col, lower, upper))
+    if "C" in data and form != "integral":
+        raise InputFileError(f"{where} field `C` is used by form = 'integral' only")
+    try:
+        if form == "state":
+            return UncertainLTVModel(A, B, tuple(elements), name=name)
+        if form == "pid":
+            p = A.shape[0] // 2
+            C = np.hstack([np.eye(p), np.zeros((p, A.shape[0] - p))])
+            return pid_augment(ct.ss(A, B, C, 0), elements, name=name)
+        if "C" not in data:
+            raise InputFileError(f"{where} missing field `C` (the outputs to integrate, form = 'integral')")
+        C = _matrix(where, "C", data["C"], (None, A.shape[0]))
+        return integral_augment(ct.ss(A, B, C, 0), elements, name=name)
+    except ArgumentError as err:
+        raise InputFileError(f"{where} {err}") from err

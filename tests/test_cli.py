@@ -25,7 +25,7 @@ def test_design_json_keys(capsys):
 
 def test_design_text_elements_a(capsys):
     code, out, _ = run(capsys, ["design", "--rho", "3", "--eta", "90", "--elements", "A", "--bounds", "derived"])
-    assert code == 0 and "certified: True" in out and "ΔA(5, 4)" in out
+    assert code == 0 and "certified: True" in out and "ΔA[4, 3]" in out
 
 
 def test_surface_csv_and_plot(capsys, tmp_path):

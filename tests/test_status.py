@@ -59,7 +59,8 @@ def test_a_diverging_run_is_diverged():
 
 
 def test_run_status_covers_failure():
-    assert sr.run_status(None, success=False, diverged=False, message="solver exploded") == ("failed", "solver exploded")
+    status = sr.run_status(None, success=False, diverged=False, message="solver exploded")
+    assert status == ("failed", "solver exploded")
 
 
 def test_simulate_prints_a_summary_by_default(capsys, tmp_path):

@@ -12,7 +12,7 @@ def test_paper_model_is_the_published_data(paper):
     assert np.array_equal(paper.A[:4, 2:], np.eye(4))
     assert np.all(paper.lower_bounds() == 0)
     assert paper.bounds_table("A", (4, 3)).loc["h_u"].tolist() == PAPER_TABLE1.ravel().tolist()
-    assert list(paper.bounds_table("B", (4, 0)).columns) == ["(1, 1)", "(1, 2)", "(2, 1)", "(2, 2)"]
+    assert list(paper.bounds_table("B", (4, 0)).columns) == ["[0, 0]", "[0, 1]", "[1, 0]", "[1, 1]"]
     assert paper.bounds_table("B", (4, 0)).loc["h_u"].tolist() == PAPER_TABLE2.ravel().tolist()
 
 
@@ -24,16 +24,16 @@ def derived():
 def test_derived_model_finds_the_ten_elements(derived):
     labels = [el.label for el in derived.elements]
     assert labels == [
-        "ΔA(5, 4)",
-        "ΔA(5, 5)",
-        "ΔA(5, 6)",
-        "ΔA(6, 4)",
-        "ΔA(6, 5)",
-        "ΔA(6, 6)",
-        "ΔB(5, 1)",
-        "ΔB(5, 2)",
-        "ΔB(6, 1)",
-        "ΔB(6, 2)",
+        "ΔA[4, 3]",
+        "ΔA[4, 4]",
+        "ΔA[4, 5]",
+        "ΔA[5, 3]",
+        "ΔA[5, 4]",
+        "ΔA[5, 5]",
+        "ΔB[4, 0]",
+        "ΔB[4, 1]",
+        "ΔB[5, 0]",
+        "ΔB[5, 1]",
     ]
     assert np.all(derived.A[4:, 2] == 0)  # ∂f/∂e1 = 0: no dependence on q1
 

@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
     p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
-    add_setup_options(p, scenario="signals")
+    add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
     p.add_argument("--format", choices=("text", "json"), default="text")
@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> str:
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         return json.dumps(records, indent=2)
-    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), bounds: {resolve_bounds(args, setup)}"
+    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
+    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), {source}"
     shown = table.drop(columns="detail").assign(
         certified=table["certified"].map({True: "yes", False: "no", None: "-"})
     )

@@ -17,8 +17,9 @@ from typing import Any, NoReturn, TypeVar
 import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
-from ..io import load_robot, load_scenario, write_atomic
+from ..io import load_model, load_robot, load_scenario, write_atomic
 from ..model.initial import SCENARIOS, Scenario
+from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
 from ..model.signals import Reference, SquareWave
 from ..model.uncertain import UncertainLTVModel, derived_model, paper_model
@@ -296,7 +297,9 @@ class Setup:
                 "disturbance": self.disturbance}
 
 
-def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenario: str | None = "run") -> None:
+def add_setup_options(
+    p: argparse.ArgumentParser, *, bounds: bool = True, scenario: str | None = "run", model: bool = False
+) -> None:
     """Add ``--robot FILE``, ``--scenario`` and ``--bounds`` to a sub-command.
 
     Parameters
@@ -308,6 +311,8 @@ def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenar
         ``'run'``: ``--scenario NAME|FILE`` (initial condition and signals of a run);
         ``'signals'``: ``--scenario FILE`` (the reference and payload of the robot's
         physical set; a named initial condition means nothing there); None: no option.
+    model : bool
+        Add ``--model FILE`` (your own plant; excludes the robot's options).
     """
     p.add_argument("--robot", metavar="FILE", help="robot file (.toml/.json, see examples/robot-paper.toml)")
     if scenario == "run":
@@ -324,6 +329,13 @@ def add_setup_options(p: argparse.ArgumentParser, *, bounds: bool = True, scenar
             metavar="FILE",
             help="scenario file whose reference and payload define the robot's physical set "
             "(see examples/scenario-paper.toml)",
+        )
+    if model:
+        p.add_argument(
+            "--model",
+            metavar="FILE",
+            help="your own plant instead of the SCARA: an interval model or a polytope (.toml/.json, see "
+            "examples/plant-dc-motor.toml and examples/plant-polytope.toml)",
         )
     if bounds:
         p.add_argument(
@@ -401,8 +413,8 @@ def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
     return getattr(args, "bounds", None) or ("derived" if setup.robot_file else "paper")
 
 
-def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
-    """The interval model of ``--bounds`` for this setup (refusing published bounds for other data).
+def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel | PolytopicModel:
+    """The model of ``--model``, or the SCARA's interval model of ``--bounds`` for this setup.
 
     Parameters
     ----------
@@ -411,13 +423,22 @@ def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel:
 
     Returns
     -------
-    UncertainLTVModel
+    UncertainLTVModel or PolytopicModel
 
     Raises
     ------
     CommandLineError
-        If published bounds are asked for with a robot file.
+        If published bounds are asked for with a robot file, or ``--model`` with an
+        option of the robot.
     """
+    model_file = getattr(args, "model", None)
+    if model_file is not None:
+        robot_options = [f"--{o}" for o in ("robot", "bounds", "scenario") if getattr(args, o, None) is not None]
+        if robot_options:
+            raise CommandLineError(
+                f"`--model` is your own plant; {', '.join(robot_options)} describe the SCARA and cannot go with it"
+            )
+        return _load_file("--model", model_file, load_model)
     if resolve_bounds(args, setup) == "paper":
         if setup.robot_file:
             raise CommandLineError(

@@ -11,7 +11,9 @@ import pandas as pd
 
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
+from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ELEMENT_SETS
+from ..robustness.polytope import vertex_certificate
 from ._common import add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
 
 __all__ = ["add_parser", "add_model_options", "run"]
@@ -24,7 +26,7 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     ----------
     p : argparse.ArgumentParser
     """
-    add_setup_options(p, scenario=None)  # the bounds come from the robot, never from a scenario
+    add_setup_options(p, scenario=None, model=True)  # the bounds come from the robot, never from a scenario
     p.add_argument("--elements", choices=ELEMENT_SETS, default="all", help="uncertain elements entering Theorem 1's Z")
 
 
@@ -58,31 +60,44 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     model = resolve_model(args, setup)
     d = design(model, args.rho, args.eta)
-    cert = certify(model, d, args.elements)
-    out = {
+    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
+    out: dict[str, Any] = {
         "rho": d.rho,
         "eta": d.eta,
-        "bounds": resolve_bounds(args, setup),
+        "model": model.name,
+        "bounds": None if args.model is not None else resolve_bounds(args, setup),
         "elements": args.elements,
         "K": d.K.tolist(),
         "closed_loop_poles_real": np.sort(d.poles.real).tolist(),
         "closed_loop_hurwitz": d.hurwitz,
-        "max_eig_Z": cert.max_eig,
-        "certified": cert.certified,
         "care_residual": d.care_residual,
-        "lyapunov_residual": cert.lyapunov_residual,
-        "contributions": cert.contributions().to_dict(orient="records"),
     }
+    if d.n_joints is not None:
+        out.update(zip(("K_I", "K_P", "K_D"), (k.tolist() for k in d.pid_matrices())))
+    lines = [
+        f"design (rho, eta) = ({d.rho:g}, {d.eta:g}), {source}, elements: {args.elements}",
+        "K (u = -K x) =",
+        np.array2string(d.K, precision=4, suppress_small=True, max_line_width=120),
+    ]
+    if d.n_joints is not None:
+        lines += [f"{name} = {np.array2string(np.array(out[name]), precision=4, suppress_small=True)}"
+                  for name in ("K_I", "K_P", "K_D")] + ["(u = K_I ∫e + K_P e + K_D ė)"]
+    lines.append(f"closed loop Hurwitz: {d.hurwitz} (largest real part {max(out['closed_loop_poles_real']):.4g} 1/s)")
+    if isinstance(model, PolytopicModel):
+        vertex = vertex_certificate(model, d)
+        out.update(max_eig_Z=None, certified=vertex.certified, vertex_test=vertex.message)
+        lines += [f"Theorem 1 needs interval elements; exact test over the {model.n_vertices} vertices: "
+                  f"{vertex.message}"]
+    else:
+        cert = certify(model, d, args.elements)
+        out.update(max_eig_Z=cert.max_eig, certified=cert.certified, lyapunov_residual=cert.lyapunov_residual,
+                   contributions=cert.contributions().to_dict(orient="records"))
+        lines += [
+            f"max eig Z: {cert.max_eig:.6g}  ->  certified: {cert.certified}",
+            "",
+            "contributions of each element to Z:",
+            pd.DataFrame(out["contributions"]).to_string(index=False, float_format="%.4g"),
+        ]
     if args.format == "json":
         return json.dumps(out, indent=2)
-    lines = [
-        f"design (rho, eta) = ({d.rho:g}, {d.eta:g}), bounds: {out['bounds']}, elements: {args.elements}",
-        "K =",
-        np.array2string(d.K, precision=4, suppress_small=True, max_line_width=120),
-        f"closed loop Hurwitz: {d.hurwitz} (largest real part {max(out['closed_loop_poles_real']):.4g} 1/s)",
-        f"max eig Z: {cert.max_eig:.6g}  ->  certified: {cert.certified}",
-        "",
-        "contributions of each element to Z:",
-        pd.DataFrame(out["contributions"]).to_string(index=False, float_format="%.4g"),
-    ]
     return "\n".join(lines)

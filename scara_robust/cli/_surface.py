@@ -7,6 +7,7 @@ import json
 from typing import Any
 
 from ..lyapunov.surface import MAX_SURFACE_POINTS, design_surface, surface_memory
+from ..model.polytopic import PolytopicModel
 from ..plotting import plot_surface
 from ._common import (
     RANGE_HELP,
@@ -73,6 +74,10 @@ def run(args: argparse.Namespace) -> str:
     if args.mark is not None and args.plot is None:
         raise CommandLineError("`--mark` marks a point on the --plot figure; give --plot FILE.png too")
     model = resolve_model(args, resolve_setup(args))
+    note = ""
+    if isinstance(model, PolytopicModel):  # Theorem 1 needs intervals: the box around the polytope
+        model = model.box_hull()
+        note = f"Theorem 1 on the {model.name} (its corners need not be in the polytope)\n"
     surface = design_surface(model, args.rho, args.eta, args.elements)
     frame = surface.to_frame()
     if args.plot is not None:
@@ -86,7 +91,7 @@ def run(args: argparse.Namespace) -> str:
     if args.format == "csv":
         return str(frame.to_csv(index=False))
     rho, eta, best = surface.best()
-    return (
+    return note + (
         f"{frame.shape[0]} grid points, {int(surface.certified.sum())} certified "
         f"(max eig Z < 0); best: rho={rho:g}, eta={eta:g}, max eig Z={best:.6g}\n"
         + str(frame.to_string(index=False, float_format="%.6g"))

@@ -11,9 +11,11 @@ from dataclasses import dataclass
 
 import control as ct
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_real
+from .._validation import check_array, check_instance, check_real
+from ..exceptions import ArgumentValueError
+from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
 
 __all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
@@ -43,6 +45,9 @@ class Design:
         Every eigenvalue of ``Ā`` has a negative real part.
     care_residual : float
         ``‖PA + AᵀP - 2ρPBBᵀP + 2I‖_F / (1 + ‖P‖_F)``.
+    n_joints : int or None
+        Joints p of a model in the paper's PID form ``x = [∫e, e, ė]`` (n = 3p), from the
+        model; None for a plain state-feedback model.
     """
 
     rho: float
@@ -54,11 +59,81 @@ class Design:
     poles: NDArray[np.complex128]
     hurwitz: bool
     care_residual: float
+    n_joints: int | None = None
 
     @property
     def spectral_abscissa(self) -> float:
         """Largest real part of the closed-loop eigenvalues, 1/s."""
         return float(np.max(self.poles.real))
+
+    def pid_matrices(self) -> tuple[Array, Array, Array]:
+        """The gain as PID matrices: ``u = K_I ∫e + K_P e + K_D ė`` (the same law as ``u = −Kx``).
+
+        Returns
+        -------
+        K_I, K_P, K_D : ndarray, each shape (m, p)
+            ``K = −[K_I, K_P, K_D]``, so for the SCARA ``K_P`` is in N·m/rad, ``K_I`` in
+            N·m/(rad·s) and ``K_D`` in N·m·s/rad.
+
+        Raises
+        ------
+        ArgumentValueError
+            If the design's model is not in the PID form (``n_joints`` is None).
+        """
+        if self.n_joints is None:
+            raise ArgumentValueError(
+                "design", "is not for a model in the PID form x = [∫e, e, ė]; build the model with sr.pid_augment"
+            )
+        p = self.n_joints
+        return -self.K[:, :p], -self.K[:, p : 2 * p], -self.K[:, 2 * p :]
+
+    def controller(self) -> ct.StateSpace:
+        """The controller as a python-control system.
+
+        Returns
+        -------
+        control.StateSpace
+            PID form: inputs ``e[0..p-1], edot[0..p-1]``, states ``int_e[0..p-1]``
+            (``∫e``), outputs ``u[0..m-1]`` with ``u = K_I ∫e + K_P e + K_D ė``. Otherwise
+            the static gain ``u = −K x`` with inputs ``x[0..n-1]``.
+        """
+        m, n = self.K.shape
+        outputs = [f"u[{i}]" for i in range(m)]
+        if self.n_joints is None:
+            return ct.ss([], [], [], -self.K, inputs=[f"x[{i}]" for i in range(n)], outputs=outputs, name="K")
+        p = self.n_joints
+        K_I, K_P, K_D = self.pid_matrices()
+        return ct.ss(
+            np.zeros((p, p)),
+            np.hstack([np.eye(p), np.zeros((p, p))]),
+            K_I,
+            np.hstack([K_P, K_D]),
+            inputs=[f"e[{i}]" for i in range(p)] + [f"edot[{i}]" for i in range(p)],
+            states=[f"int_e[{i}]" for i in range(p)],
+            outputs=outputs,
+            name="pid",
+        )
+
+    def closed_loop(self, A: ArrayLike, B: ArrayLike) -> ct.StateSpace:
+        """The loop of the frozen plant ``ẋ = Ax + Bu`` with ``u = −Kx``, built by python-control.
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+        B : array_like, shape (n, m)
+            A plant of the uncertainty set (a vertex, a sample, the nominal).
+
+        Returns
+        -------
+        control.StateSpace
+            ``control.feedback`` of the plant (all states measured) and the gain; its
+            poles are the eigenvalues of ``A − BK``.
+        """
+        m, n = self.K.shape
+        A = check_array("A", A, shape=(n, n))
+        B = check_array("B", B, shape=(n, m))
+        plant = ct.ss(A, B, np.eye(n), np.zeros((n, m)))
+        return ct.feedback(plant, ct.ss([], [], [], self.K))
 
 
 def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
@@ -94,12 +169,12 @@ def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
 CARE_RTOL = 1e-8
 
 
-def riccati_solution(model: UncertainLTVModel, rho: float) -> Array:
+def riccati_solution(model: UncertainLTVModel | PolytopicModel, rho: float) -> Array:
     """Solve step 2's Riccati equation ``PA + AᵀP - 2ρPBBᵀP = -2I`` for P.
 
     Parameters
     ----------
-    model : UncertainLTVModel
+    model : UncertainLTVModel or PolytopicModel
         Supplies A, shape (n, n), and B, shape (n, m).
     rho : float
         ρ > 0.
@@ -137,13 +212,14 @@ def riccati_solution(model: UncertainLTVModel, rho: float) -> Array:
     return np.asarray(P, dtype=float)
 
 
-def design(model: UncertainLTVModel, rho: float, eta: float) -> Design:
+def design(model: UncertainLTVModel | PolytopicModel, rho: float, eta: float) -> Design:
     """Design the PID gain from (ρ, η): procedure steps 2-3.
 
     Parameters
     ----------
-    model : UncertainLTVModel
-        Nominal A, shape (n, n), and B, shape (n, m).
+    model : UncertainLTVModel or PolytopicModel
+        Nominal A, shape (n, n), and B, shape (n, m) (a polytope's nominal: by default
+        its vertex average).
     rho : float
         ρ > 0.
     eta : float
@@ -169,8 +245,7 @@ def design(model: UncertainLTVModel, rho: float, eta: float) -> Design:
     >>> round(float(d.K[0, 0]), 1), d.hurwitz
     (-155.5, True)
     """
-    if not isinstance(model, UncertainLTVModel):
-        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
     rho = check_real("rho", rho, positive=True)
     eta = check_real("eta", eta, minimum=1.0)
     P = riccati_solution(model, rho)
@@ -191,4 +266,5 @@ def design(model: UncertainLTVModel, rho: float, eta: float) -> Design:
         poles=poles.astype(complex),
         hurwitz=bool(np.all(poles.real < 0)),
         care_residual=float(np.linalg.norm(residual) / (1 + np.linalg.norm(P))),
+        n_joints=getattr(model, "n_joints", None),
     )

@@ -20,7 +20,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .._validation import check_choice, check_real
+from .._validation import check_choice, check_instance, check_real
+from ..exceptions import ArgumentTypeError
+from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from .gain import Design
 
@@ -229,10 +231,14 @@ def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> 
     >>> cert.certified
     True
     """
-    if not isinstance(model, UncertainLTVModel):
-        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
-    if not isinstance(design, Design):
-        raise TypeError(f"`design` must be a Design, found {type(design).__name__}")
+    if isinstance(model, PolytopicModel):
+        raise ArgumentTypeError(
+            "model",
+            "is a PolytopicModel, and Theorem 1 needs interval elements: use vertex_certificate, lmi_certificate, "
+            "falsify or certificate_table, or certify(model.box_hull(), design) for the box around the polytope",
+        )
+    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    check_instance("design", design, Design, "a Design")
     check_choice("elements", elements, ELEMENT_SETS)
     if design.K.shape != (model.n_inputs, model.n_states):
         raise ValueError(

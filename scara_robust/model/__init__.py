@@ -4,8 +4,12 @@ The bottom layer of the package; it imports only :mod:`scara_robust.paper` and t
 validation helpers.
 """
 
+from .augment import *  # noqa: F403
+from .augment import __all__ as _augment
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
+from .polytopic import *  # noqa: F403
+from .polytopic import __all__ as _polytopic
 from .robot import *  # noqa: F403
 from .robot import __all__ as _robot
 from .signals import *  # noqa: F403
@@ -13,4 +17,4 @@ from .signals import __all__ as _signals
 from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
-__all__ = [*_robot, *_signals, *_initial, *_uncertain]
+__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment]

@@ -1,25 +1,33 @@
 """Linear time-varying models with interval-bounded elements (paper Eqs. 4-5).
 
 ``ẋ = (A + ΔA(t)) x + (B + ΔB(t)) u`` where each uncertain element ``h_j(t)`` of ΔA or
-ΔB stays in ``[lower_j, upper_j]``. Indices are 0-based in code; tables print them
-1-based like the paper.
+ΔB stays in ``[lower_j, upper_j]``.
+
+Indexing, once for the whole package: rows and columns are **0-based**, as in numpy,
+in constructors, labels (``ΔA[4, 3]``) and tables alike. The paper numbers them from 1:
+its ΔA(5, 4) is ``ΔA[4, 3]`` here.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal, cast
 
+import control as ct
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
+from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
 from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
 from .signals import Reference, paper_reference
 
 __all__ = [
+    "state_space",
+    "as_element",
     "UncertainElement",
     "UncertainLTVModel",
     "ELEMENT_SETS",
@@ -34,6 +42,40 @@ Array = NDArray[np.float64]
 ELEMENT_SETS = ("all", "A", "B")
 
 
+def state_space(sys: Any, name: str = "sys") -> ct.StateSpace:
+    """A continuous-time ``control.StateSpace`` from `sys` (a StateSpace, a TransferFunction, ...).
+
+    Parameters
+    ----------
+    sys : control.StateSpace, control.TransferFunction or anything ``control.ss`` takes
+    name : str
+        The argument's name, for errors.
+
+    Returns
+    -------
+    control.StateSpace
+
+    Raises
+    ------
+    ArgumentTypeError
+        If ``control.ss`` cannot convert `sys`.
+    ArgumentValueError
+        If `sys` is discrete-time.
+    """
+    if isinstance(sys, ct.StateSpace):
+        ss = sys
+    else:
+        try:
+            ss = ct.ss(sys)
+        except (TypeError, ValueError, ct.ControlArgument) as err:
+            raise ArgumentTypeError(
+                name, f"must be a control.StateSpace or what control.ss converts, found {type(sys).__name__}"
+            ) from err
+    if not ct.isctime(ss, strict=False) or (ss.dt not in (0, None)):
+        raise ArgumentValueError(name, f"must be continuous-time (dt = 0), found dt = {ss.dt}: discretize after design")
+    return ss
+
+
 @dataclass(frozen=True)
 class UncertainElement:
     """One time-varying element ``h(t) ∈ [lower, upper]`` of ΔA or ΔB.
@@ -43,7 +85,7 @@ class UncertainElement:
     matrix : {'A', 'B'}
         Which matrix the element perturbs.
     row, col : int
-        0-based position in that matrix.
+        0-based position in that matrix (the paper's ΔA(5, 4) is ``row=4, col=3``).
     lower, upper : float
         Bounds of ``h(t)``, in the units of the matrix element; ``lower <= upper``.
     """
@@ -68,13 +110,41 @@ class UncertainElement:
 
     @property
     def label(self) -> str:
-        """Paper-style 1-based label, e.g. ``ΔA(5, 4)``."""
-        return f"Δ{self.matrix}({self.row + 1}, {self.col + 1})"
+        """0-based label in numpy's notation, e.g. ``ΔA[4, 3]`` (the paper's ΔA(5, 4))."""
+        return f"Δ{self.matrix}[{self.row}, {self.col}]"
 
     @property
     def width(self) -> float:
         """``upper - lower``."""
         return self.upper - self.lower
+
+
+#: An element, or its fields ``(matrix, row, col, lower, upper)``.
+ElementLike = UncertainElement | tuple[str, int, int, float, float]
+
+
+def as_element(value: Any, name: str = "element") -> UncertainElement:
+    """`value` as an :class:`UncertainElement` (it may be one, or its five fields).
+
+    Parameters
+    ----------
+    value : UncertainElement or tuple (matrix, row, col, lower, upper)
+    name : str
+        The argument's name, for errors.
+
+    Returns
+    -------
+    UncertainElement
+    """
+    if isinstance(value, UncertainElement):
+        return value
+    if not isinstance(value, (tuple, list)) or len(value) != 5:
+        raise ArgumentTypeError(
+            name, f"must be an UncertainElement or (matrix, row, col, lower, upper), found {value!r}"
+        )
+    matrix, row, col, lower, upper = value
+    kind = cast(Literal["A", "B"], check_choice(f"{name}.matrix", matrix, ("A", "B")))
+    return UncertainElement(kind, row, col, lower, upper)
 
 
 @dataclass(frozen=True)
@@ -91,6 +161,12 @@ class UncertainLTVModel:
         The time-varying elements, each in its own position (no duplicates).
     name : str
         Label used in tables and plots.
+    n_joints : int, optional
+        For a model in the paper's PID form ``x = [∫e, e, ė]`` (Eq. 4), the number of
+        joints p (n = 3p): the design's gain then splits into PID matrices. None otherwise.
+    scara : bool
+        True for the SCARA's own error model (:func:`paper_model`, :func:`derived_model`),
+        whose physical samples the certificate table also tests.
 
     Notes
     -----
@@ -109,6 +185,8 @@ class UncertainLTVModel:
     B: Array
     elements: tuple[UncertainElement, ...] = ()
     name: str = "model"
+    n_joints: int | None = None
+    scara: bool = False
 
     def __post_init__(self) -> None:
         A = check_array("A", self.A, ndim=2)
@@ -133,6 +211,52 @@ class UncertainLTVModel:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "elements", elements)
+        if self.n_joints is not None:
+            joints = check_int("n_joints", self.n_joints, 1)
+            if A.shape[0] != 3 * joints or B.shape[1] < 1:
+                raise ValueError(f"`n_joints` = {joints} needs n = 3 n_joints states, found n = {A.shape[0]}")
+
+    @classmethod
+    def from_system(
+        cls,
+        sys: Any,
+        elements: Sequence[ElementLike] = (),
+        *,
+        name: str | None = None,
+    ) -> UncertainLTVModel:
+        """The model of a continuous-time python-control system with uncertain elements.
+
+        Parameters
+        ----------
+        sys : control.StateSpace, control.TransferFunction or anything ``control.ss`` takes
+            The nominal plant, continuous time. Only its A and B enter (C and D do not:
+            the state is fed back).
+        elements : sequence of UncertainElement or (matrix, row, col, lower, upper)
+            The time-varying elements, 0-based positions in the system's A or B.
+        name : str, optional
+            Default: the system's name.
+
+        Returns
+        -------
+        UncertainLTVModel
+
+        Raises
+        ------
+        ArgumentTypeError
+            If `sys` is not something ``control.ss`` converts.
+        ArgumentValueError
+            If `sys` is discrete-time.
+
+        Examples
+        --------
+        >>> import control as ct, scara_robust as sr
+        >>> G = ct.tf([1], [1, 2, 1])
+        >>> sr.UncertainLTVModel.from_system(G, [("A", 0, 0, -0.1, 0.1)]).n_states
+        2
+        """
+        ss = state_space(sys, "sys")
+        els = tuple(as_element(el, f"elements[{k}]") for k, el in enumerate(elements))
+        return cls(ss.A, ss.B, els, name=name if name is not None else str(ss.name))
 
     @property
     def n_states(self) -> int:
@@ -172,7 +296,10 @@ class UncertainLTVModel:
             if el.matrix != elements:
                 nominal[el.matrix][el.row, el.col] += el.lower
         kept = tuple(el for el in self.elements if el.matrix == elements)
-        return UncertainLTVModel(nominal["A"], nominal["B"], kept, name=f"{self.name} [{elements} only]")
+        return UncertainLTVModel(
+            nominal["A"], nominal["B"], kept, name=f"{self.name} [{elements} only]", n_joints=self.n_joints,
+            scara=self.scara,
+        )
 
     def lower_bounds(self) -> Array:
         """Lower bounds, shape (N,)."""
@@ -243,21 +370,22 @@ class UncertainLTVModel:
         return A, B
 
     def to_frame(self) -> pd.DataFrame:
-        """One row per element: matrix, 1-based row and column, lower, upper, nominal."""
+        """One row per element: label, matrix, 0-based row and column, nominal, lower, upper."""
         rows = []
         for el in self.elements:
             nominal = (self.A if el.matrix == "A" else self.B)[el.row, el.col]
             rows.append(
                 {
+                    "label": el.label,
                     "matrix": el.matrix,
-                    "row": el.row + 1,
-                    "col": el.col + 1,
+                    "row": el.row,
+                    "col": el.col,
                     "nominal": nominal,
                     "lower": el.lower,
                     "upper": el.upper,
                 }
             )
-        return pd.DataFrame(rows, columns=["matrix", "row", "col", "nominal", "lower", "upper"])
+        return pd.DataFrame(rows, columns=["label", "matrix", "row", "col", "nominal", "lower", "upper"])
 
     def bounds_table(self, matrix: Literal["A", "B"], offset: tuple[int, int] = (0, 0)) -> pd.DataFrame:
         """Bounds laid out like the paper's Tables 1-2: columns ``(i, j)``, rows h_l, h_u.
@@ -266,12 +394,12 @@ class UncertainLTVModel:
         ----------
         matrix : {'A', 'B'}
         offset : tuple of int
-            Subtracted from the 1-based positions, e.g. ``(4, 3)`` numbers ΔA's elements
-            as ΔA*'s, like Table 1.
+            Subtracted from the 0-based positions, e.g. ``(4, 3)`` numbers ΔA's elements
+            as ΔA*'s, like Table 1 (whose ΔA*(1, 1) is ``[0, 0]`` here).
         """
         check_choice("matrix", matrix, ("A", "B"))
         els = [el for el in self.elements if el.matrix == matrix]
-        cols = [f"({el.row + 1 - offset[0]}, {el.col + 1 - offset[1]})" for el in els]
+        cols = [f"[{el.row - offset[0]}, {el.col - offset[1]}]" for el in els]
         data = [[el.lower for el in els], [el.upper for el in els]]
         return pd.DataFrame(data, index=pd.Index(["h_l", "h_u"], name="(i, j)"), columns=cols)
 
@@ -324,7 +452,7 @@ def paper_model() -> UncertainLTVModel:
     elements = [
         UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j])) for i in range(2) for j in range(3)
     ] + [UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k])) for i in range(2) for k in range(2)]
-    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)")
+    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)", n_joints=2, scara=True)
 
 
 @dataclass(frozen=True)
@@ -466,4 +594,6 @@ def derived_model(
             elements.append(UncertainElement(matrix, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
         unchanged = high - low <= rtol * scale
         nominal[label][unchanged] = stack[0][unchanged]
-    return UncertainLTVModel(nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)")
+    return UncertainLTVModel(
+        nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)", n_joints=2, scara=True
+    )

@@ -22,8 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_int, check_symmetric
+from .._validation import check_array, check_choice, check_instance, check_int, check_symmetric
+from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
+from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
 from ..model.signals import Reference
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
@@ -204,17 +206,19 @@ def polytope_certificate(
     )
 
 
-def vertex_certificate(model: UncertainLTVModel, design: Design, elements: str = "all") -> PolytopeCertificate:
-    """Exact test of the design's P over the interval box (all 2^N vertices).
+def vertex_certificate(
+    model: UncertainLTVModel | PolytopicModel, design: Design, elements: str = "all"
+) -> PolytopeCertificate:
+    """Exact test of the design's P over the interval box (all 2^N vertices) or a polytope's vertices.
 
     Parameters
     ----------
-    model : UncertainLTVModel
+    model : UncertainLTVModel or PolytopicModel
     design : Design
         Supplies K and P (the Riccati/Lyapunov P of Theorem 1's step 1).
     elements : {'all', 'A', 'B'}
         Which uncertain elements vary; the others stay at their lower bounds (see
-        :meth:`UncertainLTVModel.subset`).
+        :meth:`UncertainLTVModel.subset`). A polytope takes ``'all'`` only.
 
     Returns
     -------
@@ -232,8 +236,11 @@ def vertex_certificate(model: UncertainLTVModel, design: Design, elements: str =
     if not isinstance(design, Design):
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     check_choice("elements", elements, ELEMENT_SETS)
-    if not isinstance(model, UncertainLTVModel):
-        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
+    if isinstance(model, PolytopicModel):
+        if elements != "all":
+            raise ArgumentValueError("elements", f"must be 'all' for a PolytopicModel, found {elements!r}")
+        return polytope_certificate(model.closed_loops(design.K), design.P, set_name="polytope")
     sub = model.subset(elements)
     return polytope_certificate(box_closed_loops(sub, design.K), design.P, box_vertices(sub), set_name="box")
 

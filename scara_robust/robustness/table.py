@@ -15,7 +15,11 @@ falsifier-physical         the same over the sampled robot                      
 =========================  =====================================================  ===========
 
 A positive margin means certified (for the falsifier: no growth found). ``python -m
-scara_robust certify`` prints the table.
+scara_robust certify`` prints the table. For a :class:`~scara_robust.PolytopicModel` the
+box rows run over the polytope's vertices and are named ``vertex-polytope``,
+``lmi-polytope`` and ``falsifier-polytope``; rows that do not apply (Theorem 1 for a
+polytope, the physical rows for any model but the SCARA's own) are kept with verdict
+``skipped`` and the reason.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import pandas as pd
 from .._validation import check_choice, check_instance, check_int
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
+from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
 from ..model.signals import Reference
 from ..model.uncertain import UncertainLTVModel, physical_samples
@@ -62,7 +67,7 @@ def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
 
 
 def certificate_table(
-    model: UncertainLTVModel,
+    model: UncertainLTVModel | PolytopicModel,
     design: Design,
     *,
     params: ScaraParams | None = None,
@@ -80,8 +85,8 @@ def certificate_table(
 
     Parameters
     ----------
-    model : UncertainLTVModel
-        The interval box (published or derived bounds).
+    model : UncertainLTVModel or PolytopicModel
+        The interval box (published or derived bounds, or your plant's), or a polytope.
     design : Design
         The design K(ρ, η) and its P.
     params, reference, payload
@@ -102,18 +107,27 @@ def certificate_table(
     Returns
     -------
     pandas.DataFrame
-        One row per entry of :data:`CERTIFICATE_METHODS`, columns ``method``, ``verdict``
-        (text), ``certified`` (True, False, or None for "no counterexample" and "not
-        installed"), ``margin`` (positive means certified or no growth; NaN when there is
-        none), ``seconds`` and ``detail``.
+        One row per entry of :data:`CERTIFICATE_METHODS` (with ``polytope`` for ``box``
+        for a polytope), columns ``method``, ``verdict`` (text), ``certified`` (True,
+        False, or None for "no counterexample", "not installed" and "skipped"), ``margin``
+        (positive means certified or no growth; NaN when there is none), ``seconds`` and
+        ``detail``.
     """
-    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
     check_instance("design", design, Design, "a Design from scara_robust.design()")
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
     lmi_times, lmi_masses = check_int("lmi_times", lmi_times, 2), check_int("lmi_masses", lmi_masses, 1)
     fine_times, fine_masses = 2 * int(n_times) - 1, 2 * int(n_masses) - 1
 
+    polytope = isinstance(model, PolytopicModel)
+
+    def skipped(reason: str) -> Callable[[], dict[str, Any]]:
+        return lambda: {"verdict": "skipped", "certified": None, "margin": np.nan, "detail": reason}
+
     def theorem1(elements: str) -> dict[str, Any]:
+        if polytope:
+            return skipped("Theorem 1 needs interval elements; a polytope's box hull is model.box_hull()")()
+        assert isinstance(model, UncertainLTVModel)
         cert = certify(model, design, elements)
         return {
             "certified": cert.certified,
@@ -164,7 +178,7 @@ def certificate_table(
             "detail": result.message,
         }
 
-    box = box_closed_loops(model, design.K)
+    box = model.closed_loops(design.K) if isinstance(model, PolytopicModel) else box_closed_loops(model, design.K)
     rows = {
         "theorem1-all": lambda: theorem1("all"),
         "theorem1-A": lambda: theorem1("A"),
@@ -178,10 +192,14 @@ def certificate_table(
         "falsifier-box": lambda: falsifier_row(box),
         "falsifier-physical": lambda: falsifier_row(sampled(lmi_times, lmi_masses)),
     }
+    if not getattr(model, "scara", False):
+        reason = "applies to the SCARA's own error model only (the robot's sampled (A, B) along the reference)"
+        for method in ("physical-polytope", "lmi-physical", "falsifier-physical"):
+            rows[method] = skipped(reason)
     records = []
     for method in CERTIFICATE_METHODS:
         row = _timed(rows[method])
-        row["method"] = method
+        row["method"] = method.replace("-box", "-polytope") if polytope else method
         if "verdict" not in row:
             row["verdict"] = "certified" if row["certified"] else "not certified"
         records.append(row)
