@@ -38,8 +38,10 @@ The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
     theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
+    affine_margin, theorem1_scaling -- Z(θ) = Z₀ + θZ₁ for the box scaled by θ, and its exact margin
     design_surface, DesignSurface, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Figure 2)
     MAX_SURFACE_POINTS, surface_memory -- the largest grid of one call and its memory
+    SURFACE_MEASURES, MARGIN_MAP_METHODS -- design_surface(measure='margin'): the margin θ(ρ, η) map
 Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
     box_vertices, box_closed_loops, MAX_BOX_ELEMENTS -- the box's corners and closed loops
@@ -47,6 +49,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     LMI_SOLVERS, NOT_INSTALLED, cvxpy_available -- its solvers, and whether cvxpy is there
     falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
+    robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
+    payload_margin                  -- the robot's largest certified payload, kg (``margin`` command)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times

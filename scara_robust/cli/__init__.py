@@ -1,4 +1,4 @@
-"""Command line: ``python -m scara_robust {design,surface,certify,simulate,compare,campaign,campaign-report} ...``.
+"""Command line: ``python -m scara_robust {design,surface,certify,margin,simulate,compare,campaign,campaign-report}``.
 
 The front end of the package: it imports the library and nothing in the library imports
 it. One private module per command, each with ``add_parser(sub)`` and ``run(args) -> str``.
@@ -16,18 +16,19 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
-from . import _campaign, _certify, _compare, _design, _report, _simulate, _surface
+from . import _campaign, _certify, _compare, _design, _margin, _report, _simulate, _surface
 from ._common import CommandLineError, Parser, check_outputs, emit, error_message
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
 #: The commands, in the order ``--help`` lists them.
-_COMMANDS = (_design, _surface, _certify, _simulate, _compare, _campaign, _report)
+_COMMANDS = (_design, _surface, _certify, _margin, _simulate, _compare, _campaign, _report)
 
 _EXAMPLES = """examples:
   python -m scara_robust design --rho 3 --eta 90
   python -m scara_robust surface --rho 0.1:10:50 --eta 1:200:50 --plot surface.png
   python -m scara_robust certify --rho 3 --eta 90 --format json
+  python -m scara_robust margin --rho 3 --eta 90 --tol 0.01
   python -m scara_robust simulate --controller smc --scenario small --output run.csv
   python -m scara_robust compare --format markdown
   python -m scara_robust campaign examples/campaign.toml --runs 20 --output results.csv

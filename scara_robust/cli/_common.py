@@ -70,6 +70,7 @@ OPTION_NAMES: dict[str, str] = {
     "resume": "--resume",
     "path": "RESULTS",
     "falsifier_tries": "--tries",
+    "tol": "--tol",
 }
 
 

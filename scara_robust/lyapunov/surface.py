@@ -30,12 +30,24 @@ from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from .gain import design, riccati_solution
-from .theorem1 import certify, rank2_positive_part
+from .theorem1 import affine_margin, certify, rank2_positive_part
 
-__all__ = ["DesignSurface", "design_surface", "SURFACE_METHODS", "MAX_SURFACE_POINTS", "surface_memory"]
+__all__ = [
+    "DesignSurface",
+    "design_surface",
+    "SURFACE_METHODS",
+    "SURFACE_MEASURES",
+    "MARGIN_MAP_METHODS",
+    "MAX_SURFACE_POINTS",
+    "surface_memory",
+]
 
 Array = NDArray[np.float64]
 SURFACE_METHODS = ("structured", "reference")
+#: What a surface holds besides max λ(Z): nothing more, or the robustness margin θ.
+SURFACE_MEASURES = ("max_eig", "margin")
+#: Certificates of a margin map: Theorem 1, or the design's P at the box's vertices.
+MARGIN_MAP_METHODS = ("theorem1", "vertex")
 #: Largest grid (n_rho × n_eta points) one :func:`design_surface` call evaluates: about
 #: 0.9 GB of working memory for a 6-state model (see :func:`surface_memory`) and a few
 #: seconds; split larger sweeps into several calls.
@@ -74,6 +86,11 @@ class DesignSurface:
     elements : str
         Elements that entered Z (``'all'``, ``'A'`` or ``'B'``).
     model_name : str
+    margin : ndarray, shape (n_rho, n_eta), or None
+        With ``measure='margin'``: the robustness margin θ of each design (the largest
+        scaling of every element range certified by `margin_method`); None otherwise.
+    margin_method : str or None
+        ``'theorem1'`` or ``'vertex'``.
     """
 
     rhos: Array
@@ -82,6 +99,8 @@ class DesignSurface:
     hurwitz: NDArray[np.bool_]
     elements: str
     model_name: str
+    margin: Array | None = None
+    margin_method: str | None = None
 
     @property
     def certified(self) -> NDArray[np.bool_]:
@@ -89,17 +108,35 @@ class DesignSurface:
         return self.hurwitz & (self.max_eig < 0)
 
     def to_frame(self) -> pd.DataFrame:
-        """Tidy table, one row per grid point: rho, eta, max_eig_Z, closed_loop_hurwitz, certified."""
+        """Tidy table, one row per grid point: rho, eta, max_eig_Z, closed_loop_hurwitz, certified (, margin)."""
         rho, eta = np.meshgrid(self.rhos, self.etas, indexing="ij")
-        return pd.DataFrame(
-            {
-                "rho": rho.ravel(),
-                "eta": eta.ravel(),
-                "max_eig_Z": self.max_eig.ravel(),
-                "closed_loop_hurwitz": self.hurwitz.ravel(),
-                "certified": self.certified.ravel(),
-            }
-        )
+        columns = {
+            "rho": rho.ravel(),
+            "eta": eta.ravel(),
+            "max_eig_Z": self.max_eig.ravel(),
+            "closed_loop_hurwitz": self.hurwitz.ravel(),
+            "certified": self.certified.ravel(),
+        }
+        if self.margin is not None:
+            columns["margin"] = self.margin.ravel()
+        return pd.DataFrame(columns)
+
+    def best_margin(self) -> tuple[float, float, float]:
+        """``(rho, eta, margin)`` of the grid point with the largest robustness margin.
+
+        Returns
+        -------
+        tuple of float
+
+        Raises
+        ------
+        ValueError
+            If the surface has no margins (``measure='margin'`` was not asked for).
+        """
+        if self.margin is None:
+            raise ValueError("`surface` has no margins: compute it with design_surface(..., measure='margin')")
+        i, k = np.unravel_index(int(np.argmax(self.margin)), self.margin.shape)
+        return float(self.rhos[i]), float(self.etas[k]), float(self.margin[i, k])
 
     def best(self) -> tuple[float, float, float]:
         """``(rho, eta, max_eig)`` of the Hurwitz grid point with the smallest max λ(Z).
@@ -175,6 +212,32 @@ def _hurwitz(A: Array, etas: Array, N0: Array, N1: Array, P: Array, BK1: Array) 
     return hurwitz
 
 
+def _vertex_margins(
+    model: UncertainLTVModel, elements: str, rhos: Array, etas: Array, P: Array, base: Array
+) -> Array:
+    """min over the box's vertices of the exact margin of the design's P, shape (n_rho, n_eta)."""
+    sub = model.subset(elements)
+    held = np.array([elements not in ("all", el.matrix) for el in model.elements], dtype=bool)
+    in_A = np.array([el.matrix == "A" for el in model.elements], dtype=bool)
+    H = sub.box_vertices()  # (V, N_sub)
+    sub_A = np.array([el.matrix == "A" for el in sub.elements], dtype=bool)
+    margins = np.empty((rhos.size, etas.size))
+    for r, rho in enumerate(rhos):
+        K1 = rho * model.B.T @ P[r]
+        E_all = model.perturbation_matrices(K1)  # ΔB elements at η = 1: E scales with η
+        E_sub = sub.perturbation_matrices(K1)
+        lower = model.lower_bounds() * held
+        shift_A = np.einsum("j,jik->ik", lower * in_A, E_all)
+        shift_B = np.einsum("j,jik->ik", lower * ~in_A, E_all)
+        D_A = shift_A + np.einsum("vj,jik->vik", H[:, sub_A], E_sub[sub_A])
+        D_B = shift_B + np.einsum("vj,jik->vik", H[:, ~sub_A], E_sub[~sub_A])
+        S_A = P[r] @ D_A + np.swapaxes(D_A, -1, -2) @ P[r]
+        S_B = P[r] @ D_B + np.swapaxes(D_B, -1, -2) @ P[r]
+        S = S_A[None] + etas[:, None, None, None] * S_B[None]  # (n_eta, V, n, n)
+        margins[r] = affine_margin(np.broadcast_to(base[r][:, None], S.shape), S).min(axis=1)
+    return margins
+
+
 def design_surface(
     model: UncertainLTVModel,
     rhos: ArrayLike,
@@ -182,6 +245,8 @@ def design_surface(
     elements: str = "all",
     *,
     method: str = "structured",
+    measure: str = "max_eig",
+    margin_method: str = "theorem1",
 ) -> DesignSurface:
     """Evaluate ``max λ(Z)`` of Theorem 1 on the grid ``rhos × etas``.
 
@@ -197,6 +262,13 @@ def design_surface(
     method : {'structured', 'reference'}
         ``'structured'`` (default) uses ``Z = Z₀(ρ) + η Z₁(ρ)``; ``'reference'`` runs
         :func:`design` and :func:`certify` point by point, literally as the paper does.
+    measure : {'max_eig', 'margin'}
+        ``'margin'`` also computes the robustness margin θ(ρ, η) of every design: the
+        largest scaling of every element range about the nominal that `margin_method`
+        certifies (exact, no bisection: Z is affine in θ; see
+        :func:`scara_robust.affine_margin`). Structured method only.
+    margin_method : {'theorem1', 'vertex'}
+        Theorem 1's Z, or the design's P at every vertex of the box (2^N per point).
 
     Returns
     -------
@@ -219,6 +291,12 @@ def design_surface(
     eta_grid = _grid("etas", etas, 1.0, strict=False)
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("method", method, SURFACE_METHODS)
+    check_choice("measure", measure, SURFACE_MEASURES)
+    check_choice("margin_method", margin_method, MARGIN_MAP_METHODS)
+    if measure == "margin" and method != "structured":
+        raise ArgumentValueError("method", f"must be 'structured' for measure='margin', found {method!r}")
+    if measure == "margin" and model.n_elements == 0:
+        raise ArgumentValueError("model", "has no uncertain elements: there is no margin to compute")
     shape = (rho_grid.size, eta_grid.size)
     if shape[0] * shape[1] > MAX_SURFACE_POINTS:
         need = surface_memory(shape[0] * shape[1], model.n_states) / 1e9
@@ -240,6 +318,12 @@ def design_surface(
         Z = Z0[:, None] + eta_grid[None, :, None, None] * Z1[:, None]
         max_eig = np.asarray(np.linalg.eigvalsh(Z)[..., -1], dtype=float)
         hurwitz = _hurwitz(model.A, eta_grid, N0, N1, P, BK1)
+        if measure == "margin":
+            base = N0[:, None] + eta_grid[None, :, None, None] * N1[:, None]
+            if margin_method == "theorem1":  # Z(θ) = base + θ (Z − base)
+                margin = affine_margin(base, Z - base)
+            else:
+                margin = _vertex_margins(model, elements, rho_grid, eta_grid, P, base)
     return DesignSurface(
         rhos=rho_grid,
         etas=eta_grid,
@@ -247,4 +331,6 @@ def design_surface(
         hurwitz=hurwitz,
         elements=elements,
         model_name=model.name,
+        margin=margin if measure == "margin" else None,
+        margin_method=margin_method if measure == "margin" else None,
     )

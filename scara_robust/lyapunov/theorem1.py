@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_choice, check_instance, check_real
 from ..exceptions import ArgumentTypeError
@@ -26,7 +26,16 @@ from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from .gain import Design
 
-__all__ = ["Certificate", "UltimateBound", "certify", "theorem1_z", "positive_part", "rank2_positive_part"]
+__all__ = [
+    "Certificate",
+    "UltimateBound",
+    "certify",
+    "theorem1_z",
+    "positive_part",
+    "rank2_positive_part",
+    "affine_margin",
+    "theorem1_scaling",
+]
 
 Array = NDArray[np.float64]
 
@@ -95,6 +104,68 @@ def theorem1_z(P: Array, A_cl: Array, E: Array, lower: Array, upper: Array) -> t
     Psi_plus = positive_part(Psi)
     Z = Phi + np.einsum("j,jik->ik", upper - lower, Psi_plus)
     return 0.5 * (Z + Z.T), Phi, Psi, Psi_plus
+
+
+def affine_margin(base: ArrayLike, direction: ArrayLike) -> Array:
+    """``sup{θ >= 0 : base + θ·direction ≺ 0}`` for stacks of symmetric matrices, exactly.
+
+    With ``N = −base ≻ 0``, ``base + θS ≺ 0`` holds exactly while ``θ λmax(N^{-1/2} S N^{-1/2}) < 1``,
+    so the supremum is ``1/λmax`` (infinite when ``λmax <= 0``), and the set of such θ is an
+    interval ``[0, θ*)``: λmax of an affine matrix function is convex in θ and negative at 0.
+
+    Parameters
+    ----------
+    base : array_like, shape (..., n, n)
+        Symmetric; where it is not negative definite the margin is 0.
+    direction : array_like, shape (..., n, n)
+        Symmetric.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        θ* (may be ``inf``).
+    """
+    N = -0.5 * (np.asarray(base, dtype=float) + np.swapaxes(np.asarray(base, dtype=float), -1, -2))
+    S = 0.5 * (np.asarray(direction, dtype=float) + np.swapaxes(np.asarray(direction, dtype=float), -1, -2))
+    w, V = np.linalg.eigh(N)
+    definite = w[..., 0] > 1e-12 * np.maximum(np.abs(w[..., -1]), 1e-300)
+    inv_sqrt = np.einsum("...ik,...k,...jk->...ij", V, 1.0 / np.sqrt(np.where(definite[..., None], w, 1.0)), V)
+    top = np.linalg.eigvalsh(inv_sqrt @ S @ inv_sqrt)[..., -1]
+    with np.errstate(divide="ignore"):
+        theta = np.where(top > 0, 1.0 / np.where(top > 0, top, 1.0), np.inf)
+    return np.asarray(np.where(definite, theta, 0.0), dtype=float)
+
+
+def theorem1_scaling(model: UncertainLTVModel, design: Design, elements: str = "all") -> tuple[Array, Array]:
+    """Z of Theorem 1 for the box scaled by θ, as ``Z(θ) = base + θ·direction``.
+
+    Every element range scales about the nominal (``[θ l_j, θ u_j]``, the elements left out
+    of `elements` held at ``θ l_j``), so ``Ā₁(θ) = Ā + θ Σ l_j E_j`` and
+    ``Z(θ) = PĀ + ĀᵀP + θ (Σ_all l_j Ψ_j + Σ_varying (u_j − l_j) Ψ_j⁺)``, with P the design's
+    (Theorem 1's step 1 returns it).
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+    design : Design
+    elements : {'all', 'A', 'B'}
+
+    Returns
+    -------
+    base, direction : ndarray, shape (n, n)
+    """
+    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    check_choice("elements", elements, ELEMENT_SETS)
+    P = design.P
+    base = P @ design.A_cl + design.A_cl.T @ P
+    E = model.perturbation_matrices(design.K)
+    Psi = P @ E + np.swapaxes(E, -1, -2) @ P
+    varying = np.array([elements in ("all", el.matrix) for el in model.elements], dtype=bool)
+    widths = (model.upper_bounds() - model.lower_bounds()) * varying
+    direction = np.einsum("j,jik->ik", model.lower_bounds(), Psi)
+    if varying.any():
+        direction = direction + np.einsum("j,jik->ik", widths[varying], positive_part(Psi[varying]))
+    return 0.5 * (base + base.T), 0.5 * (direction + direction.T)
 
 
 @dataclass(frozen=True)

@@ -144,6 +144,25 @@ class PolytopicModel:
         K = check_array("K", K, shape=(self.n_inputs, self.n_states))
         return np.asarray(self.vertices_A - self.vertices_B @ K, dtype=float)
 
+    def scaled(self, theta: float) -> PolytopicModel:
+        """The polytope scaled about its nominal: vertices ``A₀ + θ(A_i − A₀)``, ``B₀ + θ(B_i − B₀)``.
+
+        Parameters
+        ----------
+        theta : float
+            θ >= 0; 1 is the polytope itself.
+
+        Returns
+        -------
+        PolytopicModel
+        """
+        theta = check_real("theta", theta, nonnegative=True)
+        A0, B0 = self.A, self.B
+        return PolytopicModel(
+            A0 + theta * (self.vertices_A - A0), B0 + theta * (self.vertices_B - B0), nominal=(A0, B0),
+            name=f"{self.name} x {theta:g}",
+        )
+
     def box_hull(self, rtol: float = 1e-12) -> UncertainLTVModel:
         """The interval box around the polytope: each entry from its smallest to its largest vertex value.
 

@@ -301,6 +301,39 @@ class UncertainLTVModel:
             scara=self.scara,
         )
 
+    def scaled(self, theta: float) -> UncertainLTVModel:
+        """The same model with every element range scaled about the nominal: ``[θ·lower, θ·upper]``.
+
+        Parameters
+        ----------
+        theta : float
+            θ >= 0; 1 is the model itself, 0 the nominal alone.
+
+        Returns
+        -------
+        UncertainLTVModel
+        """
+        theta = check_real("theta", theta, nonnegative=True)
+        els = tuple(
+            UncertainElement(el.matrix, el.row, el.col, theta * el.lower, theta * el.upper) for el in self.elements
+        )
+        return UncertainLTVModel(self.A, self.B, els, name=f"{self.name} x {theta:g}", n_joints=self.n_joints,
+                                 scara=self.scara)
+
+    def box_vertices(self) -> Array:
+        """All 2^N corners of the interval box: row v holds the element values of vertex v.
+
+        Bit j of v selects the upper bound of element j.
+
+        Returns
+        -------
+        ndarray, shape (2**N, N)
+        """
+        n = self.n_elements
+        bits = (np.arange(2**n)[:, None] >> np.arange(n)[None, :]) & 1
+        lower, upper = self.lower_bounds(), self.upper_bounds()
+        return np.asarray(lower + bits * (upper - lower), dtype=float)
+
     def lower_bounds(self) -> Array:
         """Lower bounds, shape (N,)."""
         return np.array([el.lower for el in self.elements], dtype=float)

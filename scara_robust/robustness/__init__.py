@@ -7,9 +7,11 @@ from .falsifier import *  # noqa: F403
 from .falsifier import __all__ as _falsifier
 from .lmi import *  # noqa: F403
 from .lmi import __all__ as _lmi
+from .margins import *  # noqa: F403
+from .margins import __all__ as _margins
 from .polytope import *  # noqa: F403
 from .polytope import __all__ as _polytope
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins]

@@ -17,6 +17,7 @@ returns a result whose status is ``'not installed'``.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,7 +86,8 @@ class LMICertificate:
         if self.status == NOT_INSTALLED:
             return "cvxpy is not installed (pip install scara_robust[lmi])"
         if self.certified:
-            return f"common quadratic Lyapunov P found and verified; V decays at rate >= {self.margin:.4g} 1/s"
+            note = f" (the solver said {self.status}; numpy's check passed)" if self.status != "optimal" else ""
+            return f"common quadratic Lyapunov P found and verified; V decays at rate >= {self.margin:.4g} 1/s{note}"
         if self.P is None:
             return f"no common quadratic Lyapunov P ({self.solver}: {self.status})"
         return f"{self.solver} returned a P ({self.status}) that fails the independent check"
@@ -164,7 +166,10 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
         constraints.append(0.5 * (lhs + lhs.T) << -eye)
     problem = cp.Problem(cp.Minimize(lam), constraints)
     try:
-        problem.solve(solver=solver)  # type: ignore[no-untyped-call]
+        with warnings.catch_warnings():
+            # "Solution may be inaccurate" is reported through the status, not as a warning
+            warnings.simplefilter("ignore", UserWarning)
+            problem.solve(solver=solver)  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
         return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
     status = str(problem.status)

@@ -131,9 +131,7 @@ def box_vertices(model: UncertainLTVModel) -> Array:
             f"`model` must have at most {MAX_BOX_ELEMENTS} uncertain elements for a vertex test "
             f"(2^N vertices), found {n}"
         )
-    bits = (np.arange(2**n)[:, None] >> np.arange(n)[None, :]) & 1
-    lower, upper = model.lower_bounds(), model.upper_bounds()
-    return lower + bits * (upper - lower)
+    return model.box_vertices()
 
 
 def box_closed_loops(model: UncertainLTVModel, K: ArrayLike) -> Array:

@@ -1,0 +1,82 @@
+"""``margin``: how much of its uncertainty set a design tolerates (lower and upper bounds)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import pandas as pd
+
+from ..lyapunov.gain import design
+from ..robustness.margins import MARGIN_TOL, margin_table, payload_margin
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``margin``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
+    p = sub.add_parser(
+        "margin",
+        help="robustness margins: the largest scaling of the uncertainty set each method certifies, and upper bounds",
+    )
+    p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
+    p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
+    add_setup_options(p, scenario=None, model=True)
+    p.add_argument("--elements", choices=("all", "A", "B"), default="all", help="elements scaled and varying")
+    p.add_argument("--tol", type=finite_float, default=MARGIN_TOL, help=f"relative tolerance of the bisections "
+                   f"(default {MARGIN_TOL:g})")
+    p.add_argument("--tries", type=int, default=10, help="falsifier trajectories per try (default 10)")
+    p.add_argument("--no-payload", action="store_true", help="skip the robot's payload margin (kg)")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--output", help="write to this file instead of stdout")
+    p.set_defaults(func=run)
+
+
+def _number(value: Any) -> Any:
+    return None if isinstance(value, float) and not math.isfinite(value) else value
+
+
+def run(args: argparse.Namespace) -> str:
+    """Compute the margins; the table to print.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    if args.tol <= 0:
+        raise CommandLineError(f"`--tol` must be > 0, found {args.tol}")
+    if args.tries < 1:
+        raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
+    setup = resolve_setup(args)
+    model = resolve_model(args, setup)
+    d = design(model, args.rho, args.eta)
+    table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries)
+    payload = None
+    if getattr(model, "scara", False) and not args.no_payload:
+        payload = payload_margin(d, setup.params, setup.reference, tol=max(args.tol, 1e-3))
+    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
+    if args.format == "json":
+        rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        if payload is not None:
+            rows += [{k: _number(v) for k, v in row.items()} for row in payload.to_dict(orient="records")]
+        return json.dumps(rows, indent=2)
+    lines = [f"margins of K(rho={d.rho:g}, eta={d.eta:g}), {source}, elements: {args.elements}",
+             "theta: every element range scaled about the nominal, [theta*lower, theta*upper]",
+             table.drop(columns="message").to_string(index=False, float_format="%.6g"), "",
+             *[f"  {row.method}: {row.message}" for row in table.itertuples()]]
+    if payload is not None:
+        lines += ["", "payload margin of the robot's own sampled set (peak mass of m_p = (M/2)(1 + sin t)):",
+                  pd.DataFrame(payload).drop(columns="message").to_string(index=False, float_format="%.6g")]
+    return "\n".join(lines)

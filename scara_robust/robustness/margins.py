@@ -1,0 +1,399 @@
+"""How much uncertainty does a design tolerate? Robustness margins by scaling the uncertainty set.
+
+The margin θ of a design is the largest scaling of its uncertainty set, every element
+range ``[θ·l_j, θ·u_j]`` about the nominal (a polytope: vertices ``A₀ + θ(A_i − A₀)``),
+for which a method still certifies. Each certificate gives a **lower** bound on the true
+margin (the largest θ with robust stability); instability gives **upper** bounds:
+
+==============  =====  ==========================================================================
+method          kind   how
+==============  =====  ==========================================================================
+``theorem1``    lower  exact: Z(θ) = Z₀ + θZ₁ is affine in θ and Z₀ = −2Q ≺ 0, so the certified θ
+                       form an interval whose end is a generalized eigenvalue (no bisection)
+``vertex``      lower  exact: the design's P at every vertex, each affine in θ, the least end
+``lmi``         lower  bisection on θ with the common-P LMI (extra ``lmi``); the feasible θ are an
+                       interval when the scaled boxes are nested (every [l_j, u_j] holds 0)
+``frozen``      upper  the smallest θ found where a frozen vertex is unstable: beyond it no
+                       certificate of any kind exists
+``falsifier``   upper  the smallest θ found with a destabilizing switching signal (bisection;
+                       the falsifier is a search, so this bound is valid, not tight)
+==============  =====  ==========================================================================
+
+:func:`margin_table` runs them all and reports the bracket [best lower, best upper];
+:func:`payload_margin` answers the robot's version in kilograms of payload.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from .._validation import check_choice, check_instance, check_int, check_real
+from ..exceptions import ArgumentValueError
+from ..lyapunov.gain import Design
+from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
+from ..model.polytopic import PolytopicModel
+from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
+from ..model.signals import Reference
+from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
+from .falsifier import falsify
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
+from .polytope import box_closed_loops, box_vertices, polytope_certificate
+
+__all__ = [
+    "Margin",
+    "MARGIN_METHODS",
+    "MARGIN_TOL",
+    "robustness_margin",
+    "margin_table",
+    "payload_margin",
+]
+
+Array = NDArray[np.float64]
+Model = UncertainLTVModel | PolytopicModel
+
+#: Methods of :func:`robustness_margin` and whether each gives a lower or an upper bound.
+MARGIN_METHODS: dict[str, str] = {
+    "theorem1": "lower",
+    "vertex": "lower",
+    "lmi": "lower",
+    "frozen": "upper",
+    "falsifier": "upper",
+}
+#: Default relative tolerance of the bisections.
+MARGIN_TOL = 1e-3
+_THETA_MAX = 1e6
+
+
+@dataclass(frozen=True)
+class Margin:
+    """A robustness margin: a bound on the largest tolerated scaling of the uncertainty set.
+
+    Attributes
+    ----------
+    method : str
+        A key of :data:`MARGIN_METHODS`.
+    kind : {'lower', 'upper'}
+        A lower bound (certified up to `theta`) or an upper bound (unstable at `theta`).
+    theta : float
+        The bound: the scaling of every element range about the nominal (``inf`` when no
+        instability was found; 0 when not even the nominal is certified).
+    bracket : tuple of float
+        ``(lo, hi)`` where the method's answer changes: certified at lo, not at hi
+        (equal for the exact methods).
+    seconds : float
+    message : str
+    """
+
+    method: str
+    kind: str
+    theta: float
+    bracket: tuple[float, float]
+    seconds: float
+    message: str
+
+
+def _closed_loops(model: Model, design: Design, theta: float) -> Array:
+    if isinstance(model, PolytopicModel):
+        return model.scaled(theta).closed_loops(design.K)
+    return box_closed_loops(model.scaled(theta), design.K)
+
+
+def _unstable(model: Model, design: Design, theta: float) -> bool:
+    return bool(np.linalg.eigvals(_closed_loops(model, design, theta)).real.max() > 0)
+
+
+def _bisect(ok: Callable[[float], bool], lo: float, hi: float, tol: float) -> tuple[float, float]:
+    """Shrink ``[lo, hi]`` with ``ok(lo)`` true and ``ok(hi)`` false until ``hi − lo <= tol·hi``."""
+    while hi - lo > tol * hi:
+        mid = 0.5 * (lo + hi) if lo > 0 else (hi * 1e-3 if hi > 1e-3 else 0.5 * hi)
+        if lo == 0 and mid <= tol * hi:
+            mid = 0.5 * hi
+        if ok(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo, hi
+
+
+def _theorem1(model: Model, design: Design, elements: str) -> tuple[float, str]:
+    if isinstance(model, PolytopicModel):
+        raise ArgumentValueError("method", "'theorem1' needs interval elements; use model.box_hull() or 'vertex'")
+    theta = float(affine_margin(*theorem1_scaling(model, design, elements)))
+    return theta, "exact: generalized eigenvalue of Z(θ) = Z₀ + θZ₁"
+
+
+def _vertex(model: Model, design: Design, elements: str) -> tuple[float, str]:
+    P = design.P
+    base = P @ design.A_cl + design.A_cl.T @ P
+    if isinstance(model, PolytopicModel):
+        D = model.closed_loops(design.K) - (model.A - model.B @ design.K)
+        where = f"{model.n_vertices} vertices of the polytope"
+    else:
+        sub = model.subset(elements)
+        held = np.array([elements not in ("all", el.matrix) for el in model.elements], dtype=bool)
+        E_all = model.perturbation_matrices(design.K)
+        shift = np.einsum("j,jik->ik", model.lower_bounds() * held, E_all)
+        D = shift + np.einsum("vj,jik->vik", box_vertices(sub), sub.perturbation_matrices(design.K))
+        where = f"{len(D)} vertices of the box"
+    S = P @ D + np.swapaxes(D, -1, -2) @ P
+    theta = float(affine_margin(np.broadcast_to(base, S.shape), S).min())
+    return theta, f"exact: the design's P at the {where}, each affine in θ"
+
+
+def _frozen(model: Model, design: Design, lo: float, tol: float) -> tuple[float, tuple[float, float], str]:
+    theta = max(lo, 1e-6)
+    prev = lo
+    while theta <= _THETA_MAX:
+        if _unstable(model, design, theta):
+            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t), prev, theta, tol)
+            return hi_, (lo_, hi_), "a frozen vertex is unstable at θ = hi"
+        prev, theta = theta, theta * 1.5
+    return math.inf, (prev, math.inf), f"every frozen vertex is stable up to θ = {_THETA_MAX:g}"
+
+
+def robustness_margin(
+    model: Model,
+    design: Design,
+    method: str = "theorem1",
+    *,
+    elements: str = "all",
+    tol: float = MARGIN_TOL,
+    lower: float = 0.0,
+    upper: float | None = None,
+    falsifier_tries: int = 10,
+    seed: int = 0,
+) -> Margin:
+    """One robustness margin of a design (see the module's table).
+
+    Parameters
+    ----------
+    model : UncertainLTVModel or PolytopicModel
+        The uncertainty set at θ = 1.
+    design : Design
+    method : {'theorem1', 'vertex', 'lmi', 'frozen', 'falsifier'}
+    elements : {'all', 'A', 'B'}
+        For ``theorem1`` and ``vertex`` on an interval model: which elements vary (the
+        others held at ``θ·lower``).
+    tol : float
+        Relative tolerance of the bisections (> 0); the exact methods ignore it.
+    lower, upper : float
+        A θ known to be certified (``lmi``, ``falsifier`` start there) and one known to be
+        unstable (``lmi``, ``falsifier``; default: the ``frozen`` bound).
+    falsifier_tries : int
+        Trajectories per falsifier call.
+    seed : int
+        Falsifier seed.
+
+    Returns
+    -------
+    Margin
+
+    Raises
+    ------
+    ArgumentValueError
+        For an unknown method, ``tol <= 0``, a model without uncertain elements, or
+        ``theorem1`` on a polytope.
+    """
+    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
+    check_instance("design", design, Design, "a Design")
+    check_choice("method", method, tuple(MARGIN_METHODS))
+    check_choice("elements", elements, ELEMENT_SETS)
+    tol = check_real("tol", tol, positive=True)
+    lower = check_real("lower", lower, nonnegative=True)
+    falsifier_tries = check_int("falsifier_tries", falsifier_tries, 1)
+    if isinstance(model, UncertainLTVModel) and model.n_elements == 0:
+        raise ArgumentValueError("model", "has no uncertain elements: there is nothing to scale")
+    if isinstance(model, PolytopicModel) and elements != "all":
+        raise ArgumentValueError("elements", f"must be 'all' for a PolytopicModel, found {elements!r}")
+    kind = MARGIN_METHODS[method]
+    start = time.perf_counter()
+    if method in ("theorem1", "vertex"):
+        theta, message = (_theorem1 if method == "theorem1" else _vertex)(model, design, elements)
+        bracket = (theta, theta)
+    elif method == "frozen":
+        theta, bracket, message = _frozen(model, design, lower, tol)
+    else:
+        hi = _frozen(model, design, lower, tol)[0] if upper is None else check_real("upper", upper, positive=True)
+        if method == "lmi":
+            theta, bracket, message = _lmi_margin(model, design, lower, hi, tol)
+        else:
+            theta, bracket, message = _falsifier_margin(model, design, lower, hi, tol, falsifier_tries, seed)
+    return Margin(method, kind, float(theta), (float(bracket[0]), float(bracket[1])),
+                  time.perf_counter() - start, message)
+
+
+def _lmi_ok(loops: Array) -> bool:
+    result = lmi_certificate(loops)
+    return bool(result.certified and result.P is not None and verify_lyapunov(loops, result.P)[1] > 0)
+
+
+def _lmi_margin(
+    model: Model, design: Design, lo: float, hi: float, tol: float
+) -> tuple[float, tuple[float, float], str]:
+    if not cvxpy_available():
+        return math.nan, (math.nan, math.nan), NOT_INSTALLED
+    if math.isinf(hi):
+        hi = max(2 * lo, 1.0)
+        while _lmi_ok(_closed_loops(model, design, hi)) and hi < _THETA_MAX:
+            lo, hi = hi, 2 * hi
+    if lo > 0 and not _lmi_ok(_closed_loops(model, design, lo)):
+        lo = 0.0
+    lo, hi = _bisect(lambda t: _lmi_ok(_closed_loops(model, design, t)), lo, hi, tol)
+    return lo, (lo, hi), "common quadratic P found (and verified with numpy) at lo, none at hi"
+
+
+def _falsifier_margin(
+    model: Model, design: Design, lo: float, hi: float, tol: float, tries: int, seed: int
+) -> tuple[float, tuple[float, float], str]:
+    def found(theta: float) -> bool:
+        return falsify(_closed_loops(model, design, theta), design.P, n_tries=tries, seed=seed).found
+
+    if math.isinf(hi):
+        return math.inf, (lo, math.inf), "no frozen instability to start from; no switching signal searched"
+    top = hi
+    while not found(hi):  # the falsifier needs growth by 10 within its horizon: look further out
+        lo, hi = hi, 2 * hi
+        if hi > 8 * top:
+            return math.inf, (lo, math.inf), f"no destabilizing switching signal found up to θ = {lo:g}"
+    lo, hi = _bisect(lambda t: not found(t), lo, hi, tol)
+    return hi, (lo, hi), "a destabilizing switching signal found at θ = hi (none found at lo)"
+
+
+def margin_table(
+    model: Model, design: Design, *, elements: str = "all", tol: float = MARGIN_TOL, falsifier_tries: int = 10,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """Every margin of :data:`MARGIN_METHODS`, each lower bound feeding the searches after it.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel or PolytopicModel
+    design : Design
+    elements : {'all', 'A', 'B'}
+    tol : float
+    falsifier_tries, seed : int
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per method (``theorem1`` skipped for a polytope): ``method``, ``kind``,
+        ``theta``, ``bracket`` (text ``[lo, hi]``), ``seconds``, ``message``; then a row
+        ``bracket`` with the best lower bound, the best upper bound and their ratio.
+    """
+    rows: list[Margin] = []
+    best = 0.0
+    for method in MARGIN_METHODS:
+        if method == "theorem1" and isinstance(model, PolytopicModel):
+            continue
+        upper = next((r.theta for r in rows if r.method == "frozen"), None)
+        margin = robustness_margin(model, design, method, elements=elements, tol=tol,
+                                   lower=best if method in ("lmi", "falsifier", "frozen") else 0.0,
+                                   upper=upper if upper is not None and math.isfinite(upper) else None,
+                                   falsifier_tries=falsifier_tries, seed=seed)
+        rows.append(margin)
+        if margin.kind == "lower" and math.isfinite(margin.theta):
+            best = max(best, margin.theta)
+    lowers = [r.theta for r in rows if r.kind == "lower" and not math.isnan(r.theta)]
+    uppers = [r.theta for r in rows if r.kind == "upper" and not math.isnan(r.theta)]
+    lo, hi = max(lowers), min(uppers)
+    frame = pd.DataFrame(
+        [(r.method, r.kind, r.theta, f"[{r.bracket[0]:.6g}, {r.bracket[1]:.6g}]", r.seconds, r.message) for r in rows]
+        + [("bracket", "both", lo, f"[{lo:.6g}, {hi:.6g}]", sum(r.seconds for r in rows),
+            f"true margin in [{lo:.4g}, {hi:.4g}]" + (f", upper/lower = {hi / lo:.3g}" if lo > 0 else ""))],
+        columns=["method", "kind", "theta", "bracket", "seconds", "message"],
+    )
+    return frame
+
+
+def payload_margin(
+    design: Design,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    *,
+    n_times: int = 181,
+    n_masses: int = 11,
+    lmi_times: int = 37,
+    lmi_masses: int = 5,
+    tol: float = MARGIN_TOL,
+    mass_max: float = 1e3,
+) -> pd.DataFrame:
+    """The largest payload peak mass (kg) for which the robot's own sampled set is certified.
+
+    The payload is ``m_p(t) = (M/2)(1 + sin t)`` (the paper's shape, peak M); the set is
+    the robot's linearized error dynamics along the reference for masses in [0, M]
+    (:func:`scara_robust.physical_samples`).
+
+    Parameters
+    ----------
+    design : Design
+        A design for the SCARA's 6-state error model.
+    params : ScaraParams, optional
+    reference : Reference, optional
+    n_times, n_masses : int
+        Sampling of the set for the design-P test and the frozen test.
+    lmi_times, lmi_masses : int
+        Coarser sampling on which the LMI is solved; its P is verified with numpy on the
+        finer one.
+    tol : float
+        Relative tolerance of the bisections on M.
+    mass_max : float
+        Largest peak mass searched, kg.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Rows ``payload-design-P`` and ``payload-lmi`` (lower bounds) and
+        ``payload-frozen`` (upper bound); columns ``method``, ``kind``, ``mass [kg]``,
+        ``bracket [kg]``, ``seconds``, ``message``.
+    """
+    check_instance("design", design, Design, "a Design")
+    tol = check_real("tol", tol, positive=True)
+    if design.K.shape != (2, 6):
+        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
+
+    def closed(mass: float, nt: int, nm: int) -> Array:
+        profile: PayloadProfile = SinusoidalPayload(0.5 * mass, 0.5 * mass)
+        s = physical_samples(params, reference, profile, times=np.linspace(0, 2 * np.pi, nt), n_masses=nm)
+        return np.asarray(s.A - s.B @ design.K, dtype=float)
+
+    def p_ok(mass: float) -> bool:
+        return polytope_certificate(closed(mass, n_times, n_masses), design.P).certified
+
+    def lmi_ok(mass: float) -> bool:
+        result = lmi_certificate(closed(mass, lmi_times, lmi_masses))
+        return bool(result.P is not None and result.certified
+                    and verify_lyapunov(closed(mass, n_times, n_masses), result.P)[1] > 0)
+
+    def stable(mass: float) -> bool:
+        return bool(np.linalg.eigvals(closed(mass, n_times, n_masses)).real.max() < 0)
+
+    rows = []
+    for name, kind, ok in (("payload-design-P", "lower", p_ok), ("payload-lmi", "lower", lmi_ok),
+                           ("payload-frozen", "upper", stable)):
+        start = time.perf_counter()
+        if name == "payload-lmi" and not cvxpy_available():
+            rows.append((name, kind, math.nan, "", 0.0, NOT_INSTALLED))
+            continue
+        if not ok(1e-9):
+            rows.append((name, kind, 0.0, "[0, 0]", time.perf_counter() - start, "not even without payload"))
+            continue
+        lo, hi = 1e-9, 1.0
+        while ok(hi) and hi < mass_max:
+            lo, hi = hi, 2 * hi
+        if hi >= mass_max and ok(hi):
+            rows.append((name, kind, math.inf, f"[{hi:g}, inf]", time.perf_counter() - start,
+                         f"holds up to the {mass_max:g} kg searched"))
+            continue
+        lo, hi = _bisect(ok, lo, hi, tol)
+        value = lo if kind == "lower" else hi
+        message = ("certified up to lo, not at hi" if kind == "lower"
+                   else "every frozen sample stable at lo, one unstable at hi")
+        rows.append((name, kind, value, f"[{lo:.6g}, {hi:.6g}]", time.perf_counter() - start, message))
+    return pd.DataFrame(rows, columns=["method", "kind", "mass [kg]", "bracket [kg]", "seconds", "message"])
