@@ -35,6 +35,15 @@ def main(argv: list[str]) -> int:
             lines.append(f"| {label} | {mean[fast]:.4g} | {mean[ref]:.4g} | {mean[ref] / mean[fast]:.0f}x |")
     if "test_compare" in mean:
         lines.append(f"| whole `compare` (6 runs) | {mean['test_compare']:.3g} | | |")
+    plain = mean.get("test_surface[50x50-structured]")
+    for label, name in (
+        ("margin map 50x50, Theorem 1 (vs the plain 50x50 surface)", "test_margin_map_theorem1"),
+        ("margin map 50x50, vertex (1024 vertices per point)", "test_margin_map_vertex"),
+        ("vertex margin, one design", "test_margin_vertex_one_point"),
+    ):
+        if name in mean:
+            ratio = f"{mean[name] / plain:.1f}x the plain surface" if plain and "map" in name else ""
+            lines.append(f"| {label} | {mean[name]:.4g} | | {ratio} |")
     print("\n".join(lines))
     return 0
 

@@ -46,3 +46,31 @@ def test_compare(benchmark):
     benchmark.group = "compare: 3 controllers x 2 scenarios, 20 s"
     table = benchmark.pedantic(sr.compare_controllers, rounds=2)
     assert table["success"].all() and len(table) == 6
+
+
+def _grid50():
+    return np.linspace(0.5, 10, 50), np.linspace(1, 200, 50)
+
+
+def test_margin_map_theorem1(benchmark, model):
+    # Ratio against test_surface[50x50-structured]: the limit is 20x.
+    benchmark.group = "margin map 50x50"
+    rhos, etas = _grid50()
+    surface = benchmark(sr.design_surface, model, rhos, etas, "all", measure="margin")
+    assert surface.margin.shape == (50, 50) and np.all(surface.margin > 0)
+
+
+def test_margin_vertex_one_point(benchmark, model):
+    benchmark.group = "vertex margin, one design"
+    design = sr.design(model, 3.0, 90.0)
+    margin = benchmark(sr.robustness_margin, model, design, "vertex")
+    assert 0.5 < margin.theta < 0.6
+
+
+def test_margin_map_vertex(benchmark, model):
+    benchmark.group = "margin map 50x50"
+    rhos, etas = _grid50()
+    surface = benchmark.pedantic(
+        sr.design_surface, (model, rhos, etas, "all"), {"measure": "margin", "margin_method": "vertex"}, rounds=1
+    )
+    assert surface.margin.shape == (50, 50)

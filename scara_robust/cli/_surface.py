@@ -6,7 +6,13 @@ import argparse
 import json
 from typing import Any
 
-from ..lyapunov.surface import MAX_SURFACE_POINTS, design_surface, surface_memory
+from ..lyapunov.surface import (
+    MARGIN_MAP_METHODS,
+    MAX_SURFACE_POINTS,
+    SURFACE_MEASURES,
+    design_surface,
+    surface_memory,
+)
 from ..model.polytopic import PolytopicModel
 from ..plotting import plot_surface
 from ._common import (
@@ -37,6 +43,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--format", choices=("text", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
+    p.add_argument(
+        "--measure",
+        choices=SURFACE_MEASURES,
+        default="max_eig",
+        help="'margin' adds the robustness margin theta of every design (the largest scaling of the uncertain "
+        "ranges still certified)",
+    )
+    p.add_argument("--margin-method", choices=MARGIN_MAP_METHODS, default="theorem1",
+                   help="certificate of the margin: Theorem 1 or the design's P at the box's vertices")
     p.add_argument(
         "--mark",
         type=_point,
@@ -78,7 +93,9 @@ def run(args: argparse.Namespace) -> str:
     if isinstance(model, PolytopicModel):  # Theorem 1 needs intervals: the box around the polytope
         model = model.box_hull()
         note = f"Theorem 1 on the {model.name} (its corners need not be in the polytope)\n"
-    surface = design_surface(model, args.rho, args.eta, args.elements)
+    surface = design_surface(
+        model, args.rho, args.eta, args.elements, measure=args.measure, margin_method=args.margin_method
+    )
     frame = surface.to_frame()
     if args.plot is not None:
         mark = args.mark
@@ -91,9 +108,12 @@ def run(args: argparse.Namespace) -> str:
     if args.format == "csv":
         return str(frame.to_csv(index=False))
     rho, eta, best = surface.best()
-    return note + (
+    header = (
         f"{frame.shape[0]} grid points, {int(surface.certified.sum())} certified "
         f"(max eig Z < 0); best: rho={rho:g}, eta={eta:g}, max eig Z={best:.6g}\n"
-        + str(frame.to_string(index=False, float_format="%.6g"))
     )
+    if surface.margin is not None:
+        rho, eta, theta = surface.best_margin()
+        header += f"largest {args.margin_method} margin: theta={theta:.6g} at rho={rho:g}, eta={eta:g}\n"
+    return note + header + str(frame.to_string(index=False, float_format="%.6g"))
 

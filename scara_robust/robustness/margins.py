@@ -303,10 +303,11 @@ def margin_table(
     lowers = [r.theta for r in rows if r.kind == "lower" and not math.isnan(r.theta)]
     uppers = [r.theta for r in rows if r.kind == "upper" and not math.isnan(r.theta)]
     lo, hi = max(lowers), min(uppers)
+    width = f", the bracket is {100 * (hi - lo) / lo:.2g} % of the lower bound" if 0 < lo and hi < math.inf else ""
     frame = pd.DataFrame(
         [(r.method, r.kind, r.theta, f"[{r.bracket[0]:.6g}, {r.bracket[1]:.6g}]", r.seconds, r.message) for r in rows]
         + [("bracket", "both", lo, f"[{lo:.6g}, {hi:.6g}]", sum(r.seconds for r in rows),
-            f"true margin in [{lo:.4g}, {hi:.4g}]" + (f", upper/lower = {hi / lo:.3g}" if lo > 0 else ""))],
+            f"true margin in [{lo:.4g}, {hi:.4g}]{width}")],
         columns=["method", "kind", "theta", "bracket", "seconds", "message"],
     )
     return frame
