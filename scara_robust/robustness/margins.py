@@ -284,8 +284,9 @@ def margin_table(
     -------
     pandas.DataFrame
         One row per method (``theorem1`` skipped for a polytope): ``method``, ``kind``,
-        ``theta``, ``bracket`` (text ``[lo, hi]``), ``seconds``, ``message``; then a row
-        ``bracket`` with the best lower bound, the best upper bound and their ratio.
+        ``theta``, ``lo`` and ``hi`` (where the method's answer changes), ``seconds``,
+        ``message``; then a row ``bracket`` whose ``lo`` is the best lower bound and ``hi``
+        the best upper bound on the true margin.
     """
     rows: list[Margin] = []
     best = 0.0
@@ -305,10 +306,10 @@ def margin_table(
     lo, hi = max(lowers), min(uppers)
     width = f", the bracket is {100 * (hi - lo) / lo:.2g} % of the lower bound" if 0 < lo and hi < math.inf else ""
     frame = pd.DataFrame(
-        [(r.method, r.kind, r.theta, f"[{r.bracket[0]:.6g}, {r.bracket[1]:.6g}]", r.seconds, r.message) for r in rows]
-        + [("bracket", "both", lo, f"[{lo:.6g}, {hi:.6g}]", sum(r.seconds for r in rows),
+        [(r.method, r.kind, r.theta, r.bracket[0], r.bracket[1], r.seconds, r.message) for r in rows]
+        + [("bracket", "both", lo, lo, hi, sum(r.seconds for r in rows),
             f"true margin in [{lo:.4g}, {hi:.4g}]{width}")],
-        columns=["method", "kind", "theta", "bracket", "seconds", "message"],
+        columns=["method", "kind", "theta", "lo", "hi", "seconds", "message"],
     )
     return frame
 
