@@ -72,6 +72,7 @@ Studies (:mod:`scara_robust.studies`)
     campaign_report                 -- per-controller statistics
 Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, SIGNALS
+    plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design
 """
 
 from .exceptions import *  # noqa: F403

@@ -8,12 +8,22 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ._validation import check_choice, check_real
+from .exceptions import ArgumentValueError
 
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
     from .simulation.run import SimulationResult
 
-__all__ = ["plot_surface", "plot_surface_contour", "plot_response", "plot_signals", "plot_campaign", "SIGNALS"]
+__all__ = [
+    "plot_surface",
+    "plot_surface_contour",
+    "plot_response",
+    "plot_signals",
+    "plot_campaign",
+    "plot_margin_map",
+    "plot_margin_bracket",
+    "SIGNALS",
+]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
 SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
@@ -261,3 +271,83 @@ def plot_campaign(results: Any) -> Any:
     fig.suptitle(f"Monte-Carlo campaign: {n} scenarios")
     fig.tight_layout()
     return fig
+
+
+def plot_margin_map(surface: DesignSurface, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
+    """Filled contours of the robustness margin θ(ρ, η) of a :func:`scara_robust.design_surface`.
+
+    Parameters
+    ----------
+    surface : DesignSurface
+        Computed with ``measure='margin'``.
+    mark : tuple of float, optional
+        ``(rho, eta)`` to mark with a star (for instance the paper's (3, 90)).
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import matplotlib.pyplot as plt
+
+    if surface.margin is None:
+        raise ArgumentValueError("surface", "has no margins: compute it with design_surface(..., measure='margin')")
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.5, 4.8))
+    R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
+    values = np.where(np.isfinite(surface.margin), surface.margin, np.nan)
+    # the scale runs from the 5th percentile up, so a thin low corner does not wash out the rest
+    lo, hi = float(np.nanquantile(values, 0.05)), float(np.nanmax(values))
+    levels = np.linspace(lo, hi if hi > lo else lo + 1e-9, 16)
+    cs = ax.contourf(R, H, values, levels=levels, cmap="viridis", extend="min")
+    lines = ax.contour(R, H, values, levels=levels[::3], colors="k", linewidths=0.5)
+    ax.clabel(lines, fmt="%.3g", fontsize=7)
+    ax.figure.colorbar(cs, ax=ax, label=f"margin θ [-] ({surface.margin_method})", format="%.3g")
+    i, k = np.unravel_index(int(np.nanargmax(values)), values.shape)
+    handles = [ax.plot(surface.rhos[i], surface.etas[k], "wo", markeredgecolor="k", markersize=8, clip_on=False,
+                       label=f"largest: θ = {values[i, k]:.3g} at ({surface.rhos[i]:g}, {surface.etas[k]:g})")[0]]
+    if mark is not None:
+        handles.append(ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")[0])
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8, frameon=False)
+    ax.set_xlabel("ρ [-]")
+    ax.set_ylabel("η [-]")
+    ax.set_title(f"Robustness margin θ(ρ, η) — {surface.model_name}, elements: {surface.elements}", fontsize=10)
+    return ax
+
+
+def plot_margin_bracket(tables: dict[str, Any], ax: Any = None) -> Any:
+    """Each margin as a marker, and the bracket [best lower, best upper] as a bar, per uncertainty set.
+
+    Parameters
+    ----------
+    tables : dict of str to pandas.DataFrame
+        Label → a table of :func:`scara_robust.margin_table`.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import matplotlib.pyplot as plt
+
+    if not tables:
+        raise ArgumentValueError("tables", "must hold at least one margin table, found none")
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 1.2 + 0.9 * len(tables)))
+    markers = {"theorem1": "o", "vertex": "s", "lmi": "D", "frozen": "x", "falsifier": "+"}
+    for y, table in enumerate(tables.values()):
+        rows = table.set_index("method")
+        lo, hi = float(rows.loc["bracket", "lo"]), float(rows.loc["bracket", "hi"])
+        ax.barh(y, hi - lo if np.isfinite(hi) else 0.0, left=lo, height=0.35, color="tab:orange", alpha=0.5,
+                label="bracket on the true margin" if y == 0 else None)
+        for method, marker in markers.items():
+            if method in rows.index and np.isfinite(rows.loc[method, "theta"]):
+                ax.plot(rows.loc[method, "theta"], y, marker, color="k" if rows.loc[method, "kind"] == "lower"
+                        else "tab:red", markersize=8, linestyle="none",
+                        label=f"{method} ({rows.loc[method, 'kind']} bound)" if y == 0 else None)
+    ax.set_yticks(range(len(tables)), list(tables))
+    ax.set_ylim(-0.6, len(tables) - 0.4)
+    ax.set_xlabel("θ: scaling of every uncertain range about the nominal [-]")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    ax.set_title("Robustness margins: lower bounds (black), upper bounds (red)", fontsize=10)
+    return ax

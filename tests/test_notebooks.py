@@ -25,6 +25,16 @@ NOTEBOOKS = {
     ],
     "figure6_pid_small_ic.ipynb": ["figure6_pid_small_ic.png"],
     "comparison.ipynb": ["comparison_metrics.png"],
+    "your_own_plant.ipynb": ["own_plant_margin_map.png"],
+    "robustness_margins.ipynb": ["margin_bracket.png", "margin_map_published.png"],
+}
+
+
+#: Smaller sizes for the test run (injected after the parameters cell); the notebooks' own
+#: defaults are the full sizes.
+QUICK = {
+    "robustness_margins.ipynb": "N_RHO, N_ETA = 12, 12\nTOL = 0.1",
+    "your_own_plant.ipynb": "N_GRID = 12",
 }
 
 
@@ -60,7 +70,8 @@ def test_notebook_executes_and_writes_its_figures(name, tmp_path):
     nb = _read(name)
     index = next(i for i, c in enumerate(nb.cells) if "parameters" in c.metadata.get("tags", []))
     # Injected after the parameters cell, as papermill does: figures go to a temporary folder.
-    nb.cells.insert(index + 1, nbformat.v4.new_code_cell(f"FIGURE_DIR = Path({str(tmp_path)!r})"))
+    overrides = f"FIGURE_DIR = Path({str(tmp_path)!r})\n" + QUICK.get(name, "")
+    nb.cells.insert(index + 1, nbformat.v4.new_code_cell(overrides))
     client = NotebookClient(
         nb,
         timeout=600,
