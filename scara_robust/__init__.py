@@ -71,7 +71,7 @@ Studies (:mod:`scara_robust.studies`)
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
     campaign_report                 -- per-controller statistics
 Plotting (:mod:`scara_robust.plotting`)
-    plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, SIGNALS
+    plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, plot_comparison, SIGNALS
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design
 """
 

@@ -20,6 +20,7 @@ __all__ = [
     "plot_response",
     "plot_signals",
     "plot_campaign",
+    "plot_comparison",
     "plot_margin_map",
     "plot_margin_bracket",
     "SIGNALS",
@@ -29,49 +30,81 @@ __all__ = [
 SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
 
 
-def plot_surface(surface: DesignSurface, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
-    """3D graph of ``max λ(Z)`` over (ρ, η), like the paper's Figure 2.
+def plot_surface(
+    surface: DesignSurface,
+    mark: tuple[float, float] | None = None,
+    ax: Any = None,
+    *,
+    clip_quantile: float = 0.95,
+) -> Any:
+    """3D graph of ``max λ(Z)`` over (ρ, η), like the paper's Figure 2, with the certified region shown.
+
+    The z = 0 plane is drawn (translucent grey) and the grid's certified points
+    (max λ(Z) < 0) are filled in on the floor, so the region the figure is about is
+    visible even where it is thin. Values above the `clip_quantile` quantile are drawn at
+    that level (a spike as ρ → 0 would otherwise flatten the rest); the z label says so.
 
     Parameters
     ----------
     surface : DesignSurface
     mark : tuple of float, optional
-        ``(rho, eta)`` to mark with a sphere-like marker; it is placed at the nearest
-        grid point.
+        ``(rho, eta)`` to mark; it is placed at the nearest grid point.
     ax : mpl_toolkits.mplot3d.Axes3D, optional
         Axes to draw into (default: a new figure).
+    clip_quantile : float
+        In (0, 1]; 1 draws every value as it is.
 
     Returns
     -------
     matplotlib.axes.Axes
     """
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
 
+    clip_quantile = check_real("clip_quantile", clip_quantile, positive=True)
+    if clip_quantile > 1:
+        raise ArgumentValueError("clip_quantile", f"must be in (0, 1], found {clip_quantile:g}")
     if ax is None:
-        fig = plt.figure(figsize=(7, 5))
+        fig = plt.figure(figsize=(8, 6))
         # computed_zorder=False keeps the marker drawn above the surface
         ax = fig.add_subplot(projection="3d", computed_zorder=False)
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
-    ax.plot_surface(R, H, surface.max_eig, cmap="viridis", linewidth=0, antialiased=True, alpha=0.9)
+    Z = surface.max_eig
+    top = float(np.quantile(Z, clip_quantile))
+    clipped = bool(clip_quantile < 1 and (Z > top).any())
+    Zc = np.minimum(Z, top) if clipped else Z
+    lo = float(min(Zc.min(), 0.0))
+    hi = float(max(Zc.max(), 0.0))
+    floor = lo - 0.08 * (hi - lo or 1.0)
+    certified = surface.certified
+    if certified.any():  # drawn first: with computed_zorder=False, call order is drawing order
+        ax.contourf(R, H, np.where(certified, 1.0, 0.0), levels=[0.5, 1.5], zdir="z", offset=floor,
+                    colors=["tab:green"], alpha=0.6)
+    surf = ax.plot_surface(R, H, Zc, cmap="viridis", linewidth=0, antialiased=True, alpha=0.85)
+    ax.plot_surface(R, H, np.zeros_like(Zc), color="0.5", alpha=0.25, linewidth=0)
+    ax.set_zlim(floor, hi + 0.05 * (hi - lo or 1.0))
+    note = f", drawn at most {top:.3g} ({100 * clip_quantile:g}th percentile)" if clipped else ""
+    ax.figure.colorbar(surf, ax=ax, shrink=0.6, pad=0.12, label=f"max λ(Z) [-]{note}")
+    handles = [
+        Patch(color="0.5", alpha=0.4, label="max λ(Z) = 0: below it, certified"),
+        Patch(color="tab:green", alpha=0.6,
+              label=f"certified grid points (floor): {int(certified.sum())} of {certified.size}"),
+    ]
     if mark is not None:
         i = int(np.argmin(np.abs(surface.rhos - mark[0])))
         k = int(np.argmin(np.abs(surface.etas - mark[1])))
         z = surface.max_eig[i, k]
-        ax.scatter(
-            [surface.rhos[i]],
-            [surface.etas[k]],
-            [z],
-            color="red",
-            s=60,
-            depthshade=False,
-            zorder=10,
+        handles.append(ax.scatter(
+            [surface.rhos[i]], [surface.etas[k]], [min(z, top) if clipped else z], color="red", s=60,
+            depthshade=False, zorder=10,
             label=f"(ρ, η) = ({surface.rhos[i]:g}, {surface.etas[k]:g}): max λ(Z) = {z:.3g}",
-        )
-        ax.legend(loc="upper left")
+        ))
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=1, fontsize=8, frameon=False)
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")
     ax.set_zlabel("max λ(Z) [-]")
-    ax.set_title(f"Figure 2: max λ(Z) over (ρ, η) — {surface.model_name}, elements: {surface.elements}")
+    ax.set_title(f"Figure 2: max λ(Z) over (ρ, η) — {surface.model_name}, elements: {surface.elements}",
+                 fontsize=10)
     return ax
 
 
@@ -121,52 +154,105 @@ def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | Non
     return ax
 
 
-def _window(result: SimulationResult, t_start: float) -> Any:
+def _window(result: SimulationResult, t_start: float, t_end: float | None = None) -> Any:
     t_start = check_real("t_start", t_start, nonnegative=True)
     keep = result.t >= t_start
-    if not keep.any():
-        raise ValueError(f"`t_start` must be at most the final time {result.t[-1]:g} s, found {t_start:g}")
+    if t_end is not None:
+        t_end = check_real("t_end", t_end, positive=True)
+        keep &= result.t <= t_end
+    if t_start >= result.t[-1]:
+        raise ArgumentValueError("t_start", f"must be at most the final time {result.t[-1]:g} s, found {t_start:g}")
+    if keep.sum() < 2:
+        raise ArgumentValueError(
+            "t_end", f"must leave at least two samples after t_start = {t_start:g} s, found {t_end}"
+        )
     return keep
 
 
-def plot_response(result: SimulationResult, *, title: str | None = None, t_start: float = 0.0) -> Any:
-    """Two panels laid out like the paper's Figure 3.
+def _legend_right(ax: Any, handles: Any = None, gap: float = 1.01) -> None:
+    """Legend outside the axes, on the right (beyond a twin axis's labels with a larger gap)."""
+    handles = [h for h in (ax.get_lines() if handles is None else handles) if not h.get_label().startswith("_")]
+    ax.legend(handles, [h.get_label() for h in handles], loc="upper left", bbox_to_anchor=(gap, 1.0), fontsize=8,
+              frameon=False)
 
-    Upper: errors e1 (dash-dot) and e2 (solid) in rad on the left axis; disturbance
-    torques (N·m) and payload mass (kg) on the right axis. Lower: control torques
-    Tc1 (dash-dot) and Tc2 (solid) in N·m.
+
+def _torque_limits(ax: Any, t: Any, torque: Any) -> None:
+    """Scale the torque axis to the steady torques; say where an initial spike goes off scale."""
+    magnitude = np.abs(torque).max(axis=0)
+    steady = float(np.quantile(magnitude, 0.98))
+    peak = float(magnitude.max())
+    if peak > 3 * steady > 0:
+        limit = 1.3 * steady
+        ax.set_ylim(-limit, limit)
+        i = int(np.argmax(magnitude))
+        ax.annotate(f"peak |Tc| = {peak:.4g} N·m at t = {t[i]:.3g} s (off scale)", xy=(0.99, 0.04),
+                    xycoords="axes fraction", ha="right", fontsize=8, color="0.3")
+
+
+def _bound_lines(ax: Any, bound: float, label: str) -> Any:
+    line = ax.axhline(bound, color="red", lw=0.9, ls=":", label=label)
+    ax.axhline(-bound, color="red", lw=0.9, ls=":")
+    return line
+
+
+def plot_response(
+    result: SimulationResult,
+    *,
+    title: str | None = None,
+    t_start: float = 0.0,
+    t_end: float | None = None,
+    bounds: tuple[float | None, float | None] | None = None,
+) -> Any:
+    """Three panels for one run: errors, control torques, and the disturbance with the payload.
+
+    The paper's Figure 3 puts the disturbance and the payload (scaled) beside the errors;
+    here they get their own panel with their own units, so neither hides the errors.
+    The torque axis is scaled to the steady torques; an initial spike beyond it is
+    written out with its value.
 
     Parameters
     ----------
     result : SimulationResult
     title : str, optional
         Figure title (default: controller and scenario names).
-    t_start : float
-        Draw from this time on, s (e.g. 6 to see the bounds after the transient).
+    t_start, t_end : float
+        Draw ``t_start <= t <= t_end``, s (default: the whole run).
+    bounds : tuple of (float or None), optional
+        ``(error bound [rad], torque bound [N·m])`` to draw as ± dotted red lines (the
+        paper's 0.02 rad and 7.5 N·m after 6 s, for instance).
 
     Returns
     -------
     matplotlib.figure.Figure
+        ``fig.axes``: errors, torques, disturbance (then the payload's twin axis).
     """
     import matplotlib.pyplot as plt
 
-    keep = _window(result, t_start)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    keep = _window(result, t_start, t_end)
+    fig, (err, trq, sig) = plt.subplots(3, 1, figsize=(9.5, 7.5), sharex=True,
+                                        gridspec_kw={"height_ratios": [3, 3, 1.6]})
     t = result.t[keep]
-    top.plot(t, result.e[0, keep], "-.", label="e1 [rad]")
-    top.plot(t, result.e[1, keep], "-", label="e2 [rad]")
-    top.set_ylabel("joint error [rad]")
-    right = top.twinx()
-    right.plot(t, result.disturbance[0, keep], color="0.6", lw=0.8, label="Td1, Td2 [N·m]")
-    right.plot(t, result.payload[keep], color="tab:green", lw=1.0, label="m_p [kg]")
-    right.set_ylabel("Td [N·m], m_p [kg]")
-    lines = top.get_lines() + right.get_lines()
-    top.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8)
-    bottom.plot(t, result.torque[0, keep], "-.", label="Tc1")
-    bottom.plot(t, result.torque[1, keep], "-", label="Tc2")
-    bottom.set_xlabel("time t [s]")
-    bottom.set_ylabel("control torque [N·m]")
-    bottom.legend(loc="upper right", fontsize=8)
+    err.plot(t, result.e[0, keep], "-.", label="e1 [rad]")
+    err.plot(t, result.e[1, keep], "-", label="e2 [rad]")
+    err.set_ylabel("joint error [rad]")
+    trq.plot(t, result.torque[0, keep], "-.", label="Tc1 [N·m]")
+    trq.plot(t, result.torque[1, keep], "-", label="Tc2 [N·m]")
+    trq.set_ylabel("control torque [N·m]")
+    _torque_limits(trq, t, result.torque[:, keep])
+    if bounds is not None:
+        if bounds[0] is not None:
+            _bound_lines(err, bounds[0], f"bound ±{bounds[0]:g} rad")
+        if bounds[1] is not None:
+            _bound_lines(trq, bounds[1], f"bound ±{bounds[1]:g} N·m")
+    sig.plot(t, result.disturbance[0, keep], color="0.45", lw=0.8, label="Td1 = Td2 [N·m]")
+    sig.set_ylabel("Td [N·m]")
+    mass = sig.twinx()
+    mass.plot(t, result.payload[keep], color="tab:green", lw=1.2, label="m_p [kg]")
+    mass.set_ylabel("m_p [kg]", color="tab:green")
+    sig.set_xlabel("time t [s]")
+    _legend_right(err)
+    _legend_right(trq)
+    _legend_right(sig, sig.get_lines() + mass.get_lines(), gap=1.09)
     fig.suptitle(title or f"{result.controller}, scenario {result.scenario}")
     fig.tight_layout()
     return fig
@@ -179,6 +265,7 @@ def plot_signals(
     labels: Sequence[str] | None = None,
     title: str | None = None,
     t_start: float = 0.0,
+    t_end: float | None = None,
 ) -> Any:
     """One panel per simulation, stacked, for one quantity (the layout of Figures 4 and 5).
 
@@ -187,15 +274,16 @@ def plot_signals(
     results : sequence of SimulationResult
         The runs to show, one panel each, top to bottom.
     signal : {'error', 'torque'}
-        ``'error'``: e1 (dash-dot) and e2 (solid) in rad, with the disturbance torque in
-        N·m on a right axis (Figure 4). ``'torque'``: Tc1 (dash-dot) and Tc2 (solid) in
-        N·m (Figure 5).
+        ``'error'``: e1 (dash-dot) and e2 (solid) in rad, and a last panel with the
+        disturbance torque in N·m (Figure 4). ``'torque'``: Tc1 (dash-dot) and Tc2
+        (solid) in N·m (Figure 5).
     labels : sequence of str, optional
         Panel titles, one per result (default: controller and scenario names).
     title : str, optional
         Figure title.
-    t_start : float
-        Draw from this time on, s.
+    t_start, t_end : float
+        Draw ``t_start <= t <= t_end``, s; a window of tens of ms shows a sampled law's
+        switching.
 
     Returns
     -------
@@ -206,27 +294,38 @@ def plot_signals(
     check_choice("signal", signal, tuple(SIGNALS))
     results = list(results)
     if not results:
-        raise ValueError("`results` must hold at least one SimulationResult, found none")
+        raise ArgumentValueError("results", "must hold at least one SimulationResult, found none")
     if labels is None:
         labels = [f"{r.controller}, scenario {r.scenario}" for r in results]
     elif len(labels) != len(results):
-        raise ValueError(f"`labels` must have one entry per result ({len(results)}), found {len(labels)}")
-    fig, axes = plt.subplots(len(results), 1, figsize=(8, 2.8 * len(results)), sharex=True, squeeze=False)
+        raise ArgumentValueError("labels", f"must have one entry per result ({len(results)}), found {len(labels)}")
+    extra = 1 if signal == "error" else 0
+    ratios = [3] * len(results) + [1.4] * extra
+    fig, axes = plt.subplots(len(results) + extra, 1, figsize=(9.5, 2.6 * len(results) + 1.6 * extra), sharex=True,
+                             squeeze=False, gridspec_kw={"height_ratios": ratios})
+    names = ("e1 [rad]", "e2 [rad]") if signal == "error" else ("Tc1 [N·m]", "Tc2 [N·m]")
     for ax, result, label in zip(axes[:, 0], results, labels):
-        keep = _window(result, t_start)
+        keep = _window(result, t_start, t_end)
         t = result.t[keep]
-        data, names = (result.e, ("e1", "e2")) if signal == "error" else (result.torque, ("Tc1", "Tc2"))
-        ax.plot(t, data[0, keep], "-.", label=names[0])
-        ax.plot(t, data[1, keep], "-", label=names[1])
+        data = result.e if signal == "error" else result.torque
+        step = "post" if result.method == "rk4" and signal == "torque" else None
+        if step:  # a sampled controller holds its torque over each step
+            ax.step(t, data[0, keep], "-.", where="post", label=names[0])
+            ax.step(t, data[1, keep], "-", where="post", label=names[1])
+        else:
+            ax.plot(t, data[0, keep], "-.", label=names[0])
+            ax.plot(t, data[1, keep], "-", label=names[1])
         ax.set_ylabel(SIGNALS[signal])
+        if signal == "torque":
+            _torque_limits(ax, t, data[:, keep])
         ax.set_title(label, fontsize=10)
-        lines = ax.get_lines()
-        if signal == "error":
-            right = ax.twinx()
-            right.plot(t, result.disturbance[0, keep], color="0.6", lw=0.8, label="Td1, Td2")
-            right.set_ylabel("Td [N·m]")
-            lines = lines + right.get_lines()
-        ax.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8)
+        _legend_right(ax)
+    if extra:
+        ax = axes[-1, 0]
+        keep = _window(results[0], t_start, t_end)
+        ax.plot(results[0].t[keep], results[0].disturbance[0, keep], color="0.45", lw=0.8, label="Td1 = Td2 [N·m]")
+        ax.set_ylabel("Td [N·m]")
+        _legend_right(ax)
     axes[-1, 0].set_xlabel("time t [s]")
     if title:
         fig.suptitle(title)
@@ -234,8 +333,65 @@ def plot_signals(
     return fig
 
 
+def plot_comparison(table: Any, *, bounds: dict[str, float] | None = None) -> Any:
+    """Bars of the comparison metrics per controller and scenario (a :func:`scara_robust.compare_controllers` table).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        With columns ``controller``, ``scenario``, ``payload`` and the metrics.
+    bounds : dict of str to float, optional
+        Metric → the paper's bound for the PID, drawn as a short red segment over the PID
+        bars only (default: 0.02 rad and 7.5 N·m after 6 s, Figures 3 and 6).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    bounds = {"max_abs_error_after_6s": 0.02, "max_abs_torque_after_6s": 7.5} if bounds is None else bounds
+    panels = [
+        ("max_abs_error_after_6s", "max |e| after 6 s [rad]", False),
+        ("max_abs_torque_after_6s", "max |Tc| after 6 s [N·m]", False),
+        ("chattering_index", "chattering index [N·m/s] (log)", True),
+    ]
+    controllers = list(dict.fromkeys(table["controller"]))
+    scenarios = list(dict.fromkeys(table["scenario"]))
+    width = 0.8 / len(scenarios)
+    fig, axes = plt.subplots(1, len(panels), figsize=(14, 4.2))
+    for ax, (metric, label, log) in zip(axes, panels):
+        for s_index, scenario in enumerate(scenarios):
+            rows = table[table["scenario"] == scenario].set_index("controller").reindex(controllers)
+            x = np.arange(len(controllers)) + (s_index - (len(scenarios) - 1) / 2) * width
+            ax.bar(x, rows[metric].astype(float), width=width, label=f"{scenario} initial condition")
+        if metric in bounds and "pid" in controllers:
+            i = controllers.index("pid")
+            ax.hlines(bounds[metric], i - 0.45, i + 0.45, color="red", lw=2,
+                      label=f"paper's PID bound {bounds[metric]:g} {label.split('[')[1].split(']')[0]}")
+        ax.set_xticks(range(len(controllers)), controllers)
+        ax.set_ylabel(label)
+        if log:
+            ax.set_yscale("log")
+            _plain_log_ticks(ax)
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
+    payload = ", ".join(sorted(set(map(str, table["payload"])))) if "payload" in table else "?"
+    fig.suptitle(f"PID against sliding-mode control: metrics of 20-s runs, payload {payload}")
+    fig.tight_layout()
+    return fig
+
+
+def _plain_log_ticks(ax: Any) -> None:
+    """Decimal tick labels at 1, 2, 5 × 10^k on a log axis (``0.02``, ``50``), not ``10⁻²`` or ``9.8×10⁰``."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def plot_campaign(results: Any) -> Any:
-    """Distributions of a campaign's metrics per controller (box plots, log scale).
+    """Distributions of a campaign's metrics per controller (box plots; log scale where they span 20x).
 
     Parameters
     ----------
@@ -261,10 +417,19 @@ def plot_campaign(results: Any) -> Any:
             group = results[results["controller"] == name]
             ok = group[group["success"].astype(bool)][metric].astype(float).dropna()
             data.append(ok.to_numpy())
-            ticks.append(f"{name}\n({len(ok)} ok, {len(group) - len(ok)} failed)")
+            if "status" in group:
+                tracking = int((group["status"] == "tracking").sum())
+                ticks.append(f"{name}\n({tracking} tracking, {len(group) - tracking} not)")
+            else:
+                ticks.append(f"{name}\n({len(ok)} ok, {len(group) - len(ok)} failed)")
         ax.boxplot(data, whis=(5, 95))
         ax.set_xticks(range(1, len(ticks) + 1), ticks)
-        ax.set_yscale("log")
+        values = np.concatenate([d for d in data if len(d)]) if any(len(d) for d in data) else np.ones(1)
+        values = values[values > 0]
+        if values.size and values.max() > 20 * values.min():  # a log scale only where the data span one
+            ax.set_yscale("log")
+            _plain_log_ticks(ax)
+            label = label.replace("]", "] (log)")
         ax.set_ylabel(label)
         ax.set_title(label.split(" [")[0] + ", per controller (whiskers 5-95 %)", fontsize=10)
     n = results["scenario"].nunique() if "scenario" in results else len(results)

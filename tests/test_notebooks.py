@@ -20,8 +20,10 @@ NOTEBOOKS = {
     "figure3_pid_large_ic.ipynb": ["figure3_pid_large_ic.png", "figure3_pid_large_ic_after_6s.png"],
     "figures4_5_sliding_mode.ipynb": [
         "figure4_smc_errors.png",
+        "figure4_smc_errors_after_6s.png",
         "figure5_smc_torques.png",
         "figure5_smc_torques_after_6s.png",
+        "figure5_smc_torques_zoom.png",
     ],
     "figure6_pid_small_ic.ipynb": ["figure6_pid_small_ic.png"],
     "comparison.ipynb": ["comparison_metrics.png"],

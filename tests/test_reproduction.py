@@ -88,7 +88,7 @@ def test_plot_signals_one_panel_per_result(short_run, signal):
     t = panels[0].get_lines()[0].get_xdata()
     assert t.min() >= 0.5 and t.max() == pytest.approx(1.0)
     assert panels[0].get_ylabel() == sr.plotting.SIGNALS[signal]
-    assert len(fig.axes) == (4 if signal == "error" else 2)  # twin axes for the disturbance
+    assert len(fig.axes) == (3 if signal == "error" else 2)  # the disturbance on a panel of its own
 
 
 @pytest.mark.parametrize(
