@@ -38,7 +38,7 @@ REDUCED = {
     "simulate": ["--t-final", "6.5"],
     "certify": ["--tries", "2"],
     "campaign": ["--runs", "2"],
-    "margin": ["--tol", "0.05", "--tries", "2"],
+    "margin": ["--tol", "0.3", "--tries", "2"],
 }
 
 
