@@ -131,8 +131,9 @@ def test_a_model_without_elements_has_no_margin():
 
 @pytest.mark.parametrize(
     ("argv", "needle"),
-    [(["--tol", "0"], "`--tol` must be > 0"), (["--tries", "0"], "`--tries` must be an integer >= 1")],
-    ids=["tol", "tries"],
+    [(["--tol", "0"], "`--tol` must be > 0"), (["--tries", "0"], "`--tries` must be an integer >= 1"),
+     (["--method", "mu"], "argument --method: invalid choice: 'mu'")],
+    ids=["tol", "tries", "method"],
 )
 def test_margin_cli_bad_options(capsys, argv, needle):
     assert main(["margin", "--rho", "3", "--eta", "90", *argv]) == 2
@@ -157,3 +158,9 @@ def test_margin_cli_json(capsys):
     assert {"theorem1", "vertex", "lmi", "frozen", "falsifier", "bracket"} <= set(rows)
     assert rows["theorem1"]["kind"] == "lower" and rows["frozen"]["kind"] == "upper"
     assert rows["theorem1"]["theta"] <= rows["vertex"]["theta"]
+
+
+def test_margin_cli_one_method(capsys):
+    assert main(["margin", "--rho", "3", "--eta", "90", "--method", "vertex", "--no-payload", "--format", "json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["method"] for r in rows] == ["vertex"] and 0.55 < rows[0]["theta"] < 0.56

@@ -10,7 +10,7 @@ from typing import Any
 import pandas as pd
 
 from ..lyapunov.gain import design
-from ..robustness.margins import MARGIN_TOL, margin_table, payload_margin
+from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, payload_margin, robustness_margin
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
 
 __all__ = ["add_parser", "run"]
@@ -31,6 +31,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
     add_setup_options(p, scenario=None, model=True)
     p.add_argument("--elements", choices=("all", "A", "B"), default="all", help="elements scaled and varying")
+    p.add_argument("--method", choices=("all", *MARGIN_METHODS), default="all",
+                   help="one method, or all of them and the bracket (default)")
     p.add_argument("--tol", type=finite_float, default=MARGIN_TOL, help=f"relative tolerance of the bisections "
                    f"(default {MARGIN_TOL:g})")
     p.add_argument("--tries", type=int, default=10, help="falsifier trajectories per try (default 10)")
@@ -62,7 +64,13 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     model = resolve_model(args, setup)
     d = design(model, args.rho, args.eta)
-    table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries)
+    if args.method == "all":
+        table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries)
+    else:
+        m = robustness_margin(model, d, args.method, elements=args.elements, tol=args.tol,
+                              falsifier_tries=args.tries)
+        table = pd.DataFrame([(m.method, m.kind, m.theta, *m.bracket, m.seconds, m.message)],
+                             columns=["method", "kind", "theta", "lo", "hi", "seconds", "message"])
     payload = None
     if getattr(model, "scara", False) and not args.no_payload:
         payload = payload_margin(d, setup.params, setup.reference, tol=max(args.tol, 1e-3))
