@@ -396,6 +396,57 @@ def _matrix(where: str, field: str, value: Any, shape: tuple[int | None, int | N
     return arr
 
 
+def _load_polytope(where: str, vertices: Any, name: str) -> PolytopicModel:
+    if not isinstance(vertices, list) or not vertices or not all(isinstance(v, Mapping) for v in vertices):
+        raise InputFileError(f"{where} field `vertices` must be a list of tables with A and B, found "
+                             f"{describe(vertices)}")
+    As: list[NDArray[np.float64]] = []
+    Bs: list[NDArray[np.float64]] = []
+    for i, vertex in enumerate(vertices):
+        for key in ("A", "B"):
+            if key not in vertex:
+                raise InputFileError(f"{where} missing field `vertices[{i}].{key}`")
+        n = As[0].shape[0] if As else None
+        m = Bs[0].shape[1] if Bs else None
+        A = _matrix(where, f"vertices[{i}].A", vertex["A"], (n, n))
+        if A.shape[0] != A.shape[1]:
+            raise InputFileError(f"{where} field `vertices[{i}].A` must be square, found {A.shape}")
+        As.append(A)
+        Bs.append(_matrix(where, f"vertices[{i}].B", vertex["B"], (A.shape[0], m)))
+    return PolytopicModel(np.array(As), np.array(Bs), name=name)
+
+
+def _load_elements(
+    where: str, raw: Any, shape_A: tuple[int, ...], shape_B: tuple[int, ...]
+) -> list[UncertainElement]:
+    if not isinstance(raw, list):
+        raise InputFileError(f"{where} field `elements` must be a list of tables, found {describe(raw)}")
+    elements = []
+    for k, table in enumerate(raw):
+        label = f"elements[{k}]"
+        fields_ = field_table(where.rstrip(":"), {label: table}, label, _ELEMENT_KEYS)
+        for key in _ELEMENT_KEYS:
+            if key not in fields_:
+                raise InputFileError(f"{where} missing field `{label}.{key}`")
+        matrix, row, col = fields_["matrix"], fields_["row"], fields_["col"]
+        if matrix not in ("A", "B"):
+            raise InputFileError(f"{where} field `{label}.matrix` must be 'A' or 'B', found {describe(matrix)}")
+        for key, value in (("row", row), ("col", col)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise InputFileError(f"{where} field `{label}.{key}` must be a 0-based index >= 0, found "
+                                     f"{describe(value)}")
+        shape = shape_A if matrix == "A" else shape_B
+        if row >= shape[0] or col >= shape[1]:
+            raise InputFileError(f"{where} field `{label}`: Δ{matrix}[{row}, {col}] lies outside {matrix} of "
+                                 f"shape {shape}")
+        lower = field_number(where, f"{label}.lower", fields_["lower"], "the units of the entry")
+        upper = field_number(where, f"{label}.upper", fields_["upper"], "the units of the entry")
+        if lower > upper:
+            raise InputFileError(f"{where} field `{label}`: lower {lower:g} > upper {upper:g}")
+        elements.append(UncertainElement(matrix, row, col, lower, upper))
+    return elements
+
+
 def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicModel:
     """Read a plant file: an interval model (A, B and elements) or a polytope (vertices).
 
@@ -440,24 +491,7 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
     if "vertices" in data:
         if any(key in data for key in ("A", "B", "elements")) or form != "state":
             raise InputFileError(f"{where} a polytope gives `vertices` only (no `A`, `B`, `elements` or `form`)")
-        vertices = data["vertices"]
-        if not isinstance(vertices, list) or not vertices or not all(isinstance(v, Mapping) for v in vertices):
-            raise InputFileError(f"{where} field `vertices` must be a list of tables with A and B, found "
-                                 f"{describe(vertices)}")
-        As: list[NDArray[np.float64]] = []
-        Bs: list[NDArray[np.float64]] = []
-        for i, vertex in enumerate(vertices):
-            for key in ("A", "B"):
-                if key not in vertex:
-                    raise InputFileError(f"{where} missing field `vertices[{i}].{key}`")
-            n = As[0].shape[0] if As else None
-            m = Bs[0].shape[1] if Bs else None
-            A = _matrix(where, f"vertices[{i}].A", vertex["A"], (n, n))
-            if A.shape[0] != A.shape[1]:
-                raise InputFileError(f"{where} field `vertices[{i}].A` must be square, found {A.shape}")
-            As.append(A)
-            Bs.append(_matrix(where, f"vertices[{i}].B", vertex["B"], (A.shape[0], m)))
-        return PolytopicModel(np.array(As), np.array(Bs), name=name)
+        return _load_polytope(where, data["vertices"], name)
     for key in ("A", "B"):
         if key not in data:
             raise InputFileError(f"{where} missing field `{key}` (or give `vertices` for a polytope)")
@@ -465,32 +499,7 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
     if A.shape[0] != A.shape[1]:
         raise InputFileError(f"{where} field `A` must be square, found {A.shape}")
     B = _matrix(where, "B", data["B"], (A.shape[0], None))
-    elements = []
-    raw = data.get("elements", [])
-    if not isinstance(raw, list):
-        raise InputFileError(f"{where} field `elements` must be a list of tables, found {describe(raw)}")
-    for k, table in enumerate(raw):
-        label = f"elements[{k}]"
-        fields_ = field_table(where.rstrip(":"), {label: table}, label, _ELEMENT_KEYS)
-        for key in _ELEMENT_KEYS:
-            if key not in fields_:
-                raise InputFileError(f"{where} missing field `{label}.{key}`")
-        matrix, row, col = fields_["matrix"], fields_["row"], fields_["col"]
-        if matrix not in ("A", "B"):
-            raise InputFileError(f"{where} field `{label}.matrix` must be 'A' or 'B', found {describe(matrix)}")
-        for key, value in (("row", row), ("col", col)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise InputFileError(f"{where} field `{label}.{key}` must be a 0-based index >= 0, found "
-                                     f"{describe(value)}")
-        shape = A.shape if matrix == "A" else B.shape
-        if row >= shape[0] or col >= shape[1]:
-            raise InputFileError(f"{where} field `{label}`: Δ{matrix}[{row}, {col}] lies outside {matrix} of "
-                                 f"shape {shape}")
-        lower = field_number(where, f"{label}.lower", fields_["lower"], "the units of the entry")
-        upper = field_number(where, f"{label}.upper", fields_["upper"], "the units of the entry")
-        if lower > upper:
-            raise InputFileError(f"{where} field `{label}`: lower {lower:g} > upper {upper:g}")
-        elements.append(UncertainElement(matrix, row, col, lower, upper))
+    elements = _load_elements(where, data.get("elements", []), A.shape, B.shape)
     if "C" in data and form != "integral":
         raise InputFileError(f"{where} field `C` is used by form = 'integral' only")
     try:
