@@ -11,7 +11,9 @@ from .margins import *  # noqa: F403
 from .margins import __all__ as _margins
 from .polytope import *  # noqa: F403
 from .polytope import __all__ as _polytope
+from .synthesis import *  # noqa: F403
+from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis]
