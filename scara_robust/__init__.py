@@ -52,6 +52,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
     payload_margin                  -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
+    l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times

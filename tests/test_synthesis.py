@@ -65,3 +65,38 @@ def test_decay_rate_matches_its_definition():
 def test_bad_options(kwargs, match):
     with pytest.raises(sr.ArgumentValueError, match=match):
         sr.synthesize(sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1))), **kwargs)
+
+
+# ---------------------------------------------------------------- worst-case L2 gain
+
+
+def test_l2_gain_of_one_lti_plant_is_its_hinf_norm():
+    # for a single plant the bounded-real lemma is exact: upper = lower = ‖G‖∞
+    A = np.array([[[-1.0, 2.0], [-2.0, -0.5]]])
+    result = sr.l2_gain(A, [[0.0], [1.0]], [[1.0, 0.0]])
+    assert result.lower == pytest.approx(result.upper, rel=1e-3) and result.upper >= result.lower
+
+
+@pytest.mark.parametrize("seed", range(4), ids=[f"seed{s}" for s in range(4)])
+def test_l2_lower_bound_never_exceeds_upper_bound(seed):
+    rng = np.random.default_rng(seed)
+    base = np.array([[-2.0, 1.0, 0.0], [0.0, -3.0, 1.0], [0.5, 0.0, -1.5]])
+    A = base + 0.3 * rng.normal(size=(4, 3, 3))
+    result = sr.l2_gain(A, rng.normal(size=(3, 1)), rng.normal(size=(1, 3)))
+    assert np.isfinite(result.lower) and result.lower <= result.upper
+    assert "worst-case L2 gain in" in result.message
+
+
+def test_l2_gain_of_an_unstable_frozen_plant_is_unbounded():
+    A = np.array([[[-1.0, 0.0], [0.0, -1.0]], [[0.5, 0.0], [0.0, -1.0]]])
+    result = sr.l2_gain(A, [[1.0], [0.0]], [[1.0, 0.0]])
+    assert result.lower == np.inf and result.upper == np.inf and not np.isfinite(result.upper)
+
+
+def test_paper_design_l2_gain_from_disturbance_torque_to_error():
+    d = sr.design(sr.paper_model(), 3, 90)
+    s = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 19), n_masses=3)
+    C = np.zeros((2, 6))
+    C[:, 2:4] = np.eye(2)  # z = e (rad), w = Td (N·m), entering through B like Tc
+    result = sr.l2_gain(s.A - s.B @ d.K, s.B, C)
+    assert 0 < result.lower <= result.upper < 0.01  # rad per N·m

@@ -5,6 +5,8 @@ Imports :mod:`scara_robust.model` and :mod:`scara_robust.lyapunov` below it.
 
 from .falsifier import *  # noqa: F403
 from .falsifier import __all__ as _falsifier
+from .l2gain import *  # noqa: F403
+from .l2gain import __all__ as _l2gain
 from .lmi import *  # noqa: F403
 from .lmi import __all__ as _lmi
 from .margins import *  # noqa: F403
@@ -16,4 +18,4 @@ from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain]
