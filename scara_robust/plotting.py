@@ -1,4 +1,10 @@
-"""Matplotlib figures. Nothing here computes: every function draws a result object."""
+"""Matplotlib figures. Nothing here computes: every function draws a result object.
+
+Every axis label carries its unit in brackets (``[rad]``, ``[N·m]``, ``[kg]``, ``[s]``;
+``[-]`` for a dimensionless quantity) and so does every legend entry of a quantity; legends
+sit beside or below the axes rather than on the data, and the figures are sized to be read
+at about 800 pixels wide.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +15,7 @@ import numpy as np
 
 from ._validation import check_choice, check_real
 from .exceptions import ArgumentValueError
+from .paper import PAPER_TRANSIENT
 
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
@@ -29,6 +36,62 @@ __all__ = [
 #: Quantities :func:`plot_signals` draws, with their axis labels.
 SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
 
+#: Legend text size, pt (figures are 7-11 inches wide: 10 pt is about 12 px at 800 px wide).
+_LEGEND_SIZE = 10
+#: A window this long or shorter is labelled in milliseconds from its start, s.
+_MS_WINDOW = 0.2
+
+
+def _plain(value: float, digits: int = 3) -> str:
+    """`value` in plain decimals with `digits` significant digits: ``0.0223``, ``1240``, never ``1.24e+03``."""
+    if value == 0 or not np.isfinite(value):
+        return f"{value:g}"
+    return str(np.format_float_positional(value, precision=digits, unique=True, fractional=False, trim="-"))
+
+
+def _plain_formatter(digits: int = 3) -> Any:
+    from matplotlib.ticker import FuncFormatter
+
+    return FuncFormatter(lambda v, _: _plain(v, digits).replace("-", "\N{MINUS SIGN}"))  # as matplotlib's ticks
+
+
+def _check_quantile(clip_quantile: float) -> float:
+    clip_quantile = check_real("clip_quantile", clip_quantile, positive=True)
+    if clip_quantile > 1:
+        raise ArgumentValueError("clip_quantile", f"must be in (0, 1], found {clip_quantile:g}")
+    return clip_quantile
+
+
+def _clip_level(values: Any, clip_quantile: float) -> float | None:
+    """The level to draw `values` up to, or None when nothing sticks out.
+
+    Values above the `clip_quantile` quantile are drawn at it only when the largest one
+    lies more than a quarter of the drawn range above it (a spike such as max λ(Z) as
+    ρ → 0); a surface without a spike is drawn whole.
+    """
+    top = float(np.quantile(values, clip_quantile))
+    low = float(np.min(values))
+    if clip_quantile < 1 and float(np.max(values)) > top + 0.25 * max(top - low, abs(top), 1e-12):
+        return top
+    return None
+
+
+def _zero_centred(lo: float, hi: float) -> tuple[Any, Any]:
+    """Colour map and norm with blue below zero and red above, white at zero (max λ(Z) = 0)."""
+    import matplotlib as mpl
+    from matplotlib.colors import ListedColormap, Normalize, TwoSlopeNorm
+
+    base = mpl.colormaps["RdBu_r"]
+    if lo < 0 < hi:
+        return base, TwoSlopeNorm(vcenter=0.0, vmin=lo, vmax=hi)
+    if hi <= 0:  # all certified: the blue half only
+        return ListedColormap(base(np.linspace(0.0, 0.5, 128))), Normalize(vmin=lo, vmax=0.0)
+    return ListedColormap(base(np.linspace(0.5, 1.0, 128))), Normalize(vmin=0.0, vmax=hi)
+
+
+def _design_label(rho: float, eta: float) -> str:
+    return f"(ρ, η) = ({rho:g}, {eta:g})"
+
 
 def plot_surface(
     surface: DesignSurface,
@@ -36,13 +99,16 @@ def plot_surface(
     ax: Any = None,
     *,
     clip_quantile: float = 0.95,
+    view: tuple[float, float] = (30.0, 15.0),
 ) -> Any:
     """3D graph of ``max λ(Z)`` over (ρ, η), like the paper's Figure 2, with the certified region shown.
 
-    The z = 0 plane is drawn (translucent grey) and the grid's certified points
-    (max λ(Z) < 0) are filled in on the floor, so the region the figure is about is
-    visible even where it is thin. Values above the `clip_quantile` quantile are drawn at
-    that level (a spike as ρ → 0 would otherwise flatten the rest); the z label says so.
+    The colours are centred on zero (blue: max λ(Z) < 0, red: > 0), the z = 0 plane is
+    drawn (translucent grey) with the zero contour on it (black), and the certified grid
+    points (Ā Hurwitz and max λ(Z) < 0) are filled in green on the floor. When the
+    surface has a spike (max λ(Z) grows without bound as ρ → 0), values above the
+    `clip_quantile` quantile are drawn at that level so the negative region keeps its
+    extent; the title says so and the colour bar ends in a triangle.
 
     Parameters
     ----------
@@ -50,69 +116,114 @@ def plot_surface(
     mark : tuple of float, optional
         ``(rho, eta)`` to mark; it is placed at the nearest grid point.
     ax : mpl_toolkits.mplot3d.Axes3D, optional
-        Axes to draw into (default: a new figure).
+        Axes to draw into (default: a new figure), created with ``computed_zorder=False``:
+        the parts are drawn in call order, the part of the surface below z = 0 first.
     clip_quantile : float
         In (0, 1]; 1 draws every value as it is.
+    view : tuple of float
+        ``(elevation, azimuth)`` of the camera, degrees. The default looks from large ρ,
+        where the certified region usually lies, so the ρ → 0 spike stands behind it
+        and the η → 1 edge to its left.
 
     Returns
     -------
-    matplotlib.axes.Axes
+    mpl_toolkits.mplot3d.Axes3D
     """
     import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    clip_quantile = check_real("clip_quantile", clip_quantile, positive=True)
-    if clip_quantile > 1:
-        raise ArgumentValueError("clip_quantile", f"must be in (0, 1], found {clip_quantile:g}")
+    clip_quantile = _check_quantile(clip_quantile)
+    if len(view) != 2:
+        raise ArgumentValueError("view", f"must be (elevation, azimuth) in degrees, found {view!r}")
+    elevation, azimuth = (check_real("view", angle) for angle in view)
     if ax is None:
-        fig = plt.figure(figsize=(8, 6))
-        # computed_zorder=False keeps the marker drawn above the surface
+        fig = plt.figure(figsize=(8, 7))
+        # computed_zorder=False: call order is drawing order (mplot3d sorts whole collections,
+        # so a surface crossing the z = 0 plane is drawn in two parts around it)
         ax = fig.add_subplot(projection="3d", computed_zorder=False)
+        fig.subplots_adjust(left=0.0, right=0.92, bottom=0.2, top=0.9)  # room for the legend below, title above
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
     Z = surface.max_eig
-    top = float(np.quantile(Z, clip_quantile))
-    clipped = bool(clip_quantile < 1 and (Z > top).any())
-    Zc = np.minimum(Z, top) if clipped else Z
-    lo = float(min(Zc.min(), 0.0))
-    hi = float(max(Zc.max(), 0.0))
-    floor = lo - 0.08 * (hi - lo or 1.0)
+    top = _clip_level(Z, clip_quantile)
+    Zc = Z if top is None else np.minimum(Z, top)
+    lo, hi = float(Zc.min()), float(Zc.max())
+    span = max(hi, 0.0) - min(lo, 0.0) or 1.0
+    floor = min(lo, 0.0) - 0.08 * span
+    cmap, norm = _zero_centred(lo, hi)
+    colors = cmap(norm(Zc))
+    # a cell is drawn with its first corner's colour; it belongs to the lower part when any corner is <= 0
+    corner = np.stack([Zc[:-1, :-1], Zc[1:, :-1], Zc[:-1, 1:], Zc[1:, 1:]])
+    lower_cell = np.zeros(Zc.shape, dtype=bool)
+    lower_cell[:-1, :-1] = (corner <= 0).any(axis=0)
+    upper_cell = np.zeros(Zc.shape, dtype=bool)
+    upper_cell[:-1, :-1] = (corner > 0).any(axis=0)
+
     certified = surface.certified
-    if certified.any():  # drawn first: with computed_zorder=False, call order is drawing order
+    if certified.any():
         ax.contourf(R, H, np.where(certified, 1.0, 0.0), levels=[0.5, 1.5], zdir="z", offset=floor,
-                    colors=["tab:green"], alpha=0.6)
-    surf = ax.plot_surface(R, H, Zc, cmap="viridis", linewidth=0, antialiased=True, alpha=0.85)
-    ax.plot_surface(R, H, np.zeros_like(Zc), color="0.5", alpha=0.25, linewidth=0)
-    ax.set_zlim(floor, hi + 0.05 * (hi - lo or 1.0))
-    note = f", drawn at most {top:.3g} ({100 * clip_quantile:g}th percentile)" if clipped else ""
-    ax.figure.colorbar(surf, ax=ax, shrink=0.6, pad=0.12, label=f"max λ(Z) [-]{note}")
-    handles = [
-        Patch(color="0.5", alpha=0.4, label="max λ(Z) = 0: below it, certified"),
-        Patch(color="tab:green", alpha=0.6,
-              label=f"certified grid points (floor): {int(certified.sum())} of {certified.size}"),
-    ]
+                    colors=["tab:green"], alpha=0.55)
+    if lower_cell.any():
+        ax.plot_surface(R, H, Zc, facecolors=np.where(lower_cell[..., None], colors, 0.0), linewidth=0,
+                        antialiased=False, shade=False)
+    ax.plot_surface(R, H, np.zeros_like(Zc), color="0.55", alpha=0.3, linewidth=0, shade=False).set_gid("zero plane")
+    if upper_cell.any():
+        ax.plot_surface(R, H, Zc, facecolors=np.where(upper_cell[..., None], colors, 0.0), linewidth=0,
+                        antialiased=False, shade=False)
+    handles: list[Any] = [Patch(color="0.55", alpha=0.45, label="plane max λ(Z) = 0 [-]")]
+    if lo < 0 < hi:
+        ax.contour(R, H, Zc, levels=[0.0], colors="k", linewidths=2.0, zdir="z", offset=0.0)
+        handles.append(Line2D([], [], color="k", lw=2.0, label="max λ(Z) = 0 [-] on the surface"))
+    elif lo > 0:
+        handles.append(Patch(color=cmap(0.6),
+                             label=f"max λ(Z) ≥ {_plain(lo)} [-] on the whole grid: nothing certified"))
+    handles.append(Patch(color="tab:green", alpha=0.55, label=(
+        f"certified (max λ(Z) < 0 [-], Ā Hurwitz), on the floor: {int(certified.sum())} of {certified.size} "
+        "grid points")))
+    ax.set_zlim(floor, max(hi, 0.0) + 0.04 * span)
+    ax.view_init(elev=elevation, azim=azimuth)
+    mappable = ScalarMappable(norm=norm, cmap=cmap)
+    cbar = ax.figure.colorbar(mappable, ax=ax, shrink=0.55, pad=0.1, extend="max" if top is not None else "neither",
+                              label="max λ(Z) [-]")
+    if lo < 0 < hi:
+        cbar.ax.axhline(0.0, color="k", lw=1.5)
     if mark is not None:
         i = int(np.argmin(np.abs(surface.rhos - mark[0])))
         k = int(np.argmin(np.abs(surface.etas - mark[1])))
-        z = surface.max_eig[i, k]
+        z = float(surface.max_eig[i, k])
+        zc = float(Zc[i, k])
         handles.append(ax.scatter(
-            [surface.rhos[i]], [surface.etas[k]], [min(z, top) if clipped else z], color="red", s=60,
-            depthshade=False, zorder=10,
-            label=f"(ρ, η) = ({surface.rhos[i]:g}, {surface.etas[k]:g}): max λ(Z) = {z:.3g}",
+            [surface.rhos[i]], [surface.etas[k]], [zc], s=70, facecolor="yellow", edgecolor="k", linewidths=1.2,
+            depthshade=False, label=f"{_design_label(surface.rhos[i], surface.etas[k])}: max λ(Z) = {_plain(z)} [-]",
         ))
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=1, fontsize=8, frameon=False)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=1, fontsize=_LEGEND_SIZE,
+              frameon=False)
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")
-    ax.set_zlabel("max λ(Z) [-]")
-    ax.set_title(f"Figure 2: max λ(Z) over (ρ, η) — {surface.model_name}, elements: {surface.elements}",
-                 fontsize=10)
+    ax.zaxis.set_rotate_label(False)  # read bottom to top, whatever the view
+    ax.set_zlabel("max λ(Z) [-]", rotation=90)
+    title = f"Figure 2: max λ(Z) over (ρ, η) — {surface.model_name}, elements: {surface.elements}"
+    if top is not None:
+        title += (f"\nz axis clipped at {_plain(top)} [-], the {100 * clip_quantile:g}th percentile "
+                  f"(grid maximum {_plain(float(Z.max()))} [-])")
+    ax.set_title(title, fontsize=10)
     return ax
 
 
-def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | None = None, ax: Any = None) -> Any:
+def plot_surface_contour(
+    surface: DesignSurface,
+    mark: tuple[float, float] | None = None,
+    ax: Any = None,
+    *,
+    clip_quantile: float = 0.95,
+) -> Any:
     """Contour view of ``max λ(Z)`` with the certified region (max λ(Z) < 0) hatched.
 
-    The colour scale runs from the grid minimum to the 95th percentile, so that a steep
-    corner (ρ → 0) does not wash out the rest; higher values share the top colour.
+    Colours are centred on zero (blue below, red above); the zero contour is the black
+    line labelled on the plot. When the surface has a spike (ρ → 0), the colour scale
+    stops at the `clip_quantile` quantile and higher values share the top colour (the
+    colour bar ends in a triangle and its label gives the grid maximum).
 
     Parameters
     ----------
@@ -121,6 +232,8 @@ def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | Non
         ``(rho, eta)`` to mark with a star.
     ax : matplotlib.axes.Axes, optional
         Axes to draw into (default: a new figure).
+    clip_quantile : float
+        In (0, 1]; 1 spreads the colours over every value.
 
     Returns
     -------
@@ -128,29 +241,42 @@ def plot_surface_contour(surface: DesignSurface, mark: tuple[float, float] | Non
     """
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
+    from matplotlib.ticker import MaxNLocator
 
+    clip_quantile = _check_quantile(clip_quantile)
     if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4.5))
+        _, ax = plt.subplots(figsize=(7, 5.2))
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
-    lo, hi = float(surface.max_eig.min()), float(np.quantile(surface.max_eig, 0.95))
-    levels = np.linspace(lo, hi if hi > lo else lo + 1.0, 30)
-    cs = ax.contourf(R, H, surface.max_eig, levels=levels, cmap="viridis", extend="max")
-    plt.colorbar(cs, ax=ax, label="max λ(Z) [-]")
+    Z = surface.max_eig
+    top = _clip_level(Z, clip_quantile)
+    lo = float(Z.min())
+    hi = float(Z.max()) if top is None else top
+    levels = MaxNLocator(nbins=16).tick_values(lo, hi if hi > lo else lo + 1.0)
+    cmap, norm = _zero_centred(float(levels[0]), float(levels[-1]))
+    cs = ax.contourf(R, H, Z, levels=levels, cmap=cmap, norm=norm, extend="max" if top is not None else "neither")
+    label = "max λ(Z) [-]"
+    if top is not None:
+        label += f" (▲: above {_plain(float(levels[-1]))}, up to {_plain(float(Z.max()))})"
+    cbar = ax.figure.colorbar(cs, ax=ax, label=label, format=_plain_formatter())
     handles = []
     if surface.certified.any():
-        ax.contourf(R, H, surface.max_eig, levels=[lo - 1.0, 0.0], colors="none", hatches=["//"])
-        if not surface.certified.all():
-            ax.contour(R, H, surface.max_eig, levels=[0.0], colors="red", linewidths=2)
+        ax.contourf(R, H, np.where(surface.certified, 1.0, 0.0), levels=[0.5, 1.5], colors="none", hatches=["//"])
         handles.append(Rectangle((0, 0), 1, 1, fill=False, hatch="//", label="max λ(Z) < 0 (certified)"))
     else:
         handles.append(Rectangle((0, 0), 1, 1, fill=False, lw=0, label="no grid point has max λ(Z) < 0"))
+    if lo < 0 < float(Z.max()):
+        zero = ax.contour(R, H, Z, levels=[0.0], colors="k", linewidths=2)
+        ax.clabel(zero, fmt={0.0: "max λ(Z) = 0"}, fontsize=8, inline=True)
+        cbar.ax.axhline(0.0, color="k", lw=2)
     if mark is not None:
-        (star,) = ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")
+        (star,) = ax.plot(*mark, "*", color="yellow", markeredgecolor="k", markersize=14,
+                          label=_design_label(*mark))
         handles.append(star)
-    ax.legend(handles=handles, loc="upper right", fontsize=8)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=_LEGEND_SIZE,
+              frameon=False)
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")
-    ax.set_title(f"max λ(Z) < 0 region — {surface.model_name}, elements: {surface.elements}")
+    ax.set_title(f"max λ(Z) < 0 region — {surface.model_name}, elements: {surface.elements}", fontsize=10)
     return ax
 
 
@@ -169,30 +295,61 @@ def _window(result: SimulationResult, t_start: float, t_end: float | None = None
     return keep
 
 
-def _legend_right(ax: Any, handles: Any = None, gap: float = 1.01) -> None:
-    """Legend outside the axes, on the right (beyond a twin axis's labels with a larger gap)."""
+def _legend_right(ax: Any, handles: Any = None) -> None:
+    """Legend outside the axes, on the right, in the order the lines were drawn."""
     handles = [h for h in (ax.get_lines() if handles is None else handles) if not h.get_label().startswith("_")]
-    ax.legend(handles, [h.get_label() for h in handles], loc="upper left", bbox_to_anchor=(gap, 1.0), fontsize=8,
-              frameon=False)
+    ax.legend(handles, [h.get_label() for h in handles], loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              fontsize=_LEGEND_SIZE, frameon=False, handlelength=2.2)
 
 
-def _torque_limits(ax: Any, t: Any, torque: Any) -> None:
-    """Scale the torque axis to the steady torques; say where an initial spike goes off scale."""
+def _torque_limits(ax: Any, t: Any, torque: Any, keep_visible: float = 0.0) -> Any:
+    """Scale the torque axis to the steady torques (and `keep_visible`); mark where an initial spike leaves it.
+
+    Returns the marker (with its legend entry: the peak, its time and unit) or None.
+    """
     magnitude = np.abs(torque).max(axis=0)
     steady = float(np.quantile(magnitude, 0.98))
     peak = float(magnitude.max())
-    if peak > 3 * steady > 0:
-        limit = 1.3 * steady
-        ax.set_ylim(-limit, limit)
-        i = int(np.argmax(magnitude))
-        ax.annotate(f"peak |Tc| = {peak:.4g} N·m at t = {t[i]:.3g} s (off scale)", xy=(0.99, 0.04),
-                    xycoords="axes fraction", ha="right", fontsize=8, color="0.3")
+    limit = max(1.3 * steady, 1.1 * keep_visible)
+    if not peak > max(3 * steady, limit) > 0:
+        return None
+    ax.set_ylim(-limit, limit)
+    i = int(np.argmax(magnitude))
+    j = int(np.argmax(np.abs(torque[:, i])))
+    up = torque[j, i] > 0
+    (marker,) = ax.plot([t[i]], [limit if up else -limit], "^" if up else "v", color="k", markersize=8,
+                        clip_on=False, zorder=5, linestyle="none",
+                        label=f"peak Tc{j + 1} = {_plain(float(torque[j, i]), 4)} N·m\nat t = {t[i]:.3g} s (off scale)")
+    return marker
 
 
-def _bound_lines(ax: Any, bound: float, label: str) -> Any:
-    line = ax.axhline(bound, color="red", lw=0.9, ls=":", label=label)
-    ax.axhline(-bound, color="red", lw=0.9, ls=":")
+def _bound_lines(ax: Any, bound: float, t0: float, t1: float, label: str, style: str = ":") -> Any:
+    (line,) = ax.plot([t0, t1], [bound, bound], color="red", lw=1.3, ls=style, label=label)
+    ax.plot([t0, t1], [-bound, -bound], color="red", lw=1.3, ls=style, label="_" + label)
     return line
+
+
+def _time_axis(ax: Any, t0: float, t1: float) -> None:
+    """Label the time axis; a window of 0.2 s or less is read in ms from its start."""
+    if t1 - t0 <= _MS_WINDOW:
+        from matplotlib.ticker import FuncFormatter
+
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{1000 * (v - t0):.0f}"))
+        ax.set_xlabel(f"time t − {t0:g} s [ms]")
+    else:
+        ax.set_xlabel("time t [s]")
+    ax.set_xlim(t0, t1)
+
+
+def _disturbance_panel(ax: Any, t: Any, disturbance: Any) -> None:
+    if np.array_equal(disturbance[0], disturbance[1]):
+        ax.plot(t, disturbance[0], color="0.35", lw=0.9, label="Td1 = Td2 [N·m]")
+    else:
+        ax.plot(t, disturbance[0], "-.", color="0.35", lw=0.9, label="Td1 [N·m]")
+        ax.plot(t, disturbance[1], "-", color="0.6", lw=0.9, label="Td2 [N·m]")
+    amplitude = float(np.abs(disturbance).max()) or 1.0
+    ax.set_ylim(-1.35 * amplitude, 1.35 * amplitude)
+    ax.set_ylabel("Td [N·m]")
 
 
 def plot_response(
@@ -202,13 +359,15 @@ def plot_response(
     t_start: float = 0.0,
     t_end: float | None = None,
     bounds: tuple[float | None, float | None] | None = None,
+    bounds_after: float = 0.0,
+    initial_torque_bound: float | None = None,
 ) -> Any:
-    """Three panels for one run: errors, control torques, and the disturbance with the payload.
+    """Four panels for one run: errors, control torques, the disturbance, and the payload.
 
-    The paper's Figure 3 puts the disturbance and the payload (scaled) beside the errors;
-    here they get their own panel with their own units, so neither hides the errors.
-    The torque axis is scaled to the steady torques; an initial spike beyond it is
-    written out with its value.
+    The paper's Figures 3 and 6 draw the disturbance (×0.01) and the payload (×0.04)
+    beside the errors; here each has a panel of its own with its own unit, so neither
+    hides the errors. The torque axis is scaled to the steady torques; an initial spike
+    beyond it is marked on the axis edge and written out in the legend.
 
     Parameters
     ----------
@@ -218,41 +377,58 @@ def plot_response(
     t_start, t_end : float
         Draw ``t_start <= t <= t_end``, s (default: the whole run).
     bounds : tuple of (float or None), optional
-        ``(error bound [rad], torque bound [N·m])`` to draw as ± dotted red lines (the
-        paper's 0.02 rad and 7.5 N·m after 6 s, for instance).
+        ``(error bound [rad], torque bound [N·m])`` to draw as ± dotted red lines from
+        `bounds_after` on (the paper's 0.02 rad and 7.5 N·m after 6 s, for instance).
+    bounds_after : float
+        Time from which `bounds` hold, s (the paper's :data:`scara_robust.PAPER_TRANSIENT`,
+        6 s; default 0: the whole window).
+    initial_torque_bound : float, optional
+        A bound on the initial torques, N·m (the paper's 14.5 N·m for Figure 6), drawn as
+        ± dashed red lines over the whole window.
 
     Returns
     -------
     matplotlib.figure.Figure
-        ``fig.axes``: errors, torques, disturbance (then the payload's twin axis).
+        ``fig.axes``: errors, torques, disturbance, payload.
     """
     import matplotlib.pyplot as plt
 
     keep = _window(result, t_start, t_end)
-    fig, (err, trq, sig) = plt.subplots(3, 1, figsize=(9.5, 7.5), sharex=True,
-                                        gridspec_kw={"height_ratios": [3, 3, 1.6]})
+    bounds_after = check_real("bounds_after", bounds_after, nonnegative=True)
+    fig, (err, trq, sig, mass) = plt.subplots(4, 1, figsize=(9, 8.2), sharex=True,
+                                              gridspec_kw={"height_ratios": [3, 3, 1.1, 1.1]})
     t = result.t[keep]
+    t0, t1 = float(t[0]), float(t[-1])
     err.plot(t, result.e[0, keep], "-.", label="e1 [rad]")
     err.plot(t, result.e[1, keep], "-", label="e2 [rad]")
     err.set_ylabel("joint error [rad]")
     trq.plot(t, result.torque[0, keep], "-.", label="Tc1 [N·m]")
     trq.plot(t, result.torque[1, keep], "-", label="Tc2 [N·m]")
     trq.set_ylabel("control torque [N·m]")
-    _torque_limits(trq, t, result.torque[:, keep])
-    if bounds is not None:
+    drawn = [b for b in ((bounds or (None, None))[1], initial_torque_bound) if b is not None]
+    peak = _torque_limits(trq, t, result.torque[:, keep], keep_visible=max(drawn, default=0.0))
+    start = max(bounds_after, t0)
+    after = f" for t ≥ {bounds_after:g} s" if bounds_after > t0 else ""
+    if bounds is not None and start < t1:
         if bounds[0] is not None:
-            _bound_lines(err, bounds[0], f"bound ±{bounds[0]:g} rad")
+            _bound_lines(err, bounds[0], start, t1, f"bound ±{bounds[0]:g} rad{after}")
         if bounds[1] is not None:
-            _bound_lines(trq, bounds[1], f"bound ±{bounds[1]:g} N·m")
-    sig.plot(t, result.disturbance[0, keep], color="0.45", lw=0.8, label="Td1 = Td2 [N·m]")
-    sig.set_ylabel("Td [N·m]")
-    mass = sig.twinx()
-    mass.plot(t, result.payload[keep], color="tab:green", lw=1.2, label="m_p [kg]")
-    mass.set_ylabel("m_p [kg]", color="tab:green")
-    sig.set_xlabel("time t [s]")
-    _legend_right(err)
-    _legend_right(trq)
-    _legend_right(sig, sig.get_lines() + mass.get_lines(), gap=1.09)
+            _bound_lines(trq, bounds[1], start, t1, f"bound ±{bounds[1]:g} N·m{after}")
+    if initial_torque_bound is not None:
+        _bound_lines(trq, initial_torque_bound, t0, t1, f"bound ±{initial_torque_bound:g} N·m (initial)", "--")
+    if peak is not None:  # last in the legend, below the lines
+        peak.remove()
+        trq.add_line(peak)
+    _disturbance_panel(sig, t, result.disturbance[:, keep])
+    mass.plot(t, result.payload[keep], color="tab:green", lw=1.3, label="m_p [kg]")
+    mass.set_ylabel("m_p [kg]")
+    top = float(result.payload[keep].max())
+    mass.set_ylim(-0.1 * (top or 1.0), 1.2 * (top or 1.0))
+    _time_axis(mass, t0, t1)
+    for ax in (err, trq, sig, mass):
+        _legend_right(ax)
+        ax.grid(True, lw=0.4, alpha=0.5)
+    fig.align_ylabels()
     fig.suptitle(title or f"{result.controller}, scenario {result.scenario}")
     fig.tight_layout()
     return fig
@@ -266,6 +442,7 @@ def plot_signals(
     title: str | None = None,
     t_start: float = 0.0,
     t_end: float | None = None,
+    sharey: bool = False,
 ) -> Any:
     """One panel per simulation, stacked, for one quantity (the layout of Figures 4 and 5).
 
@@ -282,8 +459,11 @@ def plot_signals(
     title : str, optional
         Figure title.
     t_start, t_end : float
-        Draw ``t_start <= t <= t_end``, s; a window of tens of ms shows a sampled law's
-        switching.
+        Draw ``t_start <= t <= t_end``, s. A window of tens of ms shows a sampled law's
+        switching; a window of 0.2 s or less is labelled in ms from `t_start`.
+    sharey : bool
+        One value scale for the panels of the runs (to compare their amplitudes); the
+        torque scale is then not cut to the steady torques.
 
     Returns
     -------
@@ -300,40 +480,45 @@ def plot_signals(
     elif len(labels) != len(results):
         raise ArgumentValueError("labels", f"must have one entry per result ({len(results)}), found {len(labels)}")
     extra = 1 if signal == "error" else 0
-    ratios = [3] * len(results) + [1.4] * extra
-    fig, axes = plt.subplots(len(results) + extra, 1, figsize=(9.5, 2.6 * len(results) + 1.6 * extra), sharex=True,
-                             squeeze=False, gridspec_kw={"height_ratios": ratios})
+    ratios = [3] * len(results) + [1.2] * extra
+    fig, axes = plt.subplots(len(results) + extra, 1, figsize=(9, 2.5 * len(results) + 1.4 * extra + 0.6),
+                             sharex=True, squeeze=False, gridspec_kw={"height_ratios": ratios})
+    panels = list(axes[:, 0])
+    if sharey and len(results) > 1:
+        for ax in panels[1 : len(results)]:
+            ax.sharey(panels[0])
     names = ("e1 [rad]", "e2 [rad]") if signal == "error" else ("Tc1 [N·m]", "Tc2 [N·m]")
-    for ax, result, label in zip(axes[:, 0], results, labels):
+    t0, t1 = np.inf, -np.inf
+    for ax, result, label in zip(panels, results, labels):
         keep = _window(result, t_start, t_end)
         t = result.t[keep]
+        t0, t1 = min(t0, float(t[0])), max(t1, float(t[-1]))
         data = result.e if signal == "error" else result.torque
-        step = "post" if result.method == "rk4" and signal == "torque" else None
-        if step:  # a sampled controller holds its torque over each step
+        if result.method == "rk4" and signal == "torque":  # a sampled controller holds its torque over each step
             ax.step(t, data[0, keep], "-.", where="post", label=names[0])
             ax.step(t, data[1, keep], "-", where="post", label=names[1])
         else:
             ax.plot(t, data[0, keep], "-.", label=names[0])
             ax.plot(t, data[1, keep], "-", label=names[1])
         ax.set_ylabel(SIGNALS[signal])
-        if signal == "torque":
+        if signal == "torque" and not sharey:
             _torque_limits(ax, t, data[:, keep])
         ax.set_title(label, fontsize=10)
-        _legend_right(ax)
     if extra:
-        ax = axes[-1, 0]
         keep = _window(results[0], t_start, t_end)
-        ax.plot(results[0].t[keep], results[0].disturbance[0, keep], color="0.45", lw=0.8, label="Td1 = Td2 [N·m]")
-        ax.set_ylabel("Td [N·m]")
+        _disturbance_panel(panels[-1], results[0].t[keep], results[0].disturbance[:, keep])
+    for ax in panels:
         _legend_right(ax)
-    axes[-1, 0].set_xlabel("time t [s]")
+        ax.grid(True, lw=0.4, alpha=0.5)
+    _time_axis(panels[-1], t0, t1)
+    fig.align_ylabels()
     if title:
         fig.suptitle(title)
     fig.tight_layout()
     return fig
 
 
-def plot_comparison(table: Any, *, bounds: dict[str, float] | None = None) -> Any:
+def plot_comparison(table: Any, *, bounds: dict[str, float] | None = None, title: str | None = None) -> Any:
     """Bars of the comparison metrics per controller and scenario (a :func:`scara_robust.compare_controllers` table).
 
     Parameters
@@ -343,50 +528,75 @@ def plot_comparison(table: Any, *, bounds: dict[str, float] | None = None) -> An
     bounds : dict of str to float, optional
         Metric → the paper's bound for the PID, drawn as a short red segment over the PID
         bars only (default: 0.02 rad and 7.5 N·m after 6 s, Figures 3 and 6).
+    title : str, optional
+        Figure title (default: names the payload of the table's rows).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     bounds = {"max_abs_error_after_6s": 0.02, "max_abs_torque_after_6s": 7.5} if bounds is None else bounds
+    after = f"after {PAPER_TRANSIENT:g} s"
     panels = [
-        ("max_abs_error_after_6s", "max |e| after 6 s [rad]", False),
-        ("max_abs_torque_after_6s", "max |Tc| after 6 s [N·m]", False),
+        ("max_abs_error_after_6s", f"max |e| {after} [rad]", False),
+        ("max_abs_torque_after_6s", f"max |Tc| {after} [N·m]", False),
         ("chattering_index", "chattering index [N·m/s] (log)", True),
     ]
     controllers = list(dict.fromkeys(table["controller"]))
     scenarios = list(dict.fromkeys(table["scenario"]))
     width = 0.8 / len(scenarios)
-    fig, axes = plt.subplots(1, len(panels), figsize=(14, 4.2))
+    fig, axes = plt.subplots(1, len(panels), figsize=(11, 4.4))
+    handles: list[Any] = []
     for ax, (metric, label, log) in zip(axes, panels):
         for s_index, scenario in enumerate(scenarios):
             rows = table[table["scenario"] == scenario].set_index("controller").reindex(controllers)
             x = np.arange(len(controllers)) + (s_index - (len(scenarios) - 1) / 2) * width
-            ax.bar(x, rows[metric].astype(float), width=width, label=f"{scenario} initial condition")
+            values = rows[metric].astype(float).to_numpy()
+            bars = ax.bar(x, values, width=width, label=f"{scenario} initial condition")
+            ax.bar_label(bars, labels=[_plain(v) if np.isfinite(v) else "" for v in values], fontsize=8, padding=3,
+                         rotation=90)
+            if ax is axes[0]:
+                handles.append(bars)
         if metric in bounds and "pid" in controllers:
             i = controllers.index("pid")
-            ax.hlines(bounds[metric], i - 0.45, i + 0.45, color="red", lw=2,
-                      label=f"paper's PID bound {bounds[metric]:g} {label.split('[')[1].split(']')[0]}")
+            unit = label.split("[")[1].split("]")[0]
+            ax.hlines(bounds[metric], i - 0.45, i + 0.45, color="red", lw=2.2,
+                      label=f"paper's PID bound {bounds[metric]:g} {unit}")
         ax.set_xticks(range(len(controllers)), controllers)
+        ax.set_xlabel("controller")
         ax.set_ylabel(label)
-        if log:
+        ax.set_title(label.split(" [")[0], fontsize=10)
+        if log:  # from the decade below the smallest bar, so every bar has a height; room above for the labels
             ax.set_yscale("log")
+            positive = table[metric].astype(float).to_numpy()
+            positive = positive[positive > 0]
+            if positive.size:
+                ax.set_ylim(10 ** np.floor(np.log10(positive.min())), ax.get_ylim()[1] * 4)
             _plain_log_ticks(ax)
-        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, frameon=False)
-    payload = ", ".join(sorted(set(map(str, table["payload"])))) if "payload" in table else "?"
-    fig.suptitle(f"PID against sliding-mode control: metrics of 20-s runs, payload {payload}")
-    fig.tight_layout()
+        else:
+            ax.set_ylim(top=ax.get_ylim()[1] * 1.25)
+    text = ", ".join(f"{bounds[m]:g} {lab.split('[')[1].split(']')[0]}" for m, lab, _ in panels if m in bounds)
+    if text and "pid" in controllers:
+        handles.append(Line2D([], [], color="red", lw=2.2, label=f"paper's bound for the PID {after} ({text})"))
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0), ncol=len(handles),
+               fontsize=_LEGEND_SIZE, frameon=False)
+    if title is None:
+        payload = ", ".join(sorted(set(map(str, table["payload"])))) if "payload" in table else "?"
+        title = f"PID against sliding-mode control, payload {payload}: metrics {after} (the transient)"
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))  # the legend below the panels, inside the figure
     return fig
 
 
 def _plain_log_ticks(ax: Any) -> None:
     """Decimal tick labels at 1, 2, 5 × 10^k on a log axis (``0.02``, ``50``), not ``10⁻²`` or ``9.8×10⁰``."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    from matplotlib.ticker import LogLocator, NullFormatter
 
     ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_major_formatter(_plain_formatter())
     ax.yaxis.set_minor_formatter(NullFormatter())
 
 
@@ -406,11 +616,11 @@ def plot_campaign(results: Any) -> Any:
     import matplotlib.pyplot as plt
 
     panels = [
-        ("max_abs_error_after_6s", "max |e| after 6 s [rad]"),
-        ("max_abs_torque_after_6s", "max |Tc| after 6 s [N·m]"),
+        ("max_abs_error_after_6s", f"max |e| after {PAPER_TRANSIENT:g} s [rad]"),
+        ("max_abs_torque_after_6s", f"max |Tc| after {PAPER_TRANSIENT:g} s [N·m]"),
     ]
     names = sorted(results["controller"].unique())
-    fig, axes = plt.subplots(1, len(panels), figsize=(11, 4))
+    fig, axes = plt.subplots(1, len(panels), figsize=(9, 4.4))
     for ax, (metric, label) in zip(axes, panels):
         data, ticks = [], []
         for name in names:
@@ -419,10 +629,12 @@ def plot_campaign(results: Any) -> Any:
             data.append(ok.to_numpy())
             if "status" in group:
                 tracking = int((group["status"] == "tracking").sum())
-                ticks.append(f"{name}\n({tracking} tracking, {len(group) - tracking} not)")
+                ticks.append(f"{name}\n({tracking} tracking,\n{len(group) - tracking} not)")
             else:
-                ticks.append(f"{name}\n({len(ok)} ok, {len(group) - len(ok)} failed)")
-        ax.boxplot(data, whis=(5, 95))
+                ticks.append(f"{name}\n({len(ok)} ok,\n{len(group) - len(ok)} failed)")
+        ax.boxplot(data, whis=(5, 95), showfliers=False)  # the dots show every run
+        for x, values in enumerate(data, start=1):  # every run, beside its box
+            ax.plot(np.full(len(values), x + 0.3), values, "o", color="0.3", markersize=3, alpha=0.5)
         ax.set_xticks(range(1, len(ticks) + 1), ticks)
         values = np.concatenate([d for d in data if len(d)]) if any(len(d) for d in data) else np.ones(1)
         values = values[values > 0]
@@ -431,7 +643,9 @@ def plot_campaign(results: Any) -> Any:
             _plain_log_ticks(ax)
             label = label.replace("]", "] (log)")
         ax.set_ylabel(label)
-        ax.set_title(label.split(" [")[0] + ", per controller (whiskers 5-95 %)", fontsize=10)
+        ax.grid(True, axis="y", lw=0.4, alpha=0.5)
+        ax.set_title(label.split(" [")[0] + ", per controller\n(box: quartiles, whiskers: 5-95 %, dots: runs)",
+                     fontsize=10)
     n = results["scenario"].nunique() if "scenario" in results else len(results)
     fig.suptitle(f"Monte-Carlo campaign: {n} scenarios")
     fig.tight_layout()
@@ -454,29 +668,34 @@ def plot_margin_map(surface: DesignSurface, mark: tuple[float, float] | None = N
     matplotlib.axes.Axes
     """
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     if surface.margin is None:
         raise ArgumentValueError("surface", "has no margins: compute it with design_surface(..., measure='margin')")
     if ax is None:
-        _, ax = plt.subplots(figsize=(6.5, 4.8))
+        _, ax = plt.subplots(figsize=(7, 5.2))
     R, H = np.meshgrid(surface.rhos, surface.etas, indexing="ij")
     values = np.where(np.isfinite(surface.margin), surface.margin, np.nan)
     # the scale runs from the 5th percentile up, so a thin low corner does not wash out the rest
     lo, hi = float(np.nanquantile(values, 0.05)), float(np.nanmax(values))
-    levels = np.linspace(lo, hi if hi > lo else lo + 1e-9, 16)
+    levels = MaxNLocator(nbins=10).tick_values(lo, hi if hi > lo else lo + 1e-9)
     cs = ax.contourf(R, H, values, levels=levels, cmap="viridis", extend="min")
-    lines = ax.contour(R, H, values, levels=levels[::3], colors="k", linewidths=0.5)
-    ax.clabel(lines, fmt="%.3g", fontsize=7)
-    ax.figure.colorbar(cs, ax=ax, label=f"margin θ [-] ({surface.margin_method})", format="%.3g")
+    lines = ax.contour(R, H, values, levels=levels[1::2], colors="k", linewidths=0.5)
+    ax.clabel(lines, fmt=lambda v: _plain(v), fontsize=8)
+    ax.figure.colorbar(cs, ax=ax, label=f"margin θ [-] ({surface.margin_method})", format=_plain_formatter())
     i, k = np.unravel_index(int(np.nanargmax(values)), values.shape)
     handles = [ax.plot(surface.rhos[i], surface.etas[k], "wo", markeredgecolor="k", markersize=8, clip_on=False,
-                       label=f"largest: θ = {values[i, k]:.3g} at ({surface.rhos[i]:g}, {surface.etas[k]:g})")[0]]
+                       label=f"largest θ = {_plain(values[i, k])} [-] at "
+                             f"{_design_label(surface.rhos[i], surface.etas[k])}")[0]]
     if mark is not None:
-        handles.append(ax.plot(*mark, "r*", markersize=12, label=f"(ρ, η) = ({mark[0]:g}, {mark[1]:g})")[0])
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8, frameon=False)
+        handles.append(ax.plot(*mark, "*", color="yellow", markeredgecolor="k", markersize=14,
+                               label=_design_label(*mark))[0])
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=_LEGEND_SIZE,
+              frameon=False)
     ax.set_xlabel("ρ [-]")
     ax.set_ylabel("η [-]")
-    ax.set_title(f"Robustness margin θ(ρ, η) — {surface.model_name}, elements: {surface.elements}", fontsize=10)
+    ax.set_title(f"Robustness margin θ(ρ, η) — {surface.model_name}, elements: {surface.elements}", fontsize=10,
+                 pad=10)
     return ax
 
 
@@ -498,21 +717,23 @@ def plot_margin_bracket(tables: dict[str, Any], ax: Any = None) -> Any:
     if not tables:
         raise ArgumentValueError("tables", "must hold at least one margin table, found none")
     if ax is None:
-        _, ax = plt.subplots(figsize=(7, 1.2 + 0.9 * len(tables)))
+        _, ax = plt.subplots(figsize=(7, 1.4 + 0.9 * len(tables)))
     markers = {"theorem1": "o", "vertex": "s", "lmi": "D", "frozen": "x", "falsifier": "+"}
     for y, table in enumerate(tables.values()):
         rows = table.set_index("method")
         lo, hi = float(rows.loc["bracket", "lo"]), float(rows.loc["bracket", "hi"])
         ax.barh(y, hi - lo if np.isfinite(hi) else 0.0, left=lo, height=0.35, color="tab:orange", alpha=0.5,
-                label="bracket on the true margin" if y == 0 else None)
+                label="bracket on the true margin θ [-]" if y == 0 else None)
         for method, marker in markers.items():
             if method in rows.index and np.isfinite(rows.loc[method, "theta"]):
                 ax.plot(rows.loc[method, "theta"], y, marker, color="k" if rows.loc[method, "kind"] == "lower"
                         else "tab:red", markersize=8, linestyle="none",
-                        label=f"{method} ({rows.loc[method, 'kind']} bound)" if y == 0 else None)
+                        label=f"{method}: {rows.loc[method, 'kind']} bound on θ [-]" if y == 0 else None)
     ax.set_yticks(range(len(tables)), list(tables))
     ax.set_ylim(-0.6, len(tables) - 0.4)
     ax.set_xlabel("θ: scaling of every uncertain range about the nominal [-]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    ax.grid(True, axis="x", lw=0.4, alpha=0.5)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=_LEGEND_SIZE, frameon=False)
     ax.set_title("Robustness margins: lower bounds (black), upper bounds (red)", fontsize=10)
     return ax
+
