@@ -50,11 +50,13 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
-    payload_margin                  -- the robot's largest certified payload, kg (``margin`` command)
+    payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
+    OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
+    pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
     ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
     ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
@@ -65,6 +67,7 @@ Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
     load_model, MODEL_FORMS         -- your plant's file: an interval model or a polytope
     write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
+    write_design, load_design, design_record, DesignFile, DESIGN_FORMAT -- design files (``synthesize --output``)
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS -- the PID vs sliding-mode table (``compare`` command)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results

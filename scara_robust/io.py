@@ -86,6 +86,11 @@ __all__ = [
     "load_scenario",
     "write_atomic",
     "table_format",
+    "DESIGN_FORMAT",
+    "DesignFile",
+    "design_record",
+    "write_design",
+    "load_design",
 ]
 
 #: Fields of the ``[robot]`` table and their units (those of :class:`~scara_robust.ScaraParams`).
@@ -515,3 +520,119 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
         return integral_augment(ct.ss(A, B, C, 0), elements, name=name)
     except ArgumentError as err:
         raise InputFileError(f"{where} {err}") from err
+
+
+#: ``format`` field of a design file.
+DESIGN_FORMAT = "scara_robust design 1"
+
+
+@dataclass(frozen=True)
+class DesignFile:
+    """A gain read from a design file (:func:`write_design`).
+
+    Attributes
+    ----------
+    path : str
+    K : ndarray, shape (m, n)
+        Gain of ``u = −Kx``; for the SCARA, (2, 6) on ``x = [∫e, e, ė]`` (N·m per rad·s,
+        rad, rad/s).
+    P : ndarray, shape (n, n), or None
+        Its Lyapunov matrix, if the file has one.
+    info : dict
+        Everything else the file records (how the gain was made, its certificate).
+    """
+
+    path: str
+    K: NDArray[np.float64]
+    P: NDArray[np.float64] | None
+    info: dict[str, Any]
+
+
+def design_record(K: Any, P: Any = None, **info: Any) -> dict[str, Any]:
+    """The JSON-ready content of a design file.
+
+    Parameters
+    ----------
+    K : array_like, shape (m, n)
+    P : array_like, shape (n, n), optional
+    **info
+        JSON-serializable facts about the design (its method, decay rate, bounds...).
+
+    Returns
+    -------
+    dict
+        ``format``, ``K``, ``P`` (or None), and for a PID-structured gain (n = 3m) the
+        matrices ``K_I``, ``K_P``, ``K_D`` of ``u = K_I ∫e + K_P e + K_D ė``, then `info`.
+    """
+    K = np.asarray(K, dtype=float)
+    record: dict[str, Any] = {"format": DESIGN_FORMAT, "K": K.tolist(),
+                              "P": None if P is None else np.asarray(P, dtype=float).tolist()}
+    m, n = K.shape
+    if n == 3 * m:
+        record.update({"K_I": (-K[:, :m]).tolist(), "K_P": (-K[:, m:2 * m]).tolist(), "K_D": (-K[:, 2 * m:]).tolist()})
+    record.update(info)
+    return record
+
+
+def write_design(path: str | os.PathLike[str], K: Any, P: Any = None, **info: Any) -> None:
+    """Write a design file (JSON) atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.json`` file.
+    K, P, **info
+        See :func:`design_record`.
+
+    Raises
+    ------
+    InputFileError
+        If the extension is not ``.json``.
+    OSError
+        If the folder is not writable.
+    """
+    text_path = os.fspath(path)
+    if not text_path.lower().endswith(".json"):
+        raise InputFileError(f"{text_path!r}: a design file is .json")
+    text = json.dumps(design_record(K, P, **info), indent=2) + "\n"
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    write_atomic(text_path, write)
+
+
+def load_design(path: str | os.PathLike[str]) -> DesignFile:
+    """Read a design file written by :func:`write_design` (``synthesize --output``).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    DesignFile
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        Naming the file and the field: not a design file, ``K`` missing, not a finite
+        matrix, or ``P`` of the wrong size.
+    """
+    text_path = os.fspath(path)
+    data = read_mapping(text_path, extensions=(".json",))
+    if data.get("format") != DESIGN_FORMAT:
+        raise InputFileError(f"{text_path!r}: field `format` must be {DESIGN_FORMAT!r}, found "
+                             f"{describe(data.get('format'))}")
+    if "K" not in data:
+        raise InputFileError(f"{text_path!r}: field `K` (the gain, a matrix) is missing")
+    where = f"{text_path!r}:"
+    K = _matrix(where, "K", data["K"], (None, None))
+    P = None
+    if data.get("P") is not None:
+        P = _matrix(where, "P", data["P"], (K.shape[1], K.shape[1]))
+    info = {k: v for k, v in data.items() if k not in ("format", "K", "P")}
+    return DesignFile(text_path, K, P, info)

@@ -116,6 +116,10 @@ def _cli_cases(tmp):
     outside.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("Lc1 = 0.178", "Lc1 = 5.0"))
     empty = tmp / "empty.toml"
     empty.write_text("")
+    wide = tmp / "wide.json"
+    wide.write_text('{"format": "scara_robust design 1", "K": [[1.0, 2.0, 3.0]]}')
+    foreign = tmp / "foreign.json"
+    foreign.write_text('{"K": [[1.0]]}')
     design = ["design", "--rho", "3", "--eta", "90"]
     return [
         ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`--rho`"),
@@ -163,6 +167,17 @@ def _cli_cases(tmp):
          "means nothing for this command"),
         ("typo", [*design, "--elemnts", "A"], "design: unrecognized arguments: --elemnts A; did you mean --elements?"),
         ("campaign-empty-spec", ["campaign", str(empty), "--output", str(tmp / "r.csv")], "is empty"),
+        ("synthesize-gain-bound", ["synthesize", "--gain-bound", "0"], "`--gain-bound` must be > 0"),
+        ("synthesize-decay", ["synthesize", "--decay=-1"], "`--decay` must be >= 0 1/s"),
+        ("synthesize-output-ext", ["synthesize", "--output", str(tmp / "k.txt")], "a design file is .json"),
+        ("synthesize-margin-physical", ["synthesize", "--objective", "margin"], "goes with --set box"),
+        ("synthesize-physical-model", ["synthesize", "--set", "physical", "--model",
+                                       str(EXAMPLES / "plant-dc-motor.toml")], "with --model use --set box"),
+        ("design-file-shape", ["simulate", "--design", str(wide)], "field `K` must have shape (2, 6)"),
+        ("design-file-format", ["compare", "--design", str(foreign)], "field `format` must be"),
+        ("design-file-controller", ["simulate", "--controller", "smc", "--design",
+                                    str(EXAMPLES.parent / "scara_robust" / "data" / "pid_lmi.json")],
+         "it goes with --controller pid"),
     ]
 
 
@@ -182,7 +197,9 @@ CLI_NAMES = [
     "certify-tries", "output-directory", "output-missing-folder", "output-unwritable", "plot-unwritable",
     "report-missing", "surface-huge-grid", "surface-num-1", "surface-mark-alone", "robot-heavy", "robot-com-outside",
     "report-not-a-table", "simulate-output-folder", "design-scenario", "design-scenario-file",
-    "certify-named-scenario", "typo", "campaign-empty-spec",
+    "certify-named-scenario", "typo", "campaign-empty-spec", "synthesize-gain-bound", "synthesize-decay",
+    "synthesize-output-ext", "synthesize-margin-physical", "synthesize-physical-model", "design-file-shape",
+    "design-file-format", "design-file-controller",
 ]
 
 

@@ -1,5 +1,8 @@
 """Robust synthesis: a gain designed with its Lyapunov certificate, re-verified by numpy."""
 
+from pathlib import Path
+
+import control as ct
 import numpy as np
 import pytest
 
@@ -100,3 +103,83 @@ def test_paper_design_l2_gain_from_disturbance_torque_to_error():
     C[:, 2:4] = np.eye(2)  # z = e (rad), w = Td (N·m), entering through B like Tc
     result = sr.l2_gain(s.A - s.B @ d.K, s.B, C)
     assert 0 < result.lower <= result.upper < 0.01  # rad per N·m
+
+
+# ---------------------------------------------------------------- objectives, the shipped gain, the front ends
+
+C_ERROR = sr.error_output(6, 2)
+
+
+def _brl_max_eig(closed, Bw, C, P, gamma):
+    """Largest eigenvalue of the bounded-real matrix, computed here without the package."""
+    worst = -np.inf
+    for A_i, B_i in zip(closed, Bw):
+        top = A_i.T @ P + P @ A_i + C.T @ C
+        block = np.block([[top, P @ B_i], [B_i.T @ P, -gamma**2 * np.eye(B_i.shape[1])]])
+        worst = max(worst, np.linalg.eigvalsh(0.5 * (block + block.T)).max())
+    return worst
+
+
+def test_l2_objective_on_the_physical_set_is_verified_on_a_finer_set():
+    coarse = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 19), n_masses=3)
+    fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 181), n_masses=7)  # 10 times finer in time
+    result = sr.synthesize((coarse.A, coarse.B), objective="l2", check=(fine.A, fine.B), nominal=sr.paper_model())
+    assert result.certified and result.objective == "l2"
+    assert result.verified_decay >= sr.L2_DECAY * (1 - 1e-6) and result.check_decay > 0
+    assert np.isfinite(result.gamma) and np.isfinite(result.check_gamma)
+    # the certificate of γ is the bounded-real inequality for P̃ = γP (see the module)
+    closed = fine.A - fine.B @ result.K
+    assert _brl_max_eig(closed, fine.B, C_ERROR, result.gamma * result.P, result.check_gamma) < 0
+    # every frozen plant's H∞ norm is a lower bound on the worst-case gain
+    lower = max(ct.norm(ct.ss(A_i, B_i, C_ERROR, 0), p="inf") for A_i, B_i in zip(closed[::40], fine.B[::40]))
+    assert lower <= result.check_gamma
+    assert "worst-case L2 gain <=" in result.message
+
+
+def test_margin_objective_stops_where_the_input_matrix_becomes_singular():
+    """On the published box with only ΔB varying, no gain can certify past the θ* at which
+    some B in the box is singular: there a joint cannot be driven and the chain ∫e → e → ė
+    keeps an eigenvalue at 0. det(B₀ + θΔ) is multilinear in the ΔB entries, so its zero over
+    the box is reached first at a corner; θ* is the smallest positive root of the quadratics
+    det(B₀ + θΔ_v) over the corners v."""
+    model = sr.paper_model().subset("B")
+    B0 = model.B[4:6]
+    roots = []
+    for v in model.box_vertices():
+        D = model.matrices_at(v[None])[1][0][4:6] - B0
+        c1 = B0[0, 0] * D[1, 1] + D[0, 0] * B0[1, 1] - B0[0, 1] * D[1, 0] - D[0, 1] * B0[1, 0]
+        quadratic = np.roots([np.linalg.det(D), c1, np.linalg.det(B0)])
+        roots += [r.real for r in quadratic if abs(r.imag) < 1e-12 and r.real > 0]
+    theta_star = min(roots)
+    result = sr.synthesize(model, objective="margin", tol=1e-3)
+    assert result.certified and result.objective == "margin"
+    assert theta_star * (1 - 3e-3) <= result.theta <= theta_star
+    assert sr.decay_rate(sr.PolytopicModel(*sr.vertices_of(model.scaled(result.theta))).closed_loops(result.K),
+                         result.P) > 0
+
+
+def test_margin_objective_needs_a_model():
+    with pytest.raises(sr.ArgumentValueError, match="`model` must be an UncertainLTVModel or a PolytopicModel"):
+        sr.synthesize((TRIPLE, np.tile(np.eye(2), (3, 1, 1))), objective="margin")
+
+
+def test_l2_objective_needs_an_output_for_an_unstructured_state():
+    with pytest.raises(sr.ArgumentValueError, match="`output` is needed"):
+        sr.synthesize(sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1))), objective="l2")
+    result = sr.synthesize(sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1))), objective="l2",
+                           output=[[1.0, 0.0]], decay=0.1)
+    assert result.certified and result.gamma > 0
+
+
+def test_shipped_gain_is_what_synthesize_gives_and_numpy_certifies_it():
+    """The ``pid-lmi`` gain is the design file ``synthesize --output`` writes with its defaults."""
+    from scara_robust.cli._synthesize import CHECK_GRID, PHYSICAL_GRID
+
+    shipped = sr.load_design(Path(sr.__file__).parent / sr.PID_LMI_FILE)
+    assert np.array_equal(shipped.K, sr.pid_lmi_gain())
+    coarse = sr.physical_samples(times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
+    again = sr.synthesize((coarse.A, coarse.B), objective="l2")
+    assert np.allclose(again.K, shipped.K, rtol=1e-4, atol=1e-4 * np.abs(shipped.K).max())
+    fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
+    assert sr.decay_rate(fine.A - fine.B @ shipped.K, shipped.P) > 0.45
+    assert shipped.info["certified"] is True and shipped.info["objective"] == "l2"

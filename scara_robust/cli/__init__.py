@@ -16,13 +16,13 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
-from . import _campaign, _certify, _compare, _design, _margin, _report, _simulate, _surface
+from . import _campaign, _certify, _compare, _design, _margin, _report, _simulate, _surface, _synthesize
 from ._common import CommandLineError, Parser, check_outputs, emit, error_message
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
 #: The commands, in the order ``--help`` lists them.
-_COMMANDS = (_design, _surface, _certify, _margin, _simulate, _compare, _campaign, _report)
+_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report)
 
 _EXAMPLES = """examples:
   python -m scara_robust design --rho 3 --eta 90

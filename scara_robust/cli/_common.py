@@ -17,7 +17,7 @@ from typing import Any, NoReturn, TypeVar
 import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
-from ..io import load_model, load_robot, load_scenario, write_atomic
+from ..io import DesignFile, load_design, load_model, load_robot, load_scenario, write_atomic
 from ..model.initial import SCENARIOS, Scenario
 from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
@@ -44,6 +44,8 @@ __all__ = [
     "RANGE_HELP",
     "save_figure",
     "output_exists",
+    "add_design_option",
+    "resolve_design",
 ]
 
 _Loaded = TypeVar("_Loaded")
@@ -447,6 +449,38 @@ def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel |
             )
         return paper_model()
     return derived_model(setup.params, setup.reference, setup.payload)
+
+
+def add_design_option(p: argparse.ArgumentParser) -> None:
+    """Add ``--design FILE.json`` (a gain written by ``synthesize --output``).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    """
+    p.add_argument("--design", metavar="FILE.json",
+                   help="a PID gain from a design file (written by synthesize --output)")
+
+
+def resolve_design(args: argparse.Namespace) -> DesignFile | None:
+    """The design file of ``--design``, checked to hold a SCARA gain of shape (2, 6).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    DesignFile or None
+    """
+    path = getattr(args, "design", None)
+    if path is None:
+        return None
+    loaded = _load_file("--design", path, load_design)
+    if loaded.K.shape != (2, 6):
+        raise CommandLineError(f"`--design` {path!r}: field `K` must have shape (2, 6) for the SCARA's PID "
+                               f"(x = [∫e, e, ė]), found {loaded.K.shape}")
+    return loaded
 
 
 def output_exists(path: str | None) -> bool:

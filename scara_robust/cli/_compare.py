@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from typing import Any
@@ -15,7 +16,14 @@ from ..model.initial import SCENARIOS
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..simulation.metrics import METRIC_NAMES
 from ..studies.comparison import compare_controllers
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_model, resolve_setup
+from ._common import (
+    CommandLineError,
+    add_setup_options,
+    finite_float,
+    resolve_design,
+    resolve_model,
+    resolve_setup,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -29,6 +37,8 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios")
     add_setup_options(p)
+    p.add_argument("--design", metavar="FILE.json", action="append",
+                   help="add rows for the PID gain of a design file (written by synthesize --output); repeatable")
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help=f"horizon, s (> {PAPER_TRANSIENT:g})")
@@ -73,6 +83,11 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
     scenarios = list(SCENARIOS) if setup.initial is None else [setup.initial]
+    designs = {}
+    for path in args.design or []:
+        loaded = resolve_design(argparse.Namespace(design=path))
+        assert loaded is not None
+        designs[f"pid:{os.path.basename(path)}"] = loaded.K
     start = time.perf_counter()
     table = compare_controllers(
         scenarios=scenarios,
@@ -80,6 +95,7 @@ def run(args: argparse.Namespace) -> str:
         t_final=args.t_final,
         progress=sys.stderr.isatty() or args.progress,
         K=K,
+        designs=designs,
         **setup.signals(),
     )
     elapsed = time.perf_counter() - start

@@ -6,6 +6,8 @@ import argparse
 import json
 from typing import Any
 
+import numpy as np
+
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
@@ -15,8 +17,10 @@ from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.run import SimulationResult, run_scenario
 from ._common import (
     CommandLineError,
+    add_design_option,
     add_setup_options,
     finite_float,
+    resolve_design,
     resolve_model,
     resolve_setup,
     save_figure,
@@ -35,6 +39,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser("simulate", help="one closed-loop run and its time series")
     p.add_argument("--controller", choices=tuple(CONTROLLERS), default="pid")
+    add_design_option(p)
     add_setup_options(p)
     p.add_argument("--payload", choices=("on", "off"), default="on")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help="horizon, s (> 0)")
@@ -90,7 +95,14 @@ def run(args: argparse.Namespace) -> str:
     if args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
     setup = resolve_setup(args)
-    K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K if args.controller == "pid" else None
+    loaded = resolve_design(args)
+    if loaded is not None and args.controller != "pid":
+        raise CommandLineError(f"`--design` is a PID gain; it goes with --controller pid, found {args.controller!r}")
+    K: np.ndarray | None = None
+    if loaded is not None:
+        K = loaded.K
+    elif args.controller == "pid":
+        K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
     initial = setup.initial or SCENARIOS["large"]
     res = run_scenario(
         args.controller,
@@ -128,4 +140,8 @@ def run(args: argparse.Namespace) -> str:
         files.append(f"time series: {args.series_output}")
     elif args.format != "text":
         return series
+    if loaded is not None:
+        files.insert(0, f"gain: design file {loaded.path}")
+        if len(files) == 1:
+            files.append("time series: not written (use --output FILE or --format csv|json)")
     return _summary(res, args.payload, files) if args.format == "text" else ""

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +53,7 @@ __all__ = [
     "robustness_margin",
     "margin_table",
     "payload_margin",
+    "PAYLOAD_METHODS",
 ]
 
 Array = NDArray[np.float64]
@@ -69,6 +70,9 @@ MARGIN_METHODS: dict[str, str] = {
 #: Default relative tolerance of the bisections.
 MARGIN_TOL = 1e-3
 _THETA_MAX = 1e6
+#: Rows of :func:`payload_margin`: the design's own P, a common P by LMI (lower bounds),
+#: the frozen samples' stability (upper bound).
+PAYLOAD_METHODS = ("payload-design-P", "payload-lmi", "payload-frozen")
 
 
 @dataclass(frozen=True)
@@ -325,6 +329,7 @@ def payload_margin(
     lmi_masses: int = 5,
     tol: float = MARGIN_TOL,
     mass_max: float = 1e3,
+    methods: Sequence[str] = PAYLOAD_METHODS,
 ) -> pd.DataFrame:
     """The largest payload peak mass (kg) for which the robot's own sampled set is certified.
 
@@ -347,6 +352,9 @@ def payload_margin(
         Relative tolerance of the bisections on M.
     mass_max : float
         Largest peak mass searched, kg.
+    methods : sequence of str
+        Rows to compute, from :data:`PAYLOAD_METHODS` (the design-P row alone needs only numpy
+        and takes milliseconds).
 
     Returns
     -------
@@ -357,6 +365,8 @@ def payload_margin(
     """
     check_instance("design", design, Design, "a Design")
     tol = check_real("tol", tol, positive=True)
+    for method in methods:
+        check_choice("methods", method, PAYLOAD_METHODS)
     if design.K.shape != (2, 6):
         raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
 
@@ -379,6 +389,8 @@ def payload_margin(
     rows = []
     for name, kind, ok in (("payload-design-P", "lower", p_ok), ("payload-lmi", "lower", lmi_ok),
                            ("payload-frozen", "upper", stable)):
+        if name not in methods:
+            continue
         start = time.perf_counter()
         if name == "payload-lmi" and not cvxpy_available():
             rows.append((name, kind, math.nan, "", 0.0, NOT_INSTALLED))

@@ -9,9 +9,12 @@ For an uncertainty set given by its vertices or samples ``(A_i, B_i)``, find ``Q
 then ``K = Y Q⁻¹`` (``u = −Kx``) and ``P = Q⁻¹``: ``V = xᵀPx`` decays at least as fast as
 ``e^{−2αt}`` for any time variation inside the convex hull. The decay rate α is maximized
 by bisection (each step an LMI, cvxpy + Clarabel: extra ``lmi``). ``‖K‖₂ <= κ`` is kept by
-``Q ⪰ I`` and ``[[κ²I, Y], [Yᵀ, I]] ⪰ 0`` (then ``‖K‖ <= ‖Y‖‖Q⁻¹‖ <= κ``). The answer is
-re-verified with numpy on the same set and, when given, on an independent one; a gain
-numpy cannot verify is reported as not certified.
+``Q ⪰ μI`` and ``[[κ²μI, Y], [Yᵀ, Q]] ⪰ 0``. Two other objectives share the same LMI:
+``'l2'`` adds the state-feedback bounded-real inequality (§7.5.1) and minimizes the bound
+γ on the worst-case L2 gain from a disturbance to the tracking error; ``'margin'`` bisects
+the largest scaling θ of the uncertainty set one gain certifies. The answer is re-verified
+with numpy on the same set and, when given, on an independent one; a gain numpy cannot
+verify is reported as not certified.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,9 +33,11 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
+from .l2gain import _bounded_real_ok
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "vertices_of"]
+__all__ = ["Synthesis", "synthesize", "decay_rate", "error_output", "GAIN_BOUND", "L2_DECAY", "OBJECTIVES",
+           "vertices_of"]
 
 Array = NDArray[np.float64]
 
@@ -39,6 +45,18 @@ Array = NDArray[np.float64]
 #: rad/s mixed); 1000 leaves the synthesis room (2.6 times that) while keeping the closed
 #: loop's fastest poles within what a 1-kHz controller and the default engines follow.
 GAIN_BOUND = 1e3
+
+#: Decay rate (1/s) the ``'l2'`` objective requires by default. The disturbance-to-error
+#: gain does not see the integral states, so without a floor the L2 optimum leaves an
+#: integrator mode at −10⁻⁵ 1/s; 0.5 1/s brings an initial error down by e⁻³ within the
+#: paper's 6-s transient (V decays as e^{−2αt}, the state as e^{−αt}).
+L2_DECAY = 0.5
+
+#: The synthesis objectives.
+OBJECTIVES = ("decay", "l2", "margin")
+
+#: Largest scaling θ searched by the ``'margin'`` objective.
+MARGIN_CAP = 1e3
 
 
 def vertices_of(model: UncertainLTVModel | PolytopicModel) -> tuple[Array, Array]:
@@ -120,6 +138,17 @@ class Synthesis:
     solver_status : str
         What the solver said of the last feasible LMI (``'optimal'``, ``'optimal_inaccurate'``, ...).
     seconds : float
+    objective : str
+        ``'decay'``, ``'l2'`` or ``'margin'``.
+    gamma : float
+        ``'l2'``: the bound on the worst-case L2 gain that numpy verifies with P on the
+        synthesis set (units of the output per unit of the disturbance: rad per N·m for the
+        robot), ``inf`` if it cannot; NaN for the other objectives.
+    check_gamma : float
+        The same bound checked on the independent set (``inf`` if P does not verify it there).
+    theta : float
+        ``'margin'``: the largest scaling of the set certified (the decay and K are the ones
+        found at θ); NaN for the other objectives.
     design : Design or None
         The gain as a :class:`~scara_robust.Design` on the model's nominal (ρ and η NaN),
         so every certificate, margin and simulation takes it.
@@ -138,6 +167,10 @@ class Synthesis:
     seconds: float
     design: Design | None
     solver_status: str = ""
+    objective: str = "decay"
+    gamma: float = math.nan
+    check_gamma: float = math.nan
+    theta: float = math.nan
 
     @property
     def certified(self) -> bool:
@@ -152,6 +185,13 @@ class Synthesis:
             said = "" if self.solver_status == "optimal" else f" (the solver said {self.solver_status})"
             extra = said + ("" if math.isnan(self.check_decay) else (
                 f"; on {self.n_checked} independent samples V decays at >= {self.check_decay:.4g} 1/s"))
+            if self.objective == "l2":
+                extra += f"; worst-case L2 gain <= {self.gamma:.4g}"
+                if not math.isnan(self.check_gamma):
+                    extra += (f" (on the independent samples <= {self.check_gamma:.4g})"
+                              if math.isfinite(self.check_gamma) else " (not verified by P on the independent samples)")
+            if self.objective == "margin":
+                extra += f"; the set scaled by θ = {self.theta:.4g} is certified"
             return (f"gain found with ‖K‖ = {self.gain_norm:.4g} <= {self.gain_bound:g}; numpy verifies that V "
                     f"decays at >= {self.verified_decay:.4g} 1/s on the {self.n_vertices} synthesis points{extra}")
         if self.status == "infeasible":
@@ -162,34 +202,106 @@ class Synthesis:
         return f"no gain: {self.status}"
 
 
-def _solve(A: Array, B: Array, alpha: float, kappa: float, solver: str) -> tuple[str, Array | None, Array | None]:
+def _solve(
+    A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None
+) -> tuple[str, Array | None, Array | None, float]:
+    """One LMI: decay ``alpha`` and ``‖K‖ <= κ``; with ``l2 = (B_w, C)`` also minimize γ.
+
+    Returns the solver status, Q, Y and γ (NaN without `l2`).
+    """
     import cvxpy as cp
 
     n, m = A.shape[1], B.shape[2]
     Q = cp.Variable((n, n), symmetric=True)
     Y = cp.Variable((m, n))
     eye = np.eye(n)
-    constraints = [Q >> eye, cp.bmat([[kappa**2 * np.eye(m), Y], [Y.T, eye]]) >> 0]  # type: ignore[attr-defined]
-    for A_i, B_i in zip(A, B):
-        lhs = A_i @ Q + Q @ A_i.T - B_i @ Y - Y.T @ B_i.T + 2 * alpha * Q
+    # Q ⪰ μI and Y Q⁻¹ Yᵀ ⪯ κ²μI give ‖K‖ = ‖(YQ^{-1/2}) Q^{-1/2}‖ <= κ√μ / √μ = κ. The decay
+    # LMI is homogeneous in (Q, Y), so μ = 1 there; the bounded-real one is not, so μ is free.
+    mu: cp.Variable | float = cp.Variable(nonneg=True) if l2 is not None else 1.0
+    constraints = [Q >> mu * eye, cp.bmat([[kappa**2 * mu * np.eye(m), Y], [Y.T, Q]]) >> 0]  # type: ignore[attr-defined]
+    gamma = cp.Variable(nonneg=True) if l2 is not None else None
+    for i, (A_i, B_i) in enumerate(zip(A, B)):
+        AQ = A_i @ Q - B_i @ Y
+        lhs = AQ + AQ.T + 2 * alpha * Q
         constraints.append(0.5 * (lhs + lhs.T) << -1e-6 * eye)
-    problem = cp.Problem(cp.Minimize(cp.trace(Q)), constraints)  # type: ignore[attr-defined]
+        if l2 is not None and gamma is not None:
+            Bw, C = l2[0][i], l2[1]
+            q, p = Bw.shape[1], C.shape[0]
+            block = cp.bmat([[AQ + AQ.T, Bw, Q @ C.T], [Bw.T, -gamma * np.eye(q), np.zeros((q, p))],  # type: ignore[attr-defined]
+                             [C @ Q, np.zeros((p, q)), -gamma * np.eye(p)]])
+            constraints.append(0.5 * (block + block.T) << -1e-9 * np.eye(n + q + p))
+    objective = cp.Minimize(gamma) if gamma is not None else cp.Minimize(cp.trace(Q))  # type: ignore[attr-defined]
+    problem = cp.Problem(objective, constraints)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
             problem.solve(solver=solver)  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
-        return f"solver error: {err}", None, None
+        return f"solver error: {err}", None, None, math.nan
     if Q.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return str(problem.status), None, None
-    return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float)
+        return str(problem.status), None, None, math.nan
+    g = math.nan if gamma is None else float(np.asarray(gamma.value))
+    return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float), g
+
+
+def _largest(ok: Callable[[float], bool], start: float, tol: float, cap: float) -> float:
+    """Largest x in [0, cap] with ``ok(x)`` (monotone), given ``ok(0)``: doubling, then bisection."""
+    lo, hi = 0.0, start
+    while hi < cap and ok(hi):
+        lo, hi = hi, 2 * hi
+    if hi >= cap:
+        return lo
+    while hi - lo > tol * max(hi, 1e-9):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+def _verified_gamma(A_cl: Array, Bw: Array, C: Array, P: Array, gamma: float) -> float:
+    """The smallest of γ(1 + 10⁻⁶), γ(1 + 10⁻³), γ(1.01) that numpy's bounded-real check accepts (inf if none).
+
+    The LMI in (Q, γ) is the bounded-real inequality for ``P̃ = γQ⁻¹`` (multiply its Schur
+    complement by γ), so that is the matrix checked.
+    """
+    for factor in (1 + 1e-6, 1 + 1e-3, 1.01):
+        if _bounded_real_ok(A_cl, Bw, C, gamma * P, gamma * factor):
+            return gamma * factor
+    return math.inf
+
+
+def error_output(n_states: int, n_inputs: int) -> Array:
+    """``C = [0, I, 0]``: the tracking error ``e`` of a PID-augmented state ``[∫e, e, ė]``.
+
+    Parameters
+    ----------
+    n_states, n_inputs : int
+        ``n_states = 3 n_inputs`` (one ∫e, e, ė per joint).
+
+    Returns
+    -------
+    ndarray, shape (n_inputs, n_states)
+
+    Raises
+    ------
+    ArgumentValueError
+        If the state is not PID-augmented (then pass ``output`` explicitly).
+    """
+    if n_states != 3 * n_inputs:
+        raise ArgumentValueError("output", f"is needed: a state of {n_states} with {n_inputs} inputs is not "
+                                           "[∫e, e, ė], so the tracking error cannot be inferred")
+    C = np.zeros((n_inputs, n_states))
+    C[:, n_inputs:2 * n_inputs] = np.eye(n_inputs)
+    return C
 
 
 def synthesize(
     model: UncertainLTVModel | PolytopicModel | tuple[ArrayLike, ArrayLike],
     *,
+    objective: str = "decay",
     decay: float | None = None,
     gain_bound: float = GAIN_BOUND,
+    output: ArrayLike | None = None,
+    disturbance: ArrayLike | None = None,
     check: tuple[ArrayLike, ArrayLike] | None = None,
     nominal: UncertainLTVModel | PolytopicModel | None = None,
     tol: float = 1e-2,
@@ -202,10 +314,22 @@ def synthesize(
     model : UncertainLTVModel, PolytopicModel or tuple (A, B)
         The set: an interval box (its corners), a polytope (its vertices), or sampled
         pairs ``(A (k, n, n), B (k, n, m))`` (the robot's :func:`scara_robust.physical_samples`).
+    objective : {'decay', 'l2', 'margin'}
+        ``'decay'``: the largest decay rate α (or the one required by `decay`).
+        ``'l2'``: the smallest bound γ on the worst-case L2 gain from the disturbance
+        (entering through `disturbance`, default B: a torque added to the control torque)
+        to `output` (default the tracking error e), with decay >= `decay` (default
+        :data:`L2_DECAY`). ``'margin'``: the largest θ for which one gain certifies the
+        model's set scaled by θ about its nominal (box or polytope only), with decay >=
+        `decay` (default 0).
     decay : float, optional
-        Required decay rate α of V, 1/s (>= 0); default: the largest found by bisection.
+        Required decay rate α of V, 1/s (>= 0).
     gain_bound : float
         κ > 0 with ``‖K‖₂ <= κ``.
+    output : array_like, shape (p, n), optional
+        ``z = Cx`` of the L2 objective (default :func:`error_output`).
+    disturbance : array_like, shape (n, q) or (k, n, q), optional
+        ``B_w`` of the L2 objective, one for all or one per vertex/sample (default B).
     check : tuple (A, B), optional
         An independent set on which numpy re-verifies the answer (for the robot: a finer
         sampling of times and payloads).
@@ -213,27 +337,48 @@ def synthesize(
         Supplies the nominal (A, B) and PID structure of the returned design (default:
         `model` itself; for sampled pairs, their average).
     tol : float
-        Relative tolerance of the bisection on α.
+        Relative tolerance of the bisections on α or θ.
     solver : {'CLARABEL', 'SCS'}
 
     Returns
     -------
     Synthesis
         Never raises for an infeasible or inaccurate problem: those are results.
+
+    References
+    ----------
+    Boyd, El Ghaoui, Feron, Balakrishnan, *Linear Matrix Inequalities in System and
+    Control Theory*, SIAM 1994: §7.2.1 (decay), §7.5.1 (L2 gain, state feedback).
     """
     start = time.perf_counter()
+    check_choice("objective", objective, OBJECTIVES)
     if isinstance(model, (UncertainLTVModel, PolytopicModel)):
         A, B = vertices_of(model)
     else:
+        if objective == "margin":
+            raise ArgumentValueError("model", "must be an UncertainLTVModel or a PolytopicModel for objective "
+                                              "'margin' (a set of samples has no size to scale)")
         if not isinstance(model, tuple) or len(model) != 2:
             raise ArgumentValueError("model", "must be a model or a tuple (A, B) of sampled matrices")
         A = check_array("model[0]", model[0], ndim=3)
         B = check_array("model[1]", model[1], ndim=3)
         if A.shape[1] != A.shape[2] or B.shape[:2] != A.shape[:2]:
             raise ArgumentValueError("model", f"must hold A (k, n, n) and B (k, n, m), found {A.shape}, {B.shape}")
+    n, m = A.shape[1], B.shape[2]
     kappa = check_real("gain_bound", gain_bound, positive=True)
     tol = check_real("tol", tol, positive=True)
     check_choice("solver", solver, LMI_SOLVERS)
+    alpha = None if decay is None else check_real("decay", decay, nonnegative=True)
+    l2: tuple[Array, Array] | None = None
+    if objective == "l2":
+        C = error_output(n, m) if output is None else check_array("output", output, shape=(None, n))
+        Bw = B if disturbance is None else check_array("disturbance", disturbance)
+        if Bw.ndim == 2:
+            Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
+        if Bw.ndim != 3 or Bw.shape[:2] != A.shape[:2]:
+            raise ArgumentValueError("disturbance", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), "
+                                                    f"found {Bw.shape}")
+        l2 = (np.asarray(Bw, dtype=float), C)
     A_chk = B_chk = None
     if check is not None:
         A_chk = check_array("check[0]", check[0], ndim=3)
@@ -241,42 +386,68 @@ def synthesize(
         if A_chk.shape[1:] != A.shape[1:] or B_chk.shape[1:] != B.shape[1:]:
             raise ArgumentValueError("check", f"must hold matrices of the sizes of `model`, found {A_chk.shape}")
     n_chk = 0 if A_chk is None else int(A_chk.shape[0])
+
+    def empty(status: str) -> Synthesis:
+        return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
+                         time.perf_counter() - start, None, objective=objective)
+
     if not cvxpy_available():
-        return Synthesis(NOT_INSTALLED, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
-                         time.perf_counter() - start, None)
-    if decay is not None:
-        alpha = check_real("decay", decay, nonnegative=True)
-        status, Q, Y = _solve(A, B, alpha, kappa, solver)
+        return empty(NOT_INSTALLED)
+    theta = math.nan
+    gamma = math.nan
+    if objective == "l2":
+        alpha = L2_DECAY if alpha is None else alpha
+        status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2)
+    elif objective == "margin":
+        assert isinstance(model, (UncertainLTVModel, PolytopicModel))
+        alpha = floor = 0.0 if alpha is None else alpha
+        found: dict[float, tuple[str, Array | None, Array | None, float]] = {}
+
+        def feasible(th: float) -> bool:
+            A_t, B_t = vertices_of(model.scaled(th))
+            found[th] = _solve(A_t, B_t, floor, kappa, solver)
+            return found[th][1] is not None
+
+        if not feasible(0.0):
+            status, Q, Y = found[0.0][0], None, None
+        else:
+            theta = _largest(feasible, 1.0, tol, MARGIN_CAP)
+            status, Q, Y, _ = found[theta]
+            A, B = vertices_of(model.scaled(theta))
+    elif alpha is not None:
+        status, Q, Y, _ = _solve(A, B, alpha, kappa, solver)
     else:
-        status, Q, Y = _solve(A, B, 0.0, kappa, solver)
-        alpha = 0.0
-        if Q is not None:
-            lo, hi = 0.0, 1.0
-            while hi < 1e4:  # grow until infeasible
-                s_hi, Q_hi, Y_hi = _solve(A, B, hi, kappa, solver)
-                if Q_hi is None:
-                    break
-                lo, hi, status, Q, Y = hi, 2 * hi, s_hi, Q_hi, Y_hi
-            while hi - lo > tol * max(hi, 1e-9):
-                mid = 0.5 * (lo + hi)
-                s_mid, Q_mid, Y_mid = _solve(A, B, mid, kappa, solver)
-                if Q_mid is None:
-                    hi = mid
-                else:
-                    lo, status, Q, Y = mid, s_mid, Q_mid, Y_mid
-            alpha = lo
+        by_alpha: dict[float, tuple[str, Array | None, Array | None, float]] = {}
+
+        def decays(a: float) -> bool:
+            by_alpha[a] = _solve(A, B, a, kappa, solver)
+            return by_alpha[a][1] is not None
+
+        if not decays(0.0):
+            status, Q, Y = by_alpha[0.0][0], None, None
+        else:
+            alpha = _largest(decays, 1.0, tol, 1e4)
+            status, Q, Y, _ = by_alpha[alpha]
     if Q is None or Y is None:
-        return Synthesis("infeasible" if status == "infeasible" else status, None, None, math.nan, math.nan, math.nan,
-                         math.nan, kappa, len(A), n_chk, time.perf_counter() - start, None)
+        return empty("infeasible" if status == "infeasible" else status)
+    assert alpha is not None
     K = Y @ np.linalg.inv(Q)
     P = np.linalg.inv(Q)
     P = 0.5 * (P + P.T)
     verified = decay_rate(A - B @ K, P)
     checked = math.nan if A_chk is None or B_chk is None else decay_rate(A_chk - B_chk @ K, P)
     ok = verified > 0 and (math.isnan(checked) or checked > 0)
+    verified_gamma = check_gamma = math.nan
+    if l2 is not None:
+        verified_gamma = _verified_gamma(A - B @ K, l2[0], l2[1], P, gamma)
+        ok = ok and math.isfinite(verified_gamma)
+        if A_chk is not None and B_chk is not None:
+            Bw_chk = B_chk if disturbance is None else np.broadcast_to(l2[0][0], (len(A_chk), *l2[0].shape[1:]))
+            check_gamma = _verified_gamma(A_chk - B_chk @ K, Bw_chk, l2[1], P, gamma)
     design = _as_design(K, P, nominal if nominal is not None else model, A, B)
     return Synthesis("certified" if ok else "not verified", K, P, alpha, verified, checked,
-                     float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status)
+                     float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status,
+                     objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta)
 
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:

@@ -366,7 +366,7 @@ def run_scenario(
 
     Parameters
     ----------
-    controller : {'pid', 'smc', 'smc-sign'}
+    controller : {'pid', 'pid-lmi', 'smc', 'smc-sign'}
         A name from :data:`scara_robust.CONTROLLERS`; a sampled one (``smc-sign``, 1 ms)
         runs with its sample time.
     scenario : Scenario or {'large', 'small'}

@@ -1,20 +1,24 @@
 """PID against sliding-mode control in one table (``python -m scara_robust.compare``).
 
-Runs the PID of (ρ, η) = (3, 90) on the published model and both sliding-mode
-variants on the ``large`` and ``small`` scenarios, and prints one row per controller ×
-scenario with the metrics of :func:`scara_robust.tracking_metrics`.
+Runs the PID of (ρ, η) = (3, 90) on the published model, the PID whose gain was
+synthesized with its certificate (``pid-lmi``) and both sliding-mode variants on the
+``large`` and ``small`` scenarios, and prints one row per controller × scenario with the
+metrics of :func:`scara_robust.tracking_metrics`.
 """
 
 from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import pandas as pd
+from numpy.typing import ArrayLike
 from tqdm import tqdm
 
+from .._validation import check_array
+from ..exceptions import ArgumentValueError
 from ..model.initial import SCENARIOS, Scenario
 from ..paper import PAPER_T_FINAL
 from ..simulation.controllers import CONTROLLERS
@@ -34,6 +38,7 @@ def compare_controllers(
     payload_on: bool = True,
     t_final: float = PAPER_T_FINAL,
     progress: bool = False,
+    designs: Mapping[str, ArrayLike] | None = None,
     **setup: Any,
 ) -> pd.DataFrame:
     """Simulate every controller on every scenario and tabulate the metrics.
@@ -50,6 +55,9 @@ def compare_controllers(
         Horizon, s (> 6 so the after-transient metrics exist).
     progress : bool
         Show a tqdm progress bar on stderr.
+    designs : mapping of str to array_like of shape (2, 6), optional
+        More PID gains, each run as ``pid`` with that ``K`` and labelled by its key in the
+        ``controller`` column (for example gains read from design files).
     **setup
         ``params``, ``reference``, ``payload``, ``disturbance``, ``K``,
         ``tracking_tolerance``, passed to :func:`scara_robust.run_scenario` (default: the
@@ -62,10 +70,17 @@ def compare_controllers(
         ``status`` (one of :data:`scara_robust.STATUSES`), the metric names (NaN for a run
         without them) and ``status_reason``.
     """
-    pairs = [(c, s) for c in controllers for s in scenarios]
+    extra = {label: check_array(f"designs[{label!r}]", K, shape=(2, 6)) for label, K in (designs or {}).items()}
+    clash = sorted(set(extra) & set(controllers))
+    if clash:
+        raise ArgumentValueError("designs", f"labels must differ from the controllers' names, found {clash}")
+    pairs = [(c, s) for c in [*controllers, *extra] for s in scenarios]
     rows: list[dict[str, Any]] = []
     for c, s in tqdm(pairs, disable=not progress, file=sys.stderr, desc="compare", unit="run"):
-        res = run_scenario(c, s, payload_on=payload_on, t_final=t_final, **setup)
+        if c in extra:
+            res = run_scenario("pid", s, payload_on=payload_on, t_final=t_final, **{**setup, "K": extra[c]})
+        else:
+            res = run_scenario(c, s, payload_on=payload_on, t_final=t_final, **setup)
         row: dict[str, Any] = {
             "controller": c,
             "scenario": s if isinstance(s, str) else s.name,

@@ -1,0 +1,164 @@
+"""``synthesize``: a gain designed together with its Lyapunov certificate (LMI)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from ..io import design_record, write_design
+from ..model.polytopic import PolytopicModel
+from ..model.uncertain import physical_samples
+from ..robustness.lmi import NOT_INSTALLED
+from ..robustness.margins import payload_margin, robustness_margin
+from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_model, resolve_setup
+
+__all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
+
+#: (reference times over one period, payload masses) of the robot's physical set used by the synthesis.
+PHYSICAL_GRID = (37, 5)
+#: The finer, independent grid on which numpy re-verifies the answer (never seen by the solver).
+CHECK_GRID = (361, 9)
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``synthesize``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
+    p = sub.add_parser("synthesize", help="synthesize a PID gain together with its Lyapunov certificate (LMI)")
+    p.add_argument(
+        "--set",
+        dest="uncertainty_set",
+        choices=("physical", "box"),
+        default=None,
+        help="the variation certified: the robot's own linearizations along the reference for every payload "
+        "('physical', the default for the SCARA) or the corners of the interval model ('box', the only one with "
+        "--model)",
+    )
+    add_setup_options(p, scenario="signals", model=True)
+    p.add_argument(
+        "--objective",
+        choices=OBJECTIVES,
+        default=None,
+        help="'l2': smallest worst-case gain from disturbance torque to tracking error (default for PID-structured "
+        "plants); 'decay': fastest certified decay; 'margin': largest scaling of the box one gain certifies",
+    )
+    p.add_argument("--decay", type=finite_float, default=None,
+                   help=f"decay rate required of V, 1/s (>= 0; default: maximized, {L2_DECAY:g} for the l2 objective)")
+    p.add_argument("--gain-bound", type=finite_float, default=GAIN_BOUND,
+                   help=f"bound on ||K||_2 (default {GAIN_BOUND:g})")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--output", metavar="FILE.json",
+                   help="write a design file (read by simulate/compare --design) instead of printing JSON")
+    p.set_defaults(func=run)
+
+
+def _text(result: Synthesis, what: str, margin: str) -> str:
+    lines = [f"synthesize: {what}", f"status: {result.status} ({result.message})"]
+    if result.K is None or result.design is None:
+        return "\n".join(lines)
+    lines += ["K (u = -K x) =", np.array2string(result.K, precision=4, suppress_small=True, max_line_width=120)]
+    if result.design.n_joints is not None:
+        for name, mat in zip(("K_I", "K_P", "K_D"), result.design.pid_matrices()):
+            lines.append(f"{name} = " + np.array2string(mat, precision=4, suppress_small=True, max_line_width=120))
+    lines.append(f"decay rate: {result.decay:.4g} 1/s required, {result.verified_decay:.4g} 1/s verified by numpy")
+    if not math.isnan(result.check_decay):
+        lines.append(f"independent check ({result.n_checked} samples): decay {result.check_decay:.4g} 1/s")
+    if result.objective == "l2":
+        lines.append(f"worst-case L2 gain (disturbance torque -> error) <= {result.gamma:.4g} rad/(N·m)")
+    if result.objective == "margin":
+        lines.append(f"certified scaling of the box: theta = {result.theta:.4g}")
+    lines.append(f"||K||_2 = {result.gain_norm:.4g} (bound {result.gain_bound:g}); {result.seconds:.1f} s")
+    lines.append(margin)
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> str:
+    """Synthesize; the text or JSON to print (or the design file written).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    if args.gain_bound <= 0:
+        raise CommandLineError(f"`--gain-bound` must be > 0, found {args.gain_bound:g}")
+    if args.decay is not None and args.decay < 0:
+        raise CommandLineError(f"`--decay` must be >= 0 1/s, found {args.decay:g}")
+    if args.output is not None and not args.output.lower().endswith(".json"):
+        raise CommandLineError(f"`--output` {args.output!r}: a design file is .json")
+    setup = resolve_setup(args)
+    chosen = args.uncertainty_set
+    if args.model is not None and chosen == "physical":
+        raise CommandLineError("`--set physical` is the SCARA's own variation; with --model use --set box")
+    if chosen == "physical" and args.bounds is not None:
+        raise CommandLineError("`--bounds` chooses an interval model; it goes with --set box")
+    uncertainty_set = chosen or ("box" if args.model is not None or args.bounds is not None else "physical")
+    model = resolve_model(args, setup) if uncertainty_set == "box" else None
+    if uncertainty_set == "physical":
+        nominal = resolve_model(args, setup)
+        objective = args.objective or "l2"
+        if objective == "margin":
+            raise CommandLineError("`--objective margin` scales an interval box; it goes with --set box")
+        samples = physical_samples(setup.params, setup.reference, setup.payload,
+                                   times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
+        check = physical_samples(setup.params, setup.reference, setup.payload,
+                                 times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
+        result = synthesize((samples.A, samples.B), objective=objective, decay=args.decay,
+                            gain_bound=args.gain_bound, check=(check.A, check.B), nominal=nominal)
+        what = (f"the robot's physical set, {PHYSICAL_GRID[0]} times x {PHYSICAL_GRID[1]} payloads "
+                f"(checked on {CHECK_GRID[0]} x {CHECK_GRID[1]}), objective {objective}")
+    else:
+        assert model is not None
+        structured = model.B.shape[0] == 3 * model.B.shape[1]
+        objective = args.objective or ("l2" if structured else "decay")
+        result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound)
+        kind = "polytope" if isinstance(model, PolytopicModel) else "box"
+        what = f"the {kind} of {model.name}, objective {objective}"
+    if result.status == NOT_INSTALLED:
+        raise CommandLineError("synthesize needs cvxpy: pip install scara_robust[lmi]")
+    margin = ""
+    margin_value: dict[str, Any] = {}
+    if result.design is not None and result.certified:
+        if uncertainty_set == "physical" and result.K is not None and result.K.shape == (2, 6):
+            row = payload_margin(result.design, setup.params, setup.reference, methods=("payload-design-P",)).iloc[0]
+            margin = (f"payload margin with this P: peak payload up to {row['mass [kg]']:.4g} kg certified "
+                      f"(bracket {row['bracket [kg]']} kg)")
+            margin_value = {"payload_margin_kg": float(row["mass [kg]"])}
+        elif model is not None:
+            m = robustness_margin(model, result.design, "vertex")
+            margin = f"robustness margin with this P (vertex test): theta = {m.theta:.4g} ({m.message})"
+            margin_value = {"margin_theta": m.theta}
+    info: dict[str, Any] = {
+        "method": "synthesize", "set": uncertainty_set, "objective": objective, "status": result.status,
+        "certified": result.certified, "message": result.message, "decay": result.decay,
+        "verified_decay": result.verified_decay, "check_decay": result.check_decay, "gamma": result.gamma,
+        "check_gamma": result.check_gamma, "theta": result.theta, "gain_norm": result.gain_norm,
+        "gain_bound": result.gain_bound, "n_vertices": result.n_vertices, "n_checked": result.n_checked,
+        "solver_status": result.solver_status, **margin_value,
+    }
+    info = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in info.items()}
+    if args.output is not None:
+        if result.K is None:
+            raise CommandLineError(f"`--output` {args.output!r} not written: {result.message}")
+        path, args.output = args.output, None  # main() prints the summary instead of writing it there
+        try:
+            write_design(path, result.K, result.P, **info)
+        except OSError as err:
+            raise CommandLineError(f"`--output` {path!r}: {err.strerror or err}") from err
+        return _text(result, what, margin) + f"\ndesign file: {path}"
+    if args.format == "json":
+        if result.K is None:
+            return json.dumps(info, indent=2)
+        return json.dumps(design_record(result.K, result.P, **info), indent=2)
+    return _text(result, what, margin)

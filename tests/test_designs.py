@@ -1,0 +1,83 @@
+"""Design files and the ``pid-lmi`` controller: the synthesized gain, written, read and run."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.cli import main
+
+
+def test_design_file_round_trip(tmp_path):
+    K = np.arange(12.0).reshape(2, 6)
+    P = np.eye(6)
+    path = tmp_path / "d.json"
+    sr.write_design(path, K, P, objective="l2", gamma=0.01)
+    loaded = sr.load_design(path)
+    assert np.array_equal(loaded.K, K) and np.array_equal(loaded.P, P)
+    assert loaded.info["objective"] == "l2" and loaded.info["gamma"] == 0.01
+    # u = K_I ∫e + K_P e + K_D ė = −K x
+    assert np.array_equal(np.hstack([loaded.info["K_I"], loaded.info["K_P"], loaded.info["K_D"]]), -K)
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [('{"K": [[1.0]]}', "field `format` must be"),
+     ('{"format": "scara_robust design 1"}', "field `K` (the gain, a matrix) is missing"),
+     ('{"format": "scara_robust design 1", "K": [[1.0, "x"]]}', "field `K` must be a table of numbers"),
+     ('{"format": "scara_robust design 1", "K": [[1.0, 2.0]], "P": [[1.0]]}', "field `P` must have shape (2, 2)"),
+     ('{"format": "scara_robust design 1", "K": [[NaN]]}', "finite numbers")],
+    ids=["format", "missing-K", "text", "P-shape", "nan"],
+)
+def test_bad_design_files_name_file_and_field(tmp_path, content, match):
+    path = tmp_path / "bad.json"
+    path.write_text(content)
+    with pytest.raises(sr.InputFileError, match=re.escape(match)) as info:
+        sr.load_design(path)
+    assert "bad.json" in str(info.value)
+
+
+def test_pid_lmi_tracks_on_both_paper_scenarios():
+    for scenario in ("large", "small"):
+        res = sr.run_scenario("pid-lmi", scenario, t_final=7.0)
+        assert res.status == "tracking", res.status_reason
+        assert res.metrics().max_abs_error < 0.03
+
+
+def test_pid_lmi_is_the_pid_law_with_the_shipped_gain():
+    a = sr.run_scenario("pid-lmi", "small", t_final=1.0)
+    b = sr.run_scenario("pid", "small", t_final=1.0, K=sr.pid_lmi_gain())
+    assert np.array_equal(a.e, b.e) and np.array_equal(a.torque, b.torque)
+
+
+def test_compare_adds_rows_for_design_files(capsys):
+    shipped = str(sr.__file__).replace("__init__.py", sr.PID_LMI_FILE)
+    assert main(["compare", "--design", shipped, "--t-final", "6.3", "--scenario", "small", "--format", "json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    by_name = {r["controller"]: r for r in rows}
+    assert set(by_name) == {"pid", "pid-lmi", "smc", "smc-sign", "pid:pid_lmi.json"}
+    # the design file's row is the pid-lmi controller's run
+    assert by_name["pid:pid_lmi.json"]["max_abs_error_after_6s"] == by_name["pid-lmi"]["max_abs_error_after_6s"]
+
+
+def test_design_labels_must_not_hide_a_controller():
+    with pytest.raises(sr.ArgumentValueError, match="`designs` labels must differ"):
+        sr.compare_controllers(("pid",), ("small",), designs={"pid": sr.pid_lmi_gain()}, t_final=6.1)
+
+
+@pytest.mark.lmi
+def test_synthesize_writes_a_design_file_that_simulate_reads(tmp_path, capsys):
+    out = tmp_path / "box.json"
+    assert main(["synthesize", "--model", "examples/plant-dc-motor.toml", "--output", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "status: certified" in text and f"design file: {out}" in text and "margin" in text
+    loaded = sr.load_design(out)
+    assert loaded.info["set"] == "box" and loaded.info["certified"] is True
+    model = sr.load_model("examples/plant-dc-motor.toml")
+    closed = sr.box_closed_loops(model, loaded.K)
+    lhs = np.swapaxes(closed, -1, -2) @ loaded.P + loaded.P @ closed
+    assert np.linalg.eigvalsh(lhs).max() < 0  # V̇ < 0 at every corner of the box
+    assert main(["simulate", "--design", str(out), "--t-final", "0.1"]) == 2  # a DC motor gain is not a SCARA gain
+    assert "field `K` must have shape (2, 6)" in capsys.readouterr().err
