@@ -61,7 +61,7 @@ def test_simulate_json(capsys):
 def test_compare_json(capsys):
     code, out, _ = run(capsys, ["compare", "--t-final", "6.5", "--format", "json"])
     rows = json.loads(out)
-    assert code == 0 and len(rows) == 6
+    assert code == 0 and len(rows) == 8  # pid, pid-lmi, smc, smc-sign on both scenarios
     assert set(rows[0]) == {
         "controller",
         "scenario",
