@@ -34,7 +34,7 @@ def main(argv: list[str]) -> int:
         if fast in mean and ref in mean:
             lines.append(f"| {label} | {mean[fast]:.4g} | {mean[ref]:.4g} | {mean[ref] / mean[fast]:.0f}x |")
     if "test_compare" in mean:
-        lines.append(f"| whole `compare` (6 runs) | {mean['test_compare']:.3g} | | |")
+        lines.append(f"| whole `compare` (8 runs) | {mean['test_compare']:.3g} | | |")
     plain = mean.get("test_surface[50x50-structured]")
     for label, name in (
         ("margin map 50x50, Theorem 1 (vs the plain 50x50 surface)", "test_margin_map_theorem1"),

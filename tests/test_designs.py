@@ -81,3 +81,14 @@ def test_synthesize_writes_a_design_file_that_simulate_reads(tmp_path, capsys):
     assert np.linalg.eigvalsh(lhs).max() < 0  # V̇ < 0 at every corner of the box
     assert main(["simulate", "--design", str(out), "--t-final", "0.1"]) == 2  # a DC motor gain is not a SCARA gain
     assert "field `K` must have shape (2, 6)" in capsys.readouterr().err
+
+
+def test_a_campaign_runs_pid_lmi(tmp_path):
+    spec_file = tmp_path / "lmi.toml"
+    spec_file.write_text('controllers = ["pid-lmi"]\nt_final = 6.2\nruns = 2\nseed = 3\n'
+                         'payload_peak = { min = 1.0, max = 3.0 }\n')
+    spec = sr.load_spec(spec_file)
+    sr.run_campaign(spec, tmp_path / "r.csv")
+    table = sr.read_results(tmp_path / "r.csv")
+    assert list(table["controller"]) == ["pid-lmi", "pid-lmi"] and (table["status"] == "tracking").all()
+    assert table["max_abs_error_after_6s"].max() < 0.05 and table["peak_torque"].min() > 0
