@@ -183,3 +183,30 @@ def test_shipped_gain_is_what_synthesize_gives_and_numpy_certifies_it():
     fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
     assert sr.decay_rate(fine.A - fine.B @ shipped.K, shipped.P) > 0.45
     assert shipped.info["certified"] is True and shipped.info["objective"] == "l2"
+
+
+def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):
+    import cvxpy as cp
+
+    poly = sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1)))
+
+    def broken(self, *args, **kwargs):
+        raise cp.SolverError("numerical trouble")
+
+    monkeypatch.setattr(cp.Problem, "solve", broken)
+    result = sr.synthesize(poly, decay=0.1)
+    assert result.status.startswith("solver error") and not result.certified and result.K is None
+    assert "numerical trouble" in result.message
+
+    def inaccurate(self, *args, **kwargs):
+        # an "optimal_inaccurate" answer whose Q makes nothing decay: Y = 0 and Q = I
+        for var in self.variables():
+            var.value = np.eye(2) if var.shape == (2, 2) else np.zeros(var.shape)
+        self._status = "optimal_inaccurate"
+
+    monkeypatch.setattr(cp.Problem, "solve", inaccurate)
+    monkeypatch.setattr(cp.Problem, "status", property(lambda self: self._status))
+    unstable = sr.PolytopicModel(np.array([[[0.5, 0.0], [0.0, -1.0]]]), np.array([[[0.0], [1.0]]]))
+    result = sr.synthesize(unstable, decay=0.1)
+    assert result.status == "not verified" and result.solver_status == "optimal_inaccurate"
+    assert not result.certified and "numpy does not certify" in result.message
