@@ -53,6 +53,9 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     payload_margin                  -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
+    rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
+    max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
+    payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
