@@ -56,6 +56,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
     payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
+    payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times

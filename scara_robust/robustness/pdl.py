@@ -61,6 +61,7 @@ __all__ = [
     "max_certified_rate",
     "payload_closed_loops",
     "payload_rate_certificate",
+    "payload_switching_growth",
 ]
 
 Array = NDArray[np.float64]
@@ -604,3 +605,71 @@ def payload_rate_certificate(
     return max_certified_rate(closed, masses, check=(closed_chk, masses_chk), rate_max=rate_max, tol=tol,
                               solver=solver)
 
+
+
+def payload_switching_growth(
+    design: Design,
+    mass_max: float,
+    rate: float,
+    *,
+    phase: float,
+    hold_high: float,
+    hold_low: float,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    n_ramp: int = 100,
+) -> float:
+    """Growth rate of the linearized closed loop under a periodic payload ramping at `rate`.
+
+    The evidence from the other side of :func:`payload_rate_certificate`: one period holds
+    m_p = M for `hold_high`, ramps down to 0 at ``−rate``, holds 0 for `hold_low`, and ramps
+    back up at ``+rate``, with the reference phase held at `phase` (the certificates let the
+    phase vary arbitrarily, so holding it is one admissible variation). The transition over
+    a period is exact for a piecewise-constant mass (each ramp is `n_ramp` steps held at their
+    midpoints), and the growth rate is ``log ρ(Φ(T)) / T`` (Floquet): positive means that
+    ‖x‖ grows without bound, so no certificate of any kind exists for that rate.
+
+    Parameters
+    ----------
+    design : Design
+        A design for the SCARA's 6-state error model.
+    mass_max : float
+        Peak payload M, kg (> 0).
+    rate : float
+        |ṁ_p| on the ramps, kg/s (> 0).
+    phase : float
+        Reference time held, s.
+    hold_high, hold_low : float
+        Time at M and at 0 in each period, s (>= 0).
+    params : ScaraParams, optional
+    reference : Reference, optional
+    n_ramp : int
+        Steps of each ramp (>= 1).
+
+    Returns
+    -------
+    float
+        Floquet growth rate, 1/s.
+    """
+    check_instance("design", design, Design, "a Design")
+    if design.K.shape != (2, 6):
+        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
+    mass_max = check_real("mass_max", mass_max, positive=True)
+    rate = check_real("rate", rate, positive=True)
+    phase = check_real("phase", phase)
+    hold_high = check_real("hold_high", hold_high, nonnegative=True)
+    hold_low = check_real("hold_low", hold_low, nonnegative=True)
+    n_ramp = check_int("n_ramp", n_ramp, 1)
+    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
+                               times=np.array([phase]), n_masses=2 * n_ramp + 1)
+    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)  # masses 0, M/2n, ..., M
+    step = scipy.linalg.expm(closed[1::2] * (mass_max / n_ramp / rate))  # midpoints, each held for one step
+    down = np.eye(6)
+    for E in step[::-1]:
+        down = E @ down
+    up = np.eye(6)
+    for E in step:
+        up = E @ up
+    period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
+    duration = hold_high + hold_low + 2 * mass_max / rate
+    return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)
