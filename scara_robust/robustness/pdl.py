@@ -5,26 +5,28 @@ that may jump arbitrarily fast. Real parameters (a payload mass) change at a bou
 ``|ṗ| <= ν``; a Lyapunov matrix that follows the parameter, ``P(p) = P₀ + pP₁``, then
 proves more. Along a trajectory ``V̇ = xᵀ(Ā(p)ᵀP(p) + P(p)Ā(p) + ṗP₁)x``, affine in ṗ, so
 (Gahinet, Apkarian and Chilali, "Affine parameter-dependent Lyapunov functions and real
-parametric uncertainty", IEEE TAC 41(3), 1996, Theorem 3.1; the idea of MATLAB's
-``pvec`` rates and ``pdlstab``)::
+parametric uncertainty", IEEE TAC 41(3), 1996; the idea of MATLAB's ``pvec`` rates and
+``pdlstab``)::
 
     P(p_i) ≻ 0,   Ā_iᵀP(p_i) + P(p_i)Ā_i ± νP₁ ≺ 0      at every sample (p_i, Ā_i)
 
-proves that ``V`` decays for every variation with p(t) in the sampled range and
-``|ṗ| <= ν``, while the other sampled directions (for the robot: the reference phase)
-vary arbitrarily within the hull of the samples that share a p. For samples of a dependence
-that is not affine in p this is a gridding condition (like MATLAB's gridded LPV
-``pdlstab``): it is checked at the samples and re-verified with numpy on a finer,
+are what ``V`` needs to decay along every variation with ``|ṗ| <= ν``, the other sampled
+directions (for the robot: the reference phase) varying arbitrarily within the hull of the
+samples that share a p. Held at every p of the range they prove it; for samples of a
+dependence that is not affine in p they are a gridding condition (like MATLAB's gridded
+LPV ``pdlstab``): checked at the samples and re-verified with numpy on a finer,
 independent grid. When the dependence is affine, ``Ā(p) = Ā₀ + pĀ₁``, the left-hand side
 is quadratic in p with curvature ``2(Ā₁ᵀP₁ + P₁Ā₁)``; the multi-convexity condition::
 
     Ā₁ᵀP₁ + P₁Ā₁ ⪰ 0
 
 makes it convex along p, so the conditions at the two end points hold on the whole
-interval (Gahinet et al. 1996, Lemma 3.1). With ``ν → ∞`` the inequalities force
+interval (Gahinet et al. 1996). With ``ν → ∞`` the inequalities force
 ``P₁ = 0``: the common-P test, requested here by ``rate=inf``. Feasibility is monotone in
 ν (the conditions at ±ν imply those at any smaller rate, a convex combination of them),
 so the largest certified rate is found by bisection (:func:`max_certified_rate`).
+Evidence from the other side, for the robot: :func:`payload_switching_growth` measures the
+growth of the linearized loop under a periodic payload ramping at a given rate.
 
 Every answer is re-verified with numpy eigenvalues on the samples and, when given, on an
 independent check set; an answer numpy cannot verify, or one the solver calls
@@ -385,8 +387,7 @@ def rate_bounded_certificate(
                                NOT_INSTALLED, time.perf_counter() - start)
     solver_status, P0, P1 = _solve(A, p_arr, nu, slope_arr, solver)
     if P0 is None or P1 is None:
-        status = "infeasible" if solver_status == "infeasible" else solver_status
-        return RateCertificate(status, None, None, nu, math.nan, math.nan, math.nan, A.shape[0], n_chk,
+        return RateCertificate(solver_status, None, None, nu, math.nan, math.nan, math.nan, A.shape[0], n_chk,
                                solver_status, time.perf_counter() - start)
     margin = verify_rate_bounded(A, p_arr, P0, P1, nu)
     checked = math.nan if A_chk is None or p_chk is None else verify_rate_bounded(A_chk, p_chk, P0, P1, nu)
@@ -433,6 +434,8 @@ class RateMargin:
     @property
     def message(self) -> str:
         """One sentence saying what the result means."""
+        if self.common.status == NOT_INSTALLED:
+            return self.common.message
         if math.isinf(self.rate):
             return "a common P exists: any rate of variation is certified"
         if math.isnan(self.rate):
