@@ -54,6 +54,10 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
+    rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
+    max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
+    payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
+    payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs

@@ -1,0 +1,688 @@
+"""Rate-bounded stability: a parameter-dependent Lyapunov function ``V = xᵀ(P₀ + pP₁)x``.
+
+The common-P test (:func:`scara_robust.lmi_certificate`) proves stability for parameters
+that may jump arbitrarily fast. Real parameters (a payload mass) change at a bounded rate
+``|ṗ| <= ν``; a Lyapunov matrix that follows the parameter, ``P(p) = P₀ + pP₁``, then
+proves more. Along a trajectory ``V̇ = xᵀ(Ā(p)ᵀP(p) + P(p)Ā(p) + ṗP₁)x``, affine in ṗ, so
+(Gahinet, Apkarian and Chilali, "Affine parameter-dependent Lyapunov functions and real
+parametric uncertainty", IEEE TAC 41(3), 1996; the idea of MATLAB's ``pvec`` rates and
+``pdlstab``)::
+
+    P(p_i) ≻ 0,   Ā_iᵀP(p_i) + P(p_i)Ā_i ± νP₁ ≺ 0      at every sample (p_i, Ā_i)
+
+are what ``V`` needs to decay along every variation with ``|ṗ| <= ν``, the other sampled
+directions (for the robot: the reference phase) varying arbitrarily within the hull of the
+samples that share a p. Held at every p of the range they prove it; for samples of a
+dependence that is not affine in p they are a gridding condition (like MATLAB's gridded
+LPV ``pdlstab``): checked at the samples and re-verified with numpy on a finer,
+independent grid. When the dependence is affine, ``Ā(p) = Ā₀ + pĀ₁``, the left-hand side
+is quadratic in p with curvature ``2(Ā₁ᵀP₁ + P₁Ā₁)``; the multi-convexity condition::
+
+    Ā₁ᵀP₁ + P₁Ā₁ ⪰ 0
+
+makes it convex along p, so the conditions at the two end points hold on the whole
+interval (Gahinet et al. 1996). With ``ν → ∞`` the inequalities force
+``P₁ = 0``: the common-P test, requested here by ``rate=inf``. Feasibility is monotone in
+ν (the conditions at ±ν imply those at any smaller rate, a convex combination of them),
+so the largest certified rate is found by bisection (:func:`max_certified_rate`).
+Evidence from the other side, for the robot: :func:`payload_switching_growth` measures the
+growth of the linearized loop under a periodic payload ramping at a given rate.
+
+Every answer is re-verified with numpy eigenvalues on the samples and, when given, on an
+independent check set; an answer numpy cannot verify, or one the solver calls
+``'optimal_inaccurate'``, is reported as such and never as certified. cvxpy + Clarabel
+(extra ``lmi``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_choice, check_instance, check_int, check_real
+from ..exceptions import ArgumentValueError
+from ..lyapunov.gain import Design
+from ..model.robot import ScaraParams, SinusoidalPayload
+from ..model.signals import Reference
+from ..model.uncertain import physical_samples
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+
+__all__ = [
+    "FEASIBILITY_TOL",
+    "RateCertificate",
+    "RateMargin",
+    "rate_bounded_certificate",
+    "verify_rate_bounded",
+    "max_certified_rate",
+    "payload_closed_loops",
+    "payload_rate_certificate",
+    "payload_switching_growth",
+]
+
+Array = NDArray[np.float64]
+
+#: The LMI maximizes t with ``tI ⪯ P(p_i) ⪯ I`` and ``Ā_iᵀP_i + P_iĀ_i ± νP1 ⪯ −tI`` (in
+#: normalized units); an optimal t at or below this counts as infeasible (no strict solution).
+FEASIBILITY_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class RateCertificate:
+    """Result of the rate-bounded parameter-dependent test, verified independently.
+
+    Attributes
+    ----------
+    status : str
+        ``'certified'`` (numpy verified every condition), ``'infeasible'``, ``'not verified'``
+        (the solver's answer fails numpy's check), ``'optimal_inaccurate'`` (never
+        certified, whatever numpy says), another solver status, or ``'not installed'``.
+    P0, P1 : ndarray, shape (n, n), or None
+        ``P(p) = P0 + p·P1``; P1 is in 1/(unit of p) relative to P0 (1/kg for the robot).
+        ``P1`` is zero for ``rate=inf`` (the common-P test).
+    rate : float
+        The rate bound ν tested, in units of p per second (kg/s for the robot); ``inf`` for
+        the common-P test.
+    margin : float
+        numpy's verified decay rate of V on the samples, 1/s:
+        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / λmax(P_i)`` (``V̇ <= −margin·V``); ``-inf``
+        when some ``P(p_i)`` is not positive definite, NaN without P. Positive means verified.
+        With `slopes` (an affine dependence), the decay rate on the whole interval of p
+        instead: the end points' worst λmax, plus ``max(0, −convexity)·((p_max − p_min)/2)²``
+        for a curvature deficit, over their largest ``λmax(P)``.
+    check_margin : float
+        The same on the independent check set (NaN when none was given), 1/s.
+    convexity : float
+        ``min_i λmin(Ā₁ᵀP1 + P1Ā₁)`` over the given slopes (NaN when the dependence was not
+        declared affine); it must be >= 0 up to rounding.
+    n_samples, n_checked : int
+        Sizes of the sample set and of the check set.
+    solver_status : str
+        What the solver said.
+    seconds : float
+    """
+
+    status: str
+    P0: Array | None
+    P1: Array | None
+    rate: float
+    margin: float
+    check_margin: float
+    convexity: float
+    n_samples: int
+    n_checked: int
+    solver_status: str
+    seconds: float
+
+    @property
+    def certified(self) -> bool:
+        """numpy verified the conditions on the samples and, if given, on the check set."""
+        checked = math.isnan(self.check_margin) or self.check_margin > 0
+        return bool(self.status == "certified" and self.margin > 0 and checked)
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        what = "a common P" if math.isinf(self.rate) else f"P(p) = P0 + p·P1 for |ṗ| <= {self.rate:.6g}"
+        if self.status == NOT_INSTALLED:
+            return "cvxpy is not installed (pip install scara_robust[lmi])"
+        if self.certified:
+            extra = "" if math.isnan(self.check_margin) else (
+                f"; on {self.n_checked} independent samples V decays at >= {self.check_margin:.4g} 1/s")
+            return (f"{what} found; numpy verifies V decays at >= {self.margin:.4g} 1/s on the "
+                    f"{self.n_samples} samples{extra}")
+        if self.status == "infeasible":
+            return f"no {what.removeprefix('a ')} exists on the {self.n_samples} samples (infeasible)"
+        if self.P0 is not None:
+            return (f"the solver returned {what} ({self.solver_status}) that is not certified: numpy margin "
+                    f"{self.margin:.4g} 1/s on the samples, {self.check_margin:.4g} on the check set")
+        return f"no answer for {what}: {self.status}"
+
+
+def _rate(rate: float) -> float:
+    """ν >= 0 or ``inf``, else raise naming `rate`."""
+    if isinstance(rate, (float, np.floating)) and rate == math.inf:
+        return math.inf
+    return check_real("rate", rate, nonnegative=True)
+
+
+def _samples(name: str, closed_loops: ArrayLike, p: ArrayLike) -> tuple[Array, Array]:
+    A = check_array(name, closed_loops, ndim=3)
+    if A.shape[0] == 0 or A.shape[1] != A.shape[2] or A.shape[1] == 0:
+        raise ArgumentValueError(name, f"must have shape (N >= 1, n, n), found {A.shape}")
+    p_name = "p" if name == "closed_loops" else f"{name.split('[')[0]}[1]"
+    p_arr = check_array(p_name, p, ndim=1)
+    if p_arr.shape[0] != A.shape[0]:
+        raise ArgumentValueError(p_name, f"must hold one value per sample ({A.shape[0]}), found {p_arr.shape[0]}")
+    return A, p_arr
+
+
+def verify_rate_bounded(closed_loops: ArrayLike, p: ArrayLike, P0: ArrayLike, P1: ArrayLike, rate: float) -> float:
+    """numpy's check of ``P(p) = P0 + p·P1`` on samples, for ``|ṗ| <= rate``.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (N, n, n)
+        Frozen closed loops Ā_i.
+    p : array_like, shape (N,)
+        The scheduling parameter of each sample.
+    P0, P1 : array_like, shape (n, n)
+        Symmetric matrices.
+    rate : float
+        ν >= 0, units of p per second; ``inf`` checks ``P0`` alone as a common P (P1 must be 0).
+
+    Returns
+    -------
+    float
+        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / λmax(P_i)``, 1/s, with ``P_i = P(p_i)``:
+        V decays at least at this rate on the samples. ``-inf`` when some P_i is not
+        positive definite, or P0 or P1 is not symmetric.
+    """
+    A, p_arr = _samples("closed_loops", closed_loops, p)
+    n = A.shape[1]
+    P0 = check_array("P0", P0, shape=(n, n))
+    P1 = check_array("P1", P1, shape=(n, n))
+    nu = _rate(rate)
+    scale = max(float(np.abs(P0).max()), float(np.abs(P1).max() * np.abs(p_arr).max()), 1e-300)
+    for M in (P0, P1):
+        if not np.allclose(M, M.T, rtol=0.0, atol=1e-9 * scale):
+            return -math.inf
+    if math.isinf(nu):
+        if np.abs(P1).max() > 0:
+            return -math.inf
+        nu = 0.0
+    P = P0[None] + p_arr[:, None, None] * P1[None]
+    P = 0.5 * (P + np.swapaxes(P, -1, -2))
+    eig_P = np.linalg.eigvalsh(P)
+    if eig_P[:, 0].min() <= 0:
+        return -math.inf
+    L = np.swapaxes(A, -1, -2) @ P + P @ A
+    worst = np.full(A.shape[0], -np.inf)
+    for sign in (1.0, -1.0):
+        M = L + sign * nu * P1[None]
+        worst = np.maximum(worst, np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, -1, -2)))[:, -1])
+    return float((-worst / eig_P[:, -1]).min())
+
+
+def _bent_margin(A: Array, p: Array, P0: Array, P1: Array, nu: float, deficit: float) -> float:
+    """The decay rate of V on the whole interval from its end points, for an affine dependence.
+
+    ``xᵀ(Ā(p)ᵀP(p) + P(p)Ā(p) ± νP1)x`` is quadratic in p with second derivative
+    ``2xᵀ(Ā₁ᵀP1 + P1Ā₁)x >= −2·deficit·‖x‖²``, so between the end points it exceeds their
+    larger value by at most ``deficit·((p_max − p_min)/2)²·‖x‖²`` (nothing when multi-convex).
+    """
+    P = P0[None] + p[:, None, None] * P1[None]
+    eig_P = np.linalg.eigvalsh(0.5 * (P + np.swapaxes(P, -1, -2)))
+    if eig_P[:, 0].min() <= 0:
+        return -math.inf
+    L = np.swapaxes(A, -1, -2) @ P + P @ A
+    bend = deficit * (0.5 * (p.max() - p.min())) ** 2
+    worst = np.full(A.shape[0], -np.inf)
+    for sign in (1.0, -1.0):
+        M = L + sign * (0.0 if math.isinf(nu) else nu) * P1[None]
+        worst = np.maximum(worst, np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, -1, -2)))[:, -1])
+    # between the end points λmax(P(p)) is at most its largest end value (P is affine)
+    return float(-(worst.max() + bend) / eig_P[:, -1].max())
+
+
+def _balancing(A: Array) -> Array:
+    """``T`` with ``TᵀPT = I`` for the Lyapunov matrix P of a Hurwitz A (identity otherwise)."""
+    n = A.shape[0]
+    if np.linalg.eigvals(A).real.max() >= 0:
+        return np.eye(n)
+    P = scipy.linalg.solve_continuous_lyapunov(A.T, -np.eye(n))
+    w, V = np.linalg.eigh(0.5 * (P + P.T))
+    if w[0] <= 0:
+        return np.eye(n)
+    return np.asarray(V @ np.diag(w**-0.5) @ V.T, dtype=float)
+
+
+def _run(problem: Any, t: Any, solver: str) -> tuple[str, float | None]:
+    """Solve; the status and the value of the variable t, or None."""
+    import cvxpy as cp
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
+            problem.solve(solver=solver)
+    except cp.SolverError as err:
+        return f"solver error: {err}", None
+    return str(problem.status), None if t.value is None else float(t.value)
+
+
+def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> tuple[str, Array | None, Array | None]:
+    """Maximize t: tI ⪯ P(p̂_i) ⪯ I, L_i ± ν̂P̂1 ⪯ −tI, in normalized units (p̂ ∈ [−1, 1], balanced Ā/scale)."""
+    import cvxpy as cp
+
+    n = A.shape[1]
+    centre = 0.5 * (p.max() + p.min())
+    half = 0.5 * (p.max() - p.min()) or 1.0
+    # A change of state coordinates x = T z leaves feasibility unchanged; T from the
+    # Lyapunov matrix of the sample nearest the centre evens out the states' scales.
+    T = _balancing(A[int(np.argmin(np.abs(p - centre)))])
+    T_inv = np.linalg.inv(T)
+    A_t = T_inv @ A @ T
+    # time unit: the geometric mean of the fastest and slowest decay of that sample, so that
+    # neither the fast nor the slow modes' margins sit near the solver's tolerances
+    decays = np.abs(np.linalg.eigvals(A_t[int(np.argmin(np.abs(p - centre)))]).real)
+    scale = float(np.sqrt(decays.max() * decays.min())) or float(np.abs(A_t).max()) or 1.0
+    A_s = A_t / scale
+    q = (p - centre) / half
+    nu_s = nu / (half * scale) if math.isfinite(nu) else 0.0
+    eye = np.eye(n)
+    Q0 = cp.Variable((n, n), symmetric=True)
+    Q1 = cp.Variable((n, n), symmetric=True)
+    t = cp.Variable()
+    constraints = []
+    if math.isinf(nu):
+        constraints.append(Q1 == 0)
+    for value in np.unique(q):
+        constraints += [Q0 + value * Q1 >> t * eye, Q0 + value * Q1 << eye]
+    for A_i, q_i in zip(A_s, q):
+        P_i = Q0 + q_i * Q1
+        lhs = A_i.T @ P_i + P_i @ A_i
+        for sign in ((0.0,) if math.isinf(nu) else (1.0, -1.0)):
+            M = lhs + sign * nu_s * Q1
+            constraints.append(0.5 * (M + M.T) << -t * eye)
+    if slopes is not None:
+        for S in np.unique(T_inv @ slopes @ T * half / scale, axis=0):
+            C = S.T @ Q1 + Q1 @ S
+            constraints.append(0.5 * (C + C.T) >> 0)
+    # Stage 1 maximizes the margin t; at that optimum the solver often stalls short of its
+    # tolerances ('optimal_inaccurate'), so stage 2 asks for the strictly interior t*/2.
+    status, t_star = _run(cp.Problem(cp.Maximize(t), constraints), t, solver)
+    if t_star is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        return status, None, None
+    if t_star <= FEASIBILITY_TOL:
+        # P = 0, t = 0 is always feasible: no strict solution (unless the solver was unsure)
+        return ("infeasible" if status == cp.OPTIMAL else status), None, None
+    if status != cp.OPTIMAL:
+        status, _ = _run(cp.Problem(cp.Minimize(0), [*constraints, t == 0.5 * t_star]), t, solver)
+        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Q0.value is None or Q1.value is None:
+            return status, None, None
+    # back to x: P = T⁻ᵀ Q T⁻¹
+    Q0_v = T_inv.T @ np.array(Q0.value, dtype=float) @ T_inv
+    Q1_v = np.zeros((n, n)) if math.isinf(nu) else T_inv.T @ np.array(Q1.value, dtype=float) @ T_inv
+    # back to the caller's p: P(p) = Q0 + (p − centre)/half · Q1
+    P1 = Q1_v / half
+    P0 = Q0_v - centre * P1
+    return status, 0.5 * (P0 + P0.T), 0.5 * (P1 + P1.T)
+
+
+def rate_bounded_certificate(
+    closed_loops: ArrayLike,
+    p: ArrayLike,
+    rate: float,
+    *,
+    slopes: ArrayLike | None = None,
+    check: tuple[ArrayLike, ArrayLike] | None = None,
+    solver: str = "CLARABEL",
+) -> RateCertificate:
+    """Search ``P(p) = P0 + p·P1`` proving stability for ``|ṗ| <= rate``.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (N, n, n)
+        Frozen closed loops Ā_i, flat: samples sharing a value of p (for the robot, the
+        reference phases at one mass) span the direction that may vary arbitrarily.
+    p : array_like, shape (N,)
+        The scheduling parameter of each sample (kg for the robot's payload).
+    rate : float
+        ν >= 0, the bound on ``|ṗ|`` in units of p per second; ``inf`` asks for a common P
+        (``P1 = 0``), the test of :func:`scara_robust.lmi_certificate`.
+    slopes : array_like, shape (N, n, n), optional
+        ``dĀ/dp`` at each sample, declaring the dependence affine in p
+        (``Ā(p) = Ā₀ + pĀ₁``, one Ā₁ per arbitrarily varying direction). The
+        multi-convexity condition ``Ā₁ᵀP1 + P1Ā₁ ⪰ 0`` is added, so samples at the two end
+        points of p prove the whole interval.
+    check : tuple (closed_loops, p), optional
+        An independent set, shapes (M, n, n) and (M,), on which numpy re-verifies the answer
+        (a finer grid of p and of the other directions).
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    RateCertificate
+        Never raises for an infeasible or inaccurate problem: those are results.
+
+    Raises
+    ------
+    ArgumentValueError
+        For a bad shape, a negative rate, or an unknown solver (naming the argument).
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> p = np.linspace(1.0, 4.0, 7)
+    >>> A = np.array([[[-0.1, 1.0], [-x, -0.1]] for x in p])  # frozen stable for every p
+    >>> sr.rate_bounded_certificate(A, p, np.inf).certified  # no common P
+    False
+    >>> sr.rate_bounded_certificate(A, p, 0.2).certified
+    True
+    """
+    start = time.perf_counter()
+    A, p_arr = _samples("closed_loops", closed_loops, p)
+    n = A.shape[1]
+    nu = _rate(rate)
+    slope_arr = None
+    if slopes is not None:
+        slope_arr = check_array("slopes", slopes, shape=(A.shape[0], n, n))
+    A_chk = p_chk = None
+    if check is not None:
+        if not isinstance(check, tuple) or len(check) != 2:
+            raise ArgumentValueError("check", "must be a tuple (closed_loops, p)")
+        A_chk, p_chk = _samples("check[0]", check[0], check[1])
+        if A_chk.shape[1:] != A.shape[1:]:
+            raise ArgumentValueError("check[0]", f"must hold {n}x{n} matrices like `closed_loops`, found {A_chk.shape}")
+    check_choice("solver", solver, LMI_SOLVERS)
+    n_chk = 0 if A_chk is None else int(A_chk.shape[0])
+    if not cvxpy_available():
+        return RateCertificate(NOT_INSTALLED, None, None, nu, math.nan, math.nan, math.nan, A.shape[0], n_chk,
+                               NOT_INSTALLED, time.perf_counter() - start)
+    solver_status, P0, P1 = _solve(A, p_arr, nu, slope_arr, solver)
+    if P0 is None or P1 is None:
+        return RateCertificate(solver_status, None, None, nu, math.nan, math.nan, math.nan, A.shape[0], n_chk,
+                               solver_status, time.perf_counter() - start)
+    margin = verify_rate_bounded(A, p_arr, P0, P1, nu)
+    checked = math.nan if A_chk is None or p_chk is None else verify_rate_bounded(A_chk, p_chk, P0, P1, nu)
+    convexity = math.nan
+    ok = margin > 0 and (math.isnan(checked) or checked > 0)
+    if slope_arr is not None:
+        C = np.swapaxes(slope_arr, -1, -2) @ P1 + P1 @ slope_arr
+        convexity = float(np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))[:, 0].min())
+        margin = _bent_margin(A, p_arr, P0, P1, nu, max(0.0, -convexity))
+        ok = margin > 0 and (math.isnan(checked) or checked > 0)
+    status = solver_status if solver_status != "optimal" else ("certified" if ok else "not verified")
+    return RateCertificate(status, P0, P1, nu, margin, checked, convexity, A.shape[0], n_chk, solver_status,
+                           time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class RateMargin:
+    """The largest rate ``|ṗ|`` the parameter-dependent test certifies.
+
+    Attributes
+    ----------
+    rate : float
+        Largest ν certified (units of p per second; kg/s for the robot): ``inf`` when a
+        common P exists, NaN when not even ν = 0 is certified.
+    bracket : tuple of float
+        ``(certified, not certified)`` rates of the bisection; ``(inf, inf)`` with a common
+        P, ``(nan, 0)`` when ν = 0 fails.
+    certificate : RateCertificate or None
+        The verified certificate at ``rate`` (None when none was found).
+    common : RateCertificate
+        The common-P test (``rate=inf``) on the same samples.
+    n_solves : int
+        LMIs solved.
+    seconds : float
+    """
+
+    rate: float
+    bracket: tuple[float, float]
+    certificate: RateCertificate | None
+    common: RateCertificate
+    n_solves: int
+    seconds: float
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        if self.common.status == NOT_INSTALLED:
+            return self.common.message
+        if math.isinf(self.rate):
+            return "a common P exists: any rate of variation is certified"
+        if math.isnan(self.rate):
+            return "not certified even for a frozen parameter (ν = 0) with an affine P(p)"
+        return (f"common P: {self.common.status}; P(p) = P0 + p·P1 certifies |ṗ| <= {self.rate:.6g} "
+                f"(bracket [{self.bracket[0]:.6g}, {self.bracket[1]:.6g}])")
+
+
+def max_certified_rate(
+    closed_loops: ArrayLike,
+    p: ArrayLike,
+    *,
+    slopes: ArrayLike | None = None,
+    check: tuple[ArrayLike, ArrayLike] | None = None,
+    rate_max: float = 1e6,
+    tol: float = 1e-2,
+    solver: str = "CLARABEL",
+) -> RateMargin:
+    """Bisect the largest rate bound ν that :func:`rate_bounded_certificate` certifies.
+
+    The common-P test (``rate=inf``) runs first: when it certifies, the answer is ``inf``.
+    Otherwise ν = 0 (frozen parameter with an affine P(p)), then doubling from 1 until a rate
+    fails or `rate_max` is reached, then bisection. A rate counts as certified only when
+    the returned P verifies on the samples and on `check` (feasibility is monotone in ν).
+
+    Parameters
+    ----------
+    closed_loops, p, slopes, check, solver
+        As for :func:`rate_bounded_certificate`.
+    rate_max : float
+        Largest rate tried, units of p per second (> 0).
+    tol : float
+        Relative width of the final bracket (> 0).
+
+    Returns
+    -------
+    RateMargin
+    """
+    start = time.perf_counter()
+    rate_max = check_real("rate_max", rate_max, positive=True)
+    tol = check_real("tol", tol, positive=True)
+    solves = 0
+
+    def run(nu: float) -> RateCertificate:
+        nonlocal solves
+        solves += 1
+        return rate_bounded_certificate(closed_loops, p, nu, slopes=slopes, check=check, solver=solver)
+
+    common = run(math.inf)
+    if common.status == NOT_INSTALLED:
+        return RateMargin(math.nan, (math.nan, math.nan), None, common, solves, time.perf_counter() - start)
+    if common.certified:
+        return RateMargin(math.inf, (math.inf, math.inf), common, common, solves, time.perf_counter() - start)
+    best = run(0.0)
+    if not best.certified:
+        return RateMargin(math.nan, (math.nan, 0.0), None, common, solves, time.perf_counter() - start)
+    lo, hi = 0.0, 1.0
+    while True:
+        trial = run(hi)
+        if not trial.certified:
+            break
+        lo, best = hi, trial
+        if hi >= rate_max:
+            return RateMargin(lo, (lo, math.inf), best, common, solves, time.perf_counter() - start)
+        hi = min(2 * hi, rate_max)
+    while hi - lo > tol * hi:
+        # from lo = 0 the bracket shrinks geometrically: a relative width cannot be reached
+        mid = 0.5 * (lo + hi) if lo > 0 else hi / 8
+        if mid < 1e-12 * rate_max:
+            break
+        trial = run(mid)
+        if trial.certified:
+            lo, best = mid, trial
+        else:
+            hi = mid
+    return RateMargin(lo, (lo, hi), best, common, solves, time.perf_counter() - start)
+
+
+def payload_closed_loops(
+    design: Design,
+    mass_max: float,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    *,
+    n_times: int = 37,
+    n_masses: int = 9,
+) -> tuple[Array, Array, Array]:
+    """The robot's closed loops along the reference, indexed by payload mass.
+
+    Parameters
+    ----------
+    design : Design
+        A design for the SCARA's 6-state error model.
+    mass_max : float
+        Peak payload M, kg (> 0); masses span [0, M] (the payload ``(M/2)(1 + sin t)`` of
+        :func:`scara_robust.payload_margin`).
+    params : ScaraParams, optional
+    reference : Reference, optional
+    n_times : int
+        Reference phases over [0, 2π] s (>= 1).
+    n_masses : int
+        Masses over [0, M] (>= 2).
+
+    Returns
+    -------
+    closed_loops : ndarray, shape (n_times * n_masses, 6, 6)
+        ``Ā = A − BK`` of :func:`scara_robust.physical_samples`, time-major.
+    masses : ndarray, shape (n_times * n_masses,)
+        Payload mass of each sample, kg.
+    times : ndarray, shape (n_times * n_masses,)
+        Reference time of each sample, s.
+    """
+    check_instance("design", design, Design, "a Design")
+    if design.K.shape != (2, 6):
+        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
+    mass_max = check_real("mass_max", mass_max, positive=True)
+    n_times = check_int("n_times", n_times, 1)
+    n_masses = check_int("n_masses", n_masses, 2)
+    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
+                               times=np.linspace(0.0, 2 * np.pi, n_times), n_masses=n_masses)
+    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)
+    return closed, np.asarray(samples.masses, dtype=float), np.asarray(samples.times, dtype=float)
+
+
+def payload_rate_certificate(
+    design: Design,
+    mass_max: float,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    *,
+    n_times: int = 37,
+    n_masses: int = 9,
+    check_times: int = 181,
+    check_masses: int = 33,
+    rate_max: float = 1e6,
+    tol: float = 1e-2,
+    solver: str = "CLARABEL",
+) -> RateMargin:
+    """The largest payload rate ``|ṁ_p|`` (kg/s) certified for payloads in [0, M].
+
+    Scheduling parameter: the payload mass m_p ∈ [0, M] (kg), with ``|ṁ_p| <= ν``; the
+    reference phase (times over [0, 2π] s) varies arbitrarily within the hull of the
+    samples at each mass. The robot's linearized error dynamics (Eq. 3-4) depend on m_p
+    through ``M(q, m_p)⁻¹``, not affinely, so this is the gridding condition, re-verified
+    by numpy on a finer grid of phases and masses than the LMI used.
+
+    Parameters
+    ----------
+    design : Design
+        A design for the SCARA's 6-state error model.
+    mass_max : float
+        Peak payload M, kg (> 0).
+    params : ScaraParams, optional
+    reference : Reference, optional
+    n_times, n_masses : int
+        Grid on which the LMIs are solved.
+    check_times, check_masses : int
+        Finer grid of the numpy check, its points mostly new (``(k − 1)j + 1`` holds the
+        LMI's points and j − 1 new ones between each pair).
+    rate_max : float
+        Largest rate tried, kg/s.
+    tol : float
+        Relative width of the final bracket.
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    RateMargin
+        Its ``common`` field is the common-P test on the same samples.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> d = sr.design(sr.paper_model(), 3.0, 90.0)
+    >>> sr.payload_rate_certificate(d, 180.0, n_times=13, n_masses=5).rate  # doctest: +SKIP
+    """
+    closed, masses, _ = payload_closed_loops(design, mass_max, params, reference, n_times=n_times, n_masses=n_masses)
+    closed_chk, masses_chk, _ = payload_closed_loops(design, mass_max, params, reference, n_times=check_times,
+                                                     n_masses=check_masses)
+    return max_certified_rate(closed, masses, check=(closed_chk, masses_chk), rate_max=rate_max, tol=tol,
+                              solver=solver)
+
+
+
+def payload_switching_growth(
+    design: Design,
+    mass_max: float,
+    rate: float,
+    *,
+    phase: float,
+    hold_high: float,
+    hold_low: float,
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    n_ramp: int = 100,
+) -> float:
+    """Growth rate of the linearized closed loop under a periodic payload ramping at `rate`.
+
+    The evidence from the other side of :func:`payload_rate_certificate`: one period holds
+    m_p = M for `hold_high`, ramps down to 0 at ``−rate``, holds 0 for `hold_low`, and ramps
+    back up at ``+rate``, with the reference phase held at `phase` (the certificates let the
+    phase vary arbitrarily, so holding it is one admissible variation). The transition over
+    a period is exact for a piecewise-constant mass (each ramp is `n_ramp` steps held at their
+    midpoints), and the growth rate is ``log ρ(Φ(T)) / T`` (Floquet): positive means that
+    ‖x‖ grows without bound, so no certificate of any kind exists for that rate.
+
+    Parameters
+    ----------
+    design : Design
+        A design for the SCARA's 6-state error model.
+    mass_max : float
+        Peak payload M, kg (> 0).
+    rate : float
+        |ṁ_p| on the ramps, kg/s (> 0).
+    phase : float
+        Reference time held, s.
+    hold_high, hold_low : float
+        Time at M and at 0 in each period, s (>= 0).
+    params : ScaraParams, optional
+    reference : Reference, optional
+    n_ramp : int
+        Steps of each ramp (>= 1).
+
+    Returns
+    -------
+    float
+        Floquet growth rate, 1/s.
+    """
+    check_instance("design", design, Design, "a Design")
+    if design.K.shape != (2, 6):
+        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
+    mass_max = check_real("mass_max", mass_max, positive=True)
+    rate = check_real("rate", rate, positive=True)
+    phase = check_real("phase", phase)
+    hold_high = check_real("hold_high", hold_high, nonnegative=True)
+    hold_low = check_real("hold_low", hold_low, nonnegative=True)
+    n_ramp = check_int("n_ramp", n_ramp, 1)
+    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
+                               times=np.array([phase]), n_masses=2 * n_ramp + 1)
+    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)  # masses 0, M/2n, ..., M
+    step = scipy.linalg.expm(closed[1::2] * (mass_max / n_ramp / rate))  # midpoints, each held for one step
+    down = np.eye(6)
+    for E in step[::-1]:
+        down = E @ down
+    up = np.eye(6)
+    for E in step:
+        up = E @ up
+    period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
+    duration = hold_high + hold_low + 2 * mass_max / rate
+    return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)
