@@ -54,6 +54,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
+    peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
     payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
