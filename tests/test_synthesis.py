@@ -3,9 +3,9 @@
 from pathlib import Path
 
 import control as ct
-import scipy.linalg
 import numpy as np
 import pytest
+import scipy.linalg
 
 import scara_robust as sr
 
