@@ -79,6 +79,8 @@ Plotting (:mod:`scara_robust.plotting`)
 
 from .exceptions import *  # noqa: F403
 from .exceptions import __all__ as _exceptions
+from .export import *  # noqa: F403
+from .export import __all__ as _export
 from .io import *  # noqa: F403
 from .io import __all__ as _io
 from .lyapunov import *  # noqa: F403
@@ -104,6 +106,7 @@ __all__ = [
     *_robustness,
     *_simulation,
     *_io,
+    *_export,
     *_studies,
     *_plotting,
 ]

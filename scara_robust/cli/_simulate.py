@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> str:
     if args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
     setup = resolve_setup(args)
-    K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K if args.controller == "pid" else None
+    pid_like = args.controller in ("pid", "pid-sampled")
+    K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K if pid_like else None
     initial = setup.initial or SCENARIOS["large"]
     res = run_scenario(
         args.controller,
