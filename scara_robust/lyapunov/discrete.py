@@ -270,7 +270,10 @@ class DiscretePID:
             _, b = self.filter_coefficients
             xf = self.K_D @ ed - b @ e  # so that D_0 = x_f + b e0 = K_D ė0
             rest = xf
-        w = np.zeros(m) if u0 is None else np.broadcast_to(check_array("u0", u0), (m,)) - D[:, :p] @ e - rest
+        if u0 is None:  # the integral term c K_I e0 + w0 starts at 0: the paper's ∫e(0) = 0
+            w = -(D[:, :p] - (self.K_P + (0.0 if self.derivative == "measured" else self.filter_coefficients[1]))) @ e
+        else:
+            w = np.broadcast_to(check_array("u0", u0), (m,)) - D[:, :p] @ e - rest
         return np.concatenate([w, xf]).astype(float)
 
     def reset(self, e0: ArrayLike | None = None, edot0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
@@ -287,7 +290,10 @@ class DiscretePID:
         u0 : array_like, shape (m,), optional
             Torque applied before the switch, N·m: the integral term is set so that the
             first unsaturated output at ``e0, ė0`` equals it (bumpless transfer). Default:
-            integral term 0, the paper's ``∫e(0) = 0``.
+            integral term 0 at the first sample, the paper's ``∫e(0) = 0`` (with Tustin and
+            backward Euler, whose first sample already holds ``c K_I e0``, ``w`` starts at
+            ``−c K_I e0``). ``reset()`` without arguments is the zero state, the ``_init``
+            of the exported C code.
         """
         self.state = self.initial_state(e0, edot0, u0)
 
