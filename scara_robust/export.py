@@ -176,6 +176,7 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
         if measured
         else f"    for (j = 0; j < {p}; ++j) {{\n        y[j] = e[j];\n    }}\n"
     )
+    unused = "" if measured else "    (void)edot; /* not read: the derivative is a filtered difference of e */\n"
     n_y = 2 * p if measured else p
     consts = _matrix("A", A) + _matrix("B", B[:, :n_y]) + _matrix("C", C) + _matrix("D", D[:, :n_y])
     if limited:
@@ -204,7 +205,7 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
 {{
     double y[{n_y}], v[{m}], z[{nz}], acc{", x" if limited else ""};
     int i, j;
-{y_fill}{"    (void)edot; /* not read: the derivative is a filtered difference of e */" + chr(10) if not measured else ""}\
+{y_fill}{unused}\
     for (i = 0; i < {m}; ++i) {{
         acc = 0.0;
         for (j = 0; j < {nz}; ++j) acc += C[i][j] * s->z[j];

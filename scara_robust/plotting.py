@@ -539,10 +539,13 @@ def plot_anti_windup(study: AntiWindupStudy, torque_limit: float, *, t_torque: f
         the legend below the panels.
     """
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     keys = {
         "no limit": ("0.55", "-", "no limit"),
-        f"limit {torque_limit:g} N·m, no anti-windup": ("tab:red", "--", f"|Tc| ≤ {torque_limit:g} N·m, no anti-windup"),
+        f"limit {torque_limit:g} N·m, no anti-windup": (
+            "tab:red", "--", f"|Tc| ≤ {torque_limit:g} N·m, no anti-windup"
+        ),
         f"limit {torque_limit:g} N·m, anti-windup": ("tab:blue", "-", f"|Tc| ≤ {torque_limit:g} N·m, back-calculation"),
     }
     missing = [k for k in keys if k not in study.runs]
@@ -564,7 +567,8 @@ def plot_anti_windup(study: AntiWindupStudy, torque_limit: float, *, t_torque: f
         axes[0, j].set(xlabel="time t [s]", ylabel=f"error e{j + 1} [rad]", title=f"joint {j + 1}")
         axes[1, j].set(xlabel="time t [s]", ylabel=f"torque Tc{j + 1} [N·m]")
     handles = axes[0, 0].get_lines()[:3]
-    handles += [plt.Line2D([], [], color="k", lw=0.6, ls=":", label=f"±{study.band:g} rad band / ±{torque_limit:g} N·m")]
+    bands = f"±{study.band:g} rad band / ±{torque_limit:g} N·m"
+    handles += [Line2D([], [], color="k", lw=0.6, ls=":", label=bands)]
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(f"Sampled PID (Ts = {study.sample_time * 1e3:g} ms) under a torque limit "
                  "(the no-limit torque leaves the window at the start)", fontsize=10)

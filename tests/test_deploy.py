@@ -62,7 +62,8 @@ def test_simulation_runs_what_step_runs(design):
 def test_anti_windup_study_reduces_overshoot():
     study = sr.anti_windup_study([6.0], t_final=8.0)
     table = study.table
-    assert list(table["torque_limit"].fillna(0)) == [0.0, 6.0, 6.0] and list(table["anti_windup"]) == [None, False, True]
+    assert list(table["torque_limit"].fillna(0)) == [0.0, 6.0, 6.0]
+    assert list(table["anti_windup"]) == [None, False, True]
     off, on = table.iloc[1], table.iloc[2]
     assert on["overshoot_e1"] < off["overshoot_e1"] and on["overshoot_e2"] < off["overshoot_e2"]
     assert 0.1 < on["saturated_fraction"] < 1

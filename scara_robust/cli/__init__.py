@@ -1,4 +1,5 @@
-"""Command line: ``python -m scara_robust {design,surface,certify,margin,simulate,compare,campaign,campaign-report,export}``.
+"""Command line: ``python -m scara_robust COMMAND`` (design, surface, certify, margin, simulate, compare,
+campaign, campaign-report, export).
 
 The front end of the package: it imports the library and nothing in the library imports
 it. One private module per command, each with ``add_parser(sub)`` and ``run(args) -> str``.

@@ -7,6 +7,8 @@ import os
 import tempfile
 from typing import Any
 
+import numpy as np
+
 from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, _check_prefix, export_controller
 from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS
 from ..lyapunov.gain import design
@@ -98,6 +100,6 @@ def run(args: argparse.Namespace) -> str:
     if pid.torque_limit is not None:
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "
                      + ("off" if not pid.anti_windup else
-                        f"T_t = {[round(float(v), 4) for v in pid.tracking_time]} s"))
+                        f"T_t = {[round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]} s"))
     lines += [f"wrote {f}" for f in files]
     return "\n".join(lines)

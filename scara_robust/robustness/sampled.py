@@ -68,7 +68,9 @@ def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Arr
         A = check_array("model[0]", model[0], ndim=3)
         B = check_array("model[1]", model[1], ndim=3)
         if A.shape[0] != B.shape[0] or A.shape[1] != A.shape[2] or B.shape[1] != A.shape[1]:
-            raise ArgumentValueError("model", f"must be (A, B) of shapes (V, n, n), (V, n, m), found {A.shape}, {B.shape}")
+            raise ArgumentValueError(
+                "model", f"must be (A, B) of shapes (V, n, n), (V, n, m), found {A.shape}, {B.shape}"
+            )
         return A, B
     check_instance(
         "model", model, (UncertainLTVModel, PolytopicModel, PhysicalSamples),
@@ -210,7 +212,10 @@ class SampledCertificate:
                 f"V decreases at >= {self.rate:.4g} 1/s"
             )
         if not self.frozen_stable:
-            return f"Ts = {self.Ts:.4g} s: a frozen sampled loop is unstable (spectral radius {self.spectral_radius:.6g})"
+            return (
+                f"Ts = {self.Ts:.4g} s: a frozen sampled loop is unstable "
+                f"(spectral radius {self.spectral_radius:.6g})"
+            )
         if self.status == NOT_INSTALLED:
             return "cvxpy is not installed (pip install scara_robust[lmi]); frozen loops are Schur stable"
         return f"Ts = {self.Ts:.4g} s not certified: no verified common P ({self.status})"

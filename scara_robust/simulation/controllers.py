@@ -212,7 +212,7 @@ def sliding_mode_controller(
     return ct.NonlinearIOSystem(None, outfcn, inputs=_MEASURED, outputs=_TORQUES, name=name)
 
 
-class SampledPID(ct.NonlinearIOSystem):
+class SampledPID(ct.NonlinearIOSystem):  # type: ignore[misc]
     """A :class:`~scara_robust.DiscretePID` as a discrete-time python-control system (``dt = Ts``).
 
     Built by :func:`sampled_pid_controller`; ``initial_state(e0, edot0)`` gives its state
