@@ -98,8 +98,8 @@ def run(args: argparse.Namespace) -> str:
     lines = [f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g}), {source}, Ts = {pid.Ts:g} s, "
              f"integrator {pid.integrator}, derivative {pid.derivative}"]
     if pid.torque_limit is not None:
+        tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "
-                     + ("off" if not pid.anti_windup else
-                        f"T_t = {[round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]} s"))
+                     + ("off" if not pid.anti_windup else f"T_t = {tt} s"))
     lines += [f"wrote {f}" for f in files]
     return "\n".join(lines)
