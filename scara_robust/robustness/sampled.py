@@ -33,7 +33,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_instance, check_real
@@ -79,6 +78,25 @@ def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Arr
     return vertices_of(model)
 
 
+def _expm(X: Array) -> Array:
+    """``expm`` of a stack of matrices, shape (V, k, k): scaling and squaring with a degree-18 Taylor sum.
+
+    After scaling ``‖X‖₁ <= 1/2``, the remainder of the sum is below ``0.5^19/19! ≈ 2e-23``
+    relative, so the result is accurate to rounding; one batched matrix product per term
+    (``scipy.linalg.expm`` on a stack is ~100 times slower here).
+    """
+    norm = float(np.abs(X).sum(axis=-2).max(initial=0.0))
+    squarings = max(0, int(math.ceil(math.log2(norm / 0.5)))) if norm > 0.5 else 0
+    Y = X / 2.0**squarings
+    eye = np.broadcast_to(np.eye(X.shape[-1]), X.shape)
+    out = eye.copy()
+    for k in range(18, 0, -1):  # Horner: I + Y/1 (I + Y/2 (I + ...))
+        out = eye + (Y @ out) / k
+    for _ in range(squarings):
+        out = out @ out
+    return np.asarray(out, dtype=float)
+
+
 def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID) -> Array:
     """The sampled loops ``A_d,i`` of the discrete PID with each plant held by a zero-order hold.
 
@@ -116,7 +134,7 @@ def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID) -> Array:
     aug = np.zeros((V, n_p + m, n_p + m))
     aug[:, :n_p, :n_p] = F * pid.Ts
     aug[:, :n_p, n_p:] = G * pid.Ts
-    E = scipy.linalg.expm(aug)
+    E = _expm(aug)
     Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
     Ac, Bc, Cc, Dc = pid.matrices()
     n_z = Ac.shape[0]
