@@ -123,8 +123,8 @@ class DiscretePID:
     >>> import scara_robust as sr
     >>> pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=50)
     >>> pid.reset(e0=[0.1, 0.0])
-    >>> [round(u, 2) for u in pid.step([0.1, 0.0], [0.0, 0.0])]
-    [29.38, -1.48]
+    >>> print(pid.step([0.1, 0.0], [0.0, 0.0]).round(2))
+    [29.37 -1.48]
     """
 
     Ts: float
