@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import subprocess
@@ -154,3 +155,20 @@ def test_failed_export_leaves_nothing(design, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ValueError, match=r"`prefix` must be a C identifier"):
         sr.export_controller(design.discretize(1e-3), tmp_path, prefix="scara-pid")
+
+
+def test_compare_and_campaigns_run_the_sampled_pid(monkeypatch):
+    table = sr.compare_controllers(["pid-sampled"], ["small"], t_final=6.5)
+    assert list(table["status"]) == ["tracking"]
+    spec = sr.spec_from_dict({"controllers": ["pid-sampled"], "t_final": 6.5, "runs": 1, "rho": 2.0, "eta": 50.0})
+    gains = []
+    real = sr.simulation.controllers._sampled_pid_factory
+
+    def spy(**kw):
+        gains.append(kw.get("K"))
+        return real(**kw)
+
+    monkeypatch.setitem(sr.CONTROLLERS, "pid-sampled", dataclasses.replace(sr.CONTROLLERS["pid-sampled"], build=spy))
+    (row,) = sr.run_draw(spec, sr.draw_scenario(spec, 1, 0))
+    assert row["controller"] == "pid-sampled" and row["status"] == "tracking"
+    np.testing.assert_allclose(gains[0], sr.design(sr.paper_model(), 2.0, 50.0).K)  # the spec's (rho, eta)
