@@ -104,7 +104,7 @@ def anti_windup_study(
     *,
     scenario: str = "large",
     sample_time: float = 1e-3,
-    design_: Design | None = None,
+    pid_design: Design | None = None,
     band: float = TRACKING_TOLERANCE,
     t_final: float = PAPER_T_FINAL,
 ) -> AntiWindupStudy:
@@ -117,7 +117,7 @@ def anti_windup_study(
     scenario : {'large', 'small'}
     sample_time : float
         s (> 0).
-    design_ : Design, optional
+    pid_design : Design, optional
         Default: (ρ, η) = (3, 90) on the published model.
     band : float
         Settling band on max |e|, rad (default 0.05, the tracking tolerance).
@@ -138,8 +138,8 @@ def anti_windup_study(
     limits = check_array("torque_limits", torque_limits, ndim=1)
     if limits.size == 0 or np.any(limits <= 0):
         raise ArgumentValueError("torque_limits", f"must be one or more limits > 0 N·m, found {limits.tolist()}")
-    d = design_ if design_ is not None else design(paper_model(), *PAPER_DESIGN_POINT)
-    check_instance("design_", d, Design, "a Design")
+    d = pid_design if pid_design is not None else design(paper_model(), *PAPER_DESIGN_POINT)
+    check_instance("pid_design", d, Design, "a Design")
     band = check_real("band", band, positive=True)
     cases: list[tuple[str, float | None, bool | None]] = [("no limit", None, None)]
     for lim in limits:
