@@ -36,7 +36,8 @@ notebooks: $(STAMP)
 # The README's figures, regenerated from the notebooks.
 docs-figures: notebooks
 	mkdir -p docs
-	cp notebooks/figures/figure2_surface_published_all.png notebooks/figures/figure3_pid_large_ic.png docs/
+	cp notebooks/figures/figure2_surface_published_all.png notebooks/figures/figure3_pid_large_ic.png \
+	   notebooks/figures/anti_windup.png docs/
 
 clean:
 	rm -rf $(VENV) .pytest_cache benchmark.json

@@ -45,7 +45,7 @@ def test_simulation_pid_20s(benchmark, method):
 def test_compare(benchmark):
     benchmark.group = "compare: 4 controllers x 2 scenarios, 20 s"
     table = benchmark.pedantic(sr.compare_controllers, rounds=2)
-    assert (table["status"] == "tracking").all() and len(table) == 2 * len(sr.CONTROLLERS)
+    assert (table["status"] == "tracking").all() and len(table) == 2 * len(sr.COMPARED_CONTROLLERS)
 
 
 def _grid50():

@@ -5,7 +5,7 @@ subpackage that defines it; each subpackage's ``__all__`` is the one source of t
 The layers, bottom to top (each imports only those before it)::
 
     paper, exceptions  ->  model  ->  lyapunov  ->  robustness | simulation
-                       ->  io  ->  studies  ->  plotting  ->  cli (front end)
+                       ->  io  ->  export  ->  studies  ->  plotting  ->  cli (front end)
 
 The paper's numbers (:mod:`scara_robust.paper`)
     PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS -- (ρ*, η*) and K as printed in Section 4
@@ -36,6 +36,8 @@ Model (:mod:`scara_robust.model`)
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
+    DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
+    default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
     theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
     affine_margin, theorem1_scaling -- Z(θ) = Z₀ + θZ₁ for the box scaled by θ, and its exact margin
@@ -59,10 +61,14 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
     payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
+    sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P
+    discrete_lyapunov_check         -- numpy's check of A_iᵀPA_i − P ≺ 0
+    max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
+    sampled_pid_controller, SampledPID -- a DiscretePID on the robot, zero-order hold (``pid-sampled``)
     ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
     ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
     simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
@@ -73,20 +79,27 @@ Files (:mod:`scara_robust.io`)
     load_model, MODEL_FORMS         -- your plant's file: an interval model or a polytope
     write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
     write_design, load_design, design_record, DesignFile, DESIGN_FORMAT -- design files (``synthesize --output``)
+Export (:mod:`scara_robust.export`)
+    export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
 Studies (:mod:`scara_robust.studies`)
-    compare_controllers, COMPARISON_COLUMNS -- the PID vs sliding-mode table (``compare`` command)
+    compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
     campaign_report                 -- per-controller statistics
+    anti_windup_study, AntiWindupStudy, ANTI_WINDUP_COLUMNS -- the sampled PID under a torque limit, anti-windup on/off
+    overshoot, settling_time        -- transient measures of an error history
 Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, plot_comparison, SIGNALS
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design
+    plot_anti_windup                -- errors and torques under a torque limit, with and without anti-windup
 """
 
 from .exceptions import *  # noqa: F403
 from .exceptions import __all__ as _exceptions
+from .export import *  # noqa: F403
+from .export import __all__ as _export
 from .io import *  # noqa: F403
 from .io import __all__ as _io
 from .lyapunov import *  # noqa: F403
@@ -112,6 +125,7 @@ __all__ = [
     *_robustness,
     *_simulation,
     *_io,
+    *_export,
     *_studies,
     *_plotting,
 ]

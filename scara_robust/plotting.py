@@ -20,6 +20,7 @@ from .paper import PAPER_TRANSIENT
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
     from .simulation.run import SimulationResult
+    from .studies.antiwindup import AntiWindupStudy
 
 __all__ = [
     "plot_surface",
@@ -30,6 +31,7 @@ __all__ = [
     "plot_comparison",
     "plot_margin_map",
     "plot_margin_bracket",
+    "plot_anti_windup",
     "SIGNALS",
 ]
 
@@ -737,3 +739,57 @@ def plot_margin_bracket(tables: dict[str, Any], ax: Any = None) -> Any:
     ax.set_title("Robustness margins: lower bounds (black), upper bounds (red)", fontsize=10)
     return ax
 
+
+def plot_anti_windup(study: AntiWindupStudy, torque_limit: float, *, t_torque: float = 2.0) -> Any:
+    """Errors and torques of the sampled PID at one torque limit, with and without anti-windup.
+
+    Parameters
+    ----------
+    study : AntiWindupStudy
+        From :func:`scara_robust.anti_windup_study`.
+    torque_limit : float
+        One of the study's limits, N·m.
+    t_torque : float
+        The torque panels show ``[0, t_torque]`` s, where the limit is active.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Top: e1, e2 [rad] over the run, with the settling band; bottom: Tc1, Tc2 [N·m];
+        the legend below the panels.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    keys = {
+        "no limit": ("0.55", "-", "no limit"),
+        f"limit {torque_limit:g} N·m, no anti-windup": (
+            "tab:red", "--", f"|Tc| ≤ {torque_limit:g} N·m, no anti-windup"
+        ),
+        f"limit {torque_limit:g} N·m, anti-windup": ("tab:blue", "-", f"|Tc| ≤ {torque_limit:g} N·m, back-calculation"),
+    }
+    missing = [k for k in keys if k not in study.runs]
+    if missing:
+        raise ArgumentValueError("torque_limit", f"must be a limit of the study, found {torque_limit:g} N·m")
+    t_torque = check_real("t_torque", t_torque, positive=True)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), constrained_layout=True)
+    for key, (color, style, label) in keys.items():
+        res = study.runs[key]
+        for j in range(2):
+            axes[0, j].plot(res.t, res.e[j], color=color, ls=style, lw=1.2, label=label)
+            window = res.t <= t_torque
+            axes[1, j].plot(res.t[window], res.torque[j, window], color=color, ls=style, lw=1.0, label=label)
+    for j in range(2):
+        for sign in (1, -1):
+            axes[0, j].axhline(sign * study.band, color="k", lw=0.6, ls=":")
+            axes[1, j].axhline(sign * torque_limit, color="k", lw=0.6, ls=":")
+        axes[1, j].set_ylim(-2.5 * torque_limit, 2.5 * torque_limit)
+        axes[0, j].set(xlabel="time t [s]", ylabel=f"error e{j + 1} [rad]", title=f"joint {j + 1}")
+        axes[1, j].set(xlabel="time t [s]", ylabel=f"torque Tc{j + 1} [N·m]")
+    handles = axes[0, 0].get_lines()[:3]
+    bands = f"±{study.band:g} rad band / ±{torque_limit:g} N·m"
+    handles += [Line2D([], [], color="k", lw=0.6, ls=":", label=bands)]
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle(f"Sampled PID (Ts = {study.sample_time * 1e3:g} ms) under a torque limit "
+                 "(the no-limit torque leaves the window at the start)", fontsize=10)
+    return fig

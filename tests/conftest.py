@@ -56,6 +56,14 @@ def paper_design(paper):
     return sr.design(paper, 3.0, 90.0)
 
 
+@pytest.fixture(scope="session")
+def paper_sample_time(paper_design):
+    """max_sample_time of (3, 90) on the robot's sampled (A, B): 61 times x 5 masses, verified on 181 x 11."""
+    samples = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 61), n_masses=5)
+    check = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 181), n_masses=11)
+    return sr.max_sample_time(samples, paper_design, check=check, rtol=1e-2)
+
+
 def random_model(seed: int, n: int = 4, m: int = 2, n_elements: int = 4) -> sr.UncertainLTVModel:
     """A random stabilizable interval model with elements in A and B."""
     rng = np.random.default_rng(seed)

@@ -26,6 +26,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.lyapunov",),
     ("scara_robust.robustness", "scara_robust.simulation"),
     ("scara_robust.io",),
+    ("scara_robust.export",),
     ("scara_robust.studies",),
     ("scara_robust.plotting",),
     ("scara_robust",),  # the package's __init__: re-exports the library

@@ -81,6 +81,18 @@ API_CASES = [
     ("metrics-short", lambda: sr.tracking_metrics(np.linspace(0, 1, 5), np.zeros((2, 5)), np.zeros((2, 5))),
      ValueError, r"`t`"),
     ("compare-controller", lambda: sr.compare_controllers(["pid", "lqr"], t_final=7.0), ValueError, r"`controller`"),
+    # discrete PID, sampled-data certificate, export
+    ("discretize-ts-zero", lambda: DESIGN.discretize(0.0), ValueError, r"`Ts` must be > 0"),
+    ("discretize-tt-zero", lambda: DESIGN.discretize(1e-3, tracking_time=0.0), ValueError,
+     r"`tracking_time` must be > 0"),
+    ("discretize-limit-zero", lambda: DESIGN.discretize(1e-3, torque_limit=0.0), ValueError,
+     r"`torque_limit` must be > 0"),
+    ("pid-step-shape", lambda: DESIGN.discretize(1e-3).step([0.1], [0.0]), ValueError, r"`e` must have shape"),
+    ("pid-step-edot", lambda: DESIGN.discretize(1e-3).step([0.1, 0.0]), ValueError, r"`edot` is required"),
+    ("max-ts-rtol", lambda: sr.max_sample_time(PAPER, DESIGN, rtol=0.0), ValueError, r"`rtol` must be > 0"),
+    ("export-format", lambda: sr.export_controller(DESIGN.discretize(1e-3), ".", format="rust"), ValueError,
+     r"`format` must be one of"),
+    ("sampled-pid-type", lambda: sr.sampled_pid_controller(DESIGN), ValueError, r"`pid` must be a DiscretePID"),
     # reproduction, plotting, campaigns
     ("reproduction-type", lambda: sr.reproduction_table([1, 2]), TypeError, r"`comparison`"),
     ("plot-signals-empty", lambda: sr.plot_signals([]), ValueError, r"`results`"),
@@ -121,6 +133,7 @@ def _cli_cases(tmp):
     foreign = tmp / "foreign.json"
     foreign.write_text('{"K": [[1.0]]}')
     design = ["design", "--rho", "3", "--eta", "90"]
+    export = ["export", "--rho", "3", "--eta", "90"]
     return [
         ("design-rho-negative", ["design", "--rho=-3", "--eta", "90"], "`--rho`"),
         ("design-eta-huge", ["design", "--rho", "3", "--eta", "1e15"], "Lyapunov equation"),
@@ -178,6 +191,16 @@ def _cli_cases(tmp):
         ("design-file-controller", ["simulate", "--controller", "smc", "--design",
                                     str(EXAMPLES.parent / "scara_robust" / "data" / "pid_lmi.json")],
          "it goes with --controller pid"),
+        ("export-ts-zero", [*export, "--ts", "0", "--output", str(tmp)], "`--ts` must be > 0"),
+        ("export-ts-negative", [*export, "--ts=-0.001", "--output", str(tmp)], "`--ts` must be > 0"),
+        ("export-tt-zero", [*export, "--ts", "0.001", "--torque-limit", "50", "--tracking-time", "0",
+                            "--output", str(tmp)], "`--tracking-time` must be > 0 s"),
+        ("export-limit-zero", [*export, "--ts", "0.001", "--torque-limit", "50,0", "--output", str(tmp)],
+         "`--torque-limit` must be > 0 N·m"),
+        ("export-unwritable", [*export, "--ts", "0.001", "--output", "/proc"], "`--output` '/proc': the folder is not"),
+        ("export-missing-folder", [*export, "--ts", "0.001", "--output", str(tmp / "no")], "no such folder"),
+        ("export-prefix", [*export, "--ts", "0.001", "--prefix", "scara-pid", "--output", str(tmp)],
+         "`--prefix` must be a C identifier"),
     ]
 
 
@@ -199,7 +222,8 @@ CLI_NAMES = [
     "report-not-a-table", "simulate-output-folder", "design-scenario", "design-scenario-file",
     "certify-named-scenario", "typo", "campaign-empty-spec", "synthesize-gain-bound", "synthesize-decay",
     "synthesize-output-ext", "synthesize-margin-physical", "synthesize-physical-model", "design-file-shape",
-    "design-file-format", "design-file-controller",
+    "design-file-format", "design-file-controller", "export-ts-zero", "export-ts-negative", "export-tt-zero",
+    "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix",
 ]
 
 

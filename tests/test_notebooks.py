@@ -29,6 +29,7 @@ NOTEBOOKS = {
     "comparison.ipynb": ["comparison_metrics.png"],
     "your_own_plant.ipynb": ["own_plant_margin_map.png"],
     "robustness_margins.ipynb": ["margin_bracket.png", "margin_map_published.png"],
+    "deployment.ipynb": ["anti_windup.png"],
 }
 
 
@@ -37,6 +38,7 @@ NOTEBOOKS = {
 QUICK = {
     "robustness_margins.ipynb": "N_RHO, N_ETA = 12, 12\nTOL = 0.3",
     "your_own_plant.ipynb": "N_GRID = 12",
+    "deployment.ipynb": "LIMITS = [6.0]\nT_FINAL = 7.0\nN_TIMES, N_MASSES = 31, 3",
 }
 
 

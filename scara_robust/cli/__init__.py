@@ -1,4 +1,5 @@
-"""Command line: ``python -m scara_robust {design,surface,certify,margin,simulate,compare,campaign,campaign-report}``.
+"""Command line: ``python -m scara_robust COMMAND`` (design, surface, certify, margin, simulate, compare,
+campaign, campaign-report, export).
 
 The front end of the package: it imports the library and nothing in the library imports
 it. One private module per command, each with ``add_parser(sub)`` and ``run(args) -> str``.
@@ -16,13 +17,13 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
-from . import _campaign, _certify, _compare, _design, _margin, _report, _simulate, _surface, _synthesize
+from . import _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
 from ._common import CommandLineError, Parser, check_outputs, emit, error_message
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
 #: The commands, in the order ``--help`` lists them.
-_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report)
+_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report, _export)
 
 _EXAMPLES = """examples:
   python -m scara_robust design --rho 3 --eta 90
@@ -33,6 +34,7 @@ _EXAMPLES = """examples:
   python -m scara_robust compare --format markdown
   python -m scara_robust campaign examples/campaign.toml --runs 20 --output results.csv
   python -m scara_robust campaign-report results.csv --plot report.png
+  python -m scara_robust export --rho 3 --eta 90 --ts 0.001 --torque-limit 50 --output .
 
 Every command takes --help. Bad input: one line on stderr, exit code 2."""
 

@@ -73,6 +73,12 @@ OPTION_NAMES: dict[str, str] = {
     "path": "RESULTS",
     "falsifier_tries": "--tries",
     "tol": "--tol",
+    "Ts": "--ts",
+    "N": "--filter-n",
+    "tracking_time": "--tracking-time",
+    "integrator": "--integrator",
+    "derivative": "--derivative",
+    "prefix": "--prefix",
 }
 
 

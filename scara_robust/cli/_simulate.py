@@ -96,12 +96,15 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
     setup = resolve_setup(args)
     loaded = resolve_design(args)
-    if loaded is not None and args.controller != "pid":
-        raise CommandLineError(f"`--design` is a PID gain; it goes with --controller pid, found {args.controller!r}")
+    pid_like = args.controller in ("pid", "pid-sampled")
+    if loaded is not None and not pid_like:
+        raise CommandLineError(
+            f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {args.controller!r}"
+        )
     K: np.ndarray | None = None
     if loaded is not None:
         K = loaded.K
-    elif args.controller == "pid":
+    elif pid_like:
         K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
     initial = setup.initial or SCENARIOS["large"]
     res = run_scenario(

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -17,6 +18,7 @@ from .._validation import check_array, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
+from .discrete import DiscretePID
 
 __all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
 
@@ -112,6 +114,60 @@ class Design:
             states=[f"int_e[{i}]" for i in range(p)],
             outputs=outputs,
             name="pid",
+        )
+
+    def discretize(
+        self,
+        Ts: float,
+        *,
+        integrator: str = "tustin",
+        derivative: str = "measured",
+        N: float = 100.0,
+        torque_limit: Any = None,
+        tracking_time: Any = None,
+        anti_windup: bool = True,
+    ) -> DiscretePID:
+        """The PID as a sampled controller, ready to run on a controller board.
+
+        Parameters
+        ----------
+        Ts : float
+            Sample time, s (> 0).
+        integrator : {'tustin', 'forward', 'backward'}
+            Discretization of ``∫e``.
+        derivative : {'measured', 'filtered'}
+            ``K_D ė`` with ė measured, or a filtered difference of e (no q̇ needed).
+        N : float
+            Derivative filter bandwidth, 1/s (> 0), for ``derivative='filtered'``.
+        torque_limit : None, float or array_like of shape (m,)
+            Per-torque limit, N·m (> 0).
+        tracking_time : None, float or array_like of shape (m,)
+            Back-calculation time constant, s (>= Ts); default ``sqrt(T_i T_d)`` per torque.
+        anti_windup : bool
+            Back-calculation on (default) or off.
+
+        Returns
+        -------
+        DiscretePID
+            ``reset(...)``, ``step(e, edot) -> u``; ``to_statespace()`` gives its linear
+            part as a python-control system with ``dt = Ts``.
+
+        Raises
+        ------
+        ArgumentValueError
+            If the design is not in the PID form, or for a bad option.
+
+        Examples
+        --------
+        >>> import scara_robust as sr
+        >>> pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3)
+        >>> pid.to_statespace().dt
+        0.001
+        """
+        K_I, K_P, K_D = self.pid_matrices()
+        return DiscretePID(
+            Ts, K_I, K_P, K_D, integrator=integrator, derivative=derivative, N=N,
+            torque_limit=torque_limit, tracking_time=tracking_time, anti_windup=anti_windup,
         )
 
     def closed_loop(self, A: ArrayLike, B: ArrayLike) -> ct.StateSpace:

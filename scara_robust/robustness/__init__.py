@@ -15,9 +15,11 @@ from .pdl import *  # noqa: F403
 from .pdl import __all__ as _pdl
 from .polytope import *  # noqa: F403
 from .polytope import __all__ as _polytope
+from .sampled import *  # noqa: F403
+from .sampled import __all__ as _sampled
 from .synthesis import *  # noqa: F403
 from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled]

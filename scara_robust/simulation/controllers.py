@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
+from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import design
 from ..model.robot import ScaraParams, dynamics_terms
 from ..model.signals import Reference, paper_reference
@@ -39,6 +40,8 @@ __all__ = [
     "check_torque_limit",
     "pid_lmi_gain",
     "PID_LMI_FILE",
+    "SampledPID",
+    "sampled_pid_controller",
 ]
 
 Array = NDArray[np.float64]
@@ -215,6 +218,98 @@ def sliding_mode_controller(
     return ct.NonlinearIOSystem(None, outfcn, inputs=_MEASURED, outputs=_TORQUES, name=name)
 
 
+class SampledPID(ct.NonlinearIOSystem):  # type: ignore[misc]
+    """A :class:`~scara_robust.DiscretePID` as a discrete-time python-control system (``dt = Ts``).
+
+    Built by :func:`sampled_pid_controller`; ``initial_state(e0, edot0)`` gives its state
+    for a bumpless start at the initial error (the engines call it).
+    """
+
+    pid: DiscretePID
+
+    def initial_state(self, e0: ArrayLike, edot0: ArrayLike) -> Array:
+        """State ``z`` for a bumpless start at ``e0`` (rad), ``ė0`` (rad/s); shape (n_z,)."""
+        return self.pid.initial_state(e0, edot0 if self.pid.derivative == "filtered" else None)
+
+
+def sampled_pid_controller(
+    pid: DiscretePID,
+    reference: Reference | None = None,
+    *,
+    name: str = "pid-sampled",
+) -> SampledPID:
+    """The sampled PID on the robot: ``e_k = r(t_k) − q(t_k)``, ``u_k`` held for one period.
+
+    Parameters
+    ----------
+    pid : DiscretePID
+        From :meth:`scara_robust.Design.discretize` (2 joints); its limit and anti-windup
+        apply.
+    reference : Reference, optional
+        Default: the paper's ``sin t, cos t``.
+    name : str
+
+    Returns
+    -------
+    SampledPID
+        Discrete-time (``dt = pid.Ts``); states ``z`` of the PID (N·m); inputs ``q1, q2,
+        q1_dot, q2_dot``; outputs ``Tc1, Tc2``. ``updfcn(t, z, u, params)`` returns
+        ``z_{k+1}``, ``outfcn(t, z, u, params)`` the saturated torque ``u_k``, both calling
+        the PID's own :meth:`~scara_robust.DiscretePID.output` and ``update``, so a
+        simulation runs exactly what :meth:`~scara_robust.DiscretePID.step` runs.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3)
+    >>> sr.sampled_pid_controller(pid).dt
+    0.001
+    """
+    if not isinstance(pid, DiscretePID) or pid.n_joints != 2 or pid.n_torques != 2:
+        raise ArgumentValueError("pid", "must be a DiscretePID of a 2-joint design (Design.discretize)")
+    ref = reference or paper_reference()
+
+    def measured(t: float, u: Array) -> list[float]:
+        e = np.asarray(ref.position(t), dtype=float) - u[:2]
+        ed = np.asarray(ref.velocity(t), dtype=float) - u[2:4]
+        return [float(e[0]), float(e[1]), float(ed[0]), float(ed[1])]
+
+    def updfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        z, y = [float(v) for v in x], measured(t, u)
+        out, v = pid.output(z, y)
+        return np.array(pid.update(z, y, out, v), dtype=float)
+
+    def outfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        return np.array(pid.output([float(v) for v in x], measured(t, u))[0], dtype=float)
+
+    n_z = len(pid.state)
+    sys = SampledPID(
+        updfcn, outfcn, inputs=_MEASURED, outputs=_TORQUES, dt=pid.Ts,
+        states=[f"z{i + 1}" for i in range(n_z)], name=name,
+    )
+    sys.pid = pid
+    return sys
+
+
+def _sampled_pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
+    K = kw.get("K")
+    Ts = kw.get("sample_time", SAMPLED_PID_TS)
+    if K is None:
+        rho, eta = kw.get("rho", PAPER_DESIGN_POINT[0]), kw.get("eta", PAPER_DESIGN_POINT[1])
+        K = design(paper_model(), rho, eta).K
+    K = check_array("K", K, shape=(2, 6))
+    pid = DiscretePID(
+        Ts, -K[:, :2], -K[:, 2:4], -K[:, 4:], torque_limit=kw.get("torque_limit"),
+        anti_windup=kw.get("anti_windup", True),
+    )
+    return sampled_pid_controller(pid, kw.get("reference"))
+
+
+#: Sample time of the registry's ``pid-sampled`` (s): 1 kHz, a common servo rate, below the
+#: certified limit of the paper's design (``scara_robust.max_sample_time``).
+SAMPLED_PID_TS = 1e-3
+
+
 def _pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
     K = kw.get("K")
     if K is None:
@@ -287,7 +382,9 @@ class ControllerKind:
 #: unless ``K`` or ``rho``/``eta`` are given), ``pid-lmi`` (the gain synthesized with its
 #: certificate, :func:`pid_lmi_gain`), ``smc`` (boundary layer, continuous) and
 #: ``smc-sign`` (discontinuous, sampled at 1 kHz: an adaptive integrator would crawl on
-#: its switching surface, and a real controller is sampled anyway).
+#: its switching surface, and a real controller is sampled anyway) and ``pid-sampled``
+#: (the PID's :class:`~scara_robust.DiscretePID` at 1 kHz, with back-calculation
+#: anti-windup when a torque limit is given).
 CONTROLLERS: dict[str, ControllerKind] = {
     kind.name: kind
     for kind in (
@@ -295,6 +392,10 @@ CONTROLLERS: dict[str, ControllerKind] = {
         ControllerKind("pid-lmi", _pid_lmi_factory, None, "PID with a gain synthesized with its certificate (LMI)"),
         ControllerKind("smc", _smc_factory("boundary"), None, "sliding mode, boundary layer"),
         ControllerKind("smc-sign", _smc_factory("sign"), 1e-3, "sliding mode, sign switching, sampled at 1 kHz"),
+        ControllerKind(
+            "pid-sampled", _sampled_pid_factory, SAMPLED_PID_TS,
+            "PID of the paper, discrete (Tustin), sampled at 1 kHz, anti-windup when limited",
+        ),
     )
 }
 
@@ -307,10 +408,10 @@ def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
 
     Parameters
     ----------
-    name : {'pid', 'pid-lmi', 'smc', 'smc-sign'}
+    name : {'pid', 'pid-lmi', 'smc', 'smc-sign', 'pid-sampled'}
     **options
-        ``K`` or ``rho``/``eta`` (pid), ``params`` and ``gains`` (smc), ``reference``,
-        ``torque_limit``.
+        ``K`` or ``rho``/``eta`` (pid, pid-sampled), ``params`` and ``gains`` (smc),
+        ``reference``, ``torque_limit``; ``sample_time`` and ``anti_windup`` (pid-sampled).
 
     Returns
     -------

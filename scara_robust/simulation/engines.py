@@ -16,8 +16,9 @@ name            algorithm                                                       
                 ``control.input_output_response`` (RK45): the reference path
 ``rk4``         classical RK4 with a fixed step, one step per segment; with a      sampled or
                 sampled controller the step is its sample time and its output is   continuous
-                held over the step (zero-order hold), the disturbance is taken at
-                the step's midpoint
+                held over the step (zero-order hold), a discrete-time
+                controller's state jumps once per step, the disturbance is taken
+                at the step's midpoint
 ==============  ================================================================  ==========
 """
 
@@ -210,6 +211,11 @@ class RK4Engine(Engine):
             k2 = rhs(a + h / 2, x + h / 2 * k1, tc, td)
             k3 = rhs(a + h / 2, x + h / 2 * k2, tc, td)
             k4 = rhs(b, x + h * k3, tc, td)
+            x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            if loop.discrete:
+                # the controller's state jumps with the sample taken at `a`, as its output did
+                x_next[4:] = loop.jump(a, x)
+            return x_next[:, None], ""
         else:
             k1 = rhs(a, x, torque(a, x), td)
             x2 = x + h / 2 * k1

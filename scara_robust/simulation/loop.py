@@ -100,6 +100,11 @@ class ClosedLoop:
     sample_time: float | None = None
 
     @property
+    def discrete(self) -> bool:
+        """True when the controller is a discrete-time system: its states jump once per sample."""
+        return bool(self.controller.isdtime(strict=True))
+
+    @property
     def n_states(self) -> int:
         """Plant (4) plus controller states."""
         return 4 + int(self.controller.nstates)
@@ -132,12 +137,13 @@ class ClosedLoop:
 
         A state whose plant part left :data:`STATE_LIMIT` is frozen (ẋ = 0), as
         :func:`~scara_robust.scara_plant` does, so an integrator never crawls on a
-        diverging run.
+        diverging run. A discrete-time controller's states have zero derivative here:
+        they change only at the samples (:meth:`jump`).
         """
         params, payload = self.params, self.payload
         upd = self.controller.updfcn
         cparams = dict(self.controller.params)
-        n_c = int(self.controller.nstates)
+        n_c = 0 if self.discrete else int(self.controller.nstates)
 
         def rhs(t: float, x: Array, tc: Array, td: Array) -> Array:
             if not np.abs(x[:4]).max() <= STATE_LIMIT:
@@ -147,9 +153,26 @@ class ClosedLoop:
             dx[2:4] = forward_dynamics_scalar(params, x, tc[0] + td[0], tc[1] + td[1], float(payload(t)))
             if n_c:
                 dx[4:] = upd(t, x[4:], x[:4], cparams)
+            else:
+                dx[4:] = 0.0
             return dx
 
         return rhs
+
+    def jump(self, t: float, x: Array) -> Array:
+        """A discrete-time controller's next state, from the loop state `x` sampled at `t`.
+
+        Parameters
+        ----------
+        t : float
+            Sample time instant, s.
+        x : ndarray, shape (n_states,)
+
+        Returns
+        -------
+        ndarray, shape (n_states - 4,)
+        """
+        return np.asarray(self.controller.updfcn(t, x[4:], x[:4], dict(self.controller.params)), dtype=float)
 
     def outputs(self, t: Array, X: Array) -> Array:
         """Outputs :data:`OUTPUT_LABELS` at times `t` (k,) for states `X` (n_states, k); shape (8, k)."""

@@ -288,8 +288,9 @@ def simulate(
     sample_time : float, optional
         Run the controller sampled with this period (s, > 0) and a zero-order hold,
         integrated by ``'rk4'`` with that step (the output grid is then the sample
-        grid). Default: the registry's sample time for a named controller, none for a
-        system.
+        grid). Default: the registry's sample time for a named controller, the `dt` of
+        a discrete-time system (e.g. :func:`scara_robust.sampled_pid_controller`), none
+        for a continuous one.
     t_transient : float
         End of the transient, s (>= 0): metrics and status look at ``t >= t_transient``.
     tracking_tolerance : float
@@ -313,8 +314,20 @@ def simulate(
         name = check_choice("controller", controller, tuple(CONTROLLERS))
         if sample_time is None:
             sample_time = CONTROLLERS[name].sample_time
-        controller = make_controller(name, params=params, reference=reference)
+        options: dict[str, Any] = {"params": params, "reference": reference}
+        if name == "pid-sampled":
+            options["sample_time"] = sample_time
+        controller = make_controller(name, **options)
     check_instance("controller", controller, ct.NonlinearIOSystem, "a name or a control.NonlinearIOSystem")
+    if controller.isdtime(strict=True):
+        dt_c = float(controller.dt) if controller.dt is not True else None
+        if dt_c is None:
+            raise ArgumentValueError("controller", "is discrete-time with an unspecified sample time (dt=True)")
+        if sample_time is not None and not np.isclose(check_real("sample_time", sample_time, positive=True), dt_c):
+            raise ArgumentValueError(
+                "sample_time", f"must be the discrete-time controller's dt = {dt_c:g} s, found {sample_time}"
+            )
+        sample_time = dt_c
     if isinstance(scenario, str):
         scenario = SCENARIOS[check_choice("scenario", scenario, tuple(SCENARIOS))]
     check_instance("scenario", scenario, Scenario, "a name or a Scenario")
@@ -337,7 +350,13 @@ def simulate(
         sample_time,
     )
     if x0 is None:
-        x_init = np.concatenate([scenario.initial_state(reference), np.zeros(int(controller.nstates))])
+        plant0 = scenario.initial_state(reference)
+        start = getattr(controller, "initial_state", None)
+        if callable(start):  # a sampled PID starts bumpless at the initial error
+            x_c0 = np.asarray(start(np.asarray(scenario.e0, dtype=float), np.asarray(scenario.edot0, dtype=float)))
+        else:
+            x_c0 = np.zeros(int(controller.nstates))
+        x_init = np.concatenate([plant0, x_c0])
     else:
         x_init = check_array("x0", x0, shape=(loop.n_states,))
     traj = integrate(
@@ -366,9 +385,9 @@ def run_scenario(
 
     Parameters
     ----------
-    controller : {'pid', 'pid-lmi', 'smc', 'smc-sign'}
-        A name from :data:`scara_robust.CONTROLLERS`; a sampled one (``smc-sign``, 1 ms)
-        runs with its sample time.
+    controller : {'pid', 'pid-lmi', 'smc', 'smc-sign', 'pid-sampled'}
+        A name from :data:`scara_robust.CONTROLLERS`; a sampled one (``smc-sign``,
+        ``pid-sampled``, 1 ms) runs with its sample time.
     scenario : Scenario or {'large', 'small'}
     payload_on : bool
         False sets ``m_p = 0`` (the setting of Figures 4-5).
@@ -395,7 +414,7 @@ def run_scenario(
     params = params or ScaraParams()
     reference = reference or paper_reference()
     options: dict[str, Any] = {"params": params, "reference": reference, "torque_limit": torque_limit}
-    if K is not None and name == "pid":
+    if K is not None and name in ("pid", "pid-sampled"):
         options["K"] = K
     ctrl = make_controller(name, **options)
     if payload_on:

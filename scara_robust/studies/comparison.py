@@ -21,18 +21,20 @@ from .._validation import check_array
 from ..exceptions import ArgumentValueError
 from ..model.initial import SCENARIOS, Scenario
 from ..paper import PAPER_T_FINAL
-from ..simulation.controllers import CONTROLLERS
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.run import run_scenario
 
-__all__ = ["compare_controllers", "COMPARISON_COLUMNS"]
+__all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS"]
+
+#: Controllers of the default comparison: the paper's PID, the synthesized PID, both sliding modes.
+COMPARED_CONTROLLERS = ("pid", "pid-lmi", "smc", "smc-sign")
 
 #: Columns of :func:`compare_controllers`' table.
 COMPARISON_COLUMNS = ("controller", "scenario", "payload", "success", "status", *METRIC_NAMES, "status_reason")
 
 
 def compare_controllers(
-    controllers: Sequence[str] = tuple(CONTROLLERS),
+    controllers: Sequence[str] = COMPARED_CONTROLLERS,
     scenarios: Sequence[str | Scenario] = tuple(SCENARIOS),
     *,
     payload_on: bool = True,
@@ -46,7 +48,9 @@ def compare_controllers(
     Parameters
     ----------
     controllers : sequence of str
-        Names from :data:`scara_robust.CONTROLLERS`.
+        Names from :data:`scara_robust.CONTROLLERS`; default :data:`COMPARED_CONTROLLERS`,
+        the paper's comparison (the continuous PID against the two sliding-mode laws) and
+        the synthesized PID (add ``'pid-sampled'`` for the deployable discrete PID).
     scenarios : sequence of str or Scenario
         Names from :data:`scara_robust.SCENARIOS`, or :class:`~scara_robust.Scenario`.
     payload_on : bool

@@ -70,7 +70,8 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     wave = SquareWave(draw["disturbance_amplitude"], draw["disturbance_period"], draw["disturbance_phase"])
     scenario = Scenario(f"mc-{draw['scenario']}", (draw["e1_0"], draw["e2_0"]), (0.0, 0.0))
     limit = None if math.isinf(draw["torque_limit"]) else draw["torque_limit"]
-    K = design(paper_model(), spec.rho, spec.eta).K if "pid" in spec.controllers else None
+    uses_gain = {"pid", "pid-sampled"} & set(spec.controllers)
+    K = design(paper_model(), spec.rho, spec.eta).K if uses_gain else None
     rows = []
     for name in spec.controllers:
         row: dict[str, Any] = dict(draw)

@@ -1,0 +1,356 @@
+"""The designed PID as a deployable discrete-time controller: sampled, saturated, anti-windup.
+
+:meth:`Design.discretize <scara_robust.Design.discretize>` returns a :class:`DiscretePID`
+running the law ``u = K_I ∫e + K_P e + K_D ė`` of the design (the same law as ``u = −Kx``)
+at the sample time ``Ts`` (s). With the state ``z = [w, x_f]``, ``w`` the integral term
+in torque units (N·m, shape (m,)) and ``x_f`` the derivative filter's state (N·m, shape
+(m,), present only with ``derivative='filtered'``), each sample ``k`` computes::
+
+    v_k     = w_k + K_P' e_k + D_k                     unsaturated torque, N·m
+    u_k     = clip(v_k, −u_max, u_max)                 applied torque, per joint
+    w_{k+1} = w_k + Ts K_I e_k + (Ts / T_t) (u_k − v_k)    back-calculation anti-windup
+
+with ``K_P' = K_P + c K_I``, ``c = 0`` (integrator ``'forward'``: forward Euler),
+``Ts/2`` (``'tustin'``: trapezoidal) or ``Ts`` (``'backward'``). The derivative term is
+``D_k = K_D ė_k`` with the measured ``ė`` (``derivative='measured'``, the paper's law,
+q̇ measured) or, without q̇, the filter ``K_D s / (1 + s/N)`` discretized by backward
+differences (stable for every ``N Ts``, Åström & Hägglund, *Advanced PID Control*, 2006,
+§13.3)::
+
+    D_k = a D_{k−1} + b (e_k − e_{k−1}),   a = 1/(1 + N Ts),   b = K_D N a,
+
+realized as ``D_k = x_f,k + b e_k``, ``x_f,k+1 = a x_f,k − b (1 − a) e_k``.
+
+Back-calculation (Åström & Hägglund 2006, §6.5) drives ``w`` so that the unsaturated
+torque tracks the applied one with time constant ``T_t`` while the limit is active.
+The default ``T_t`` per joint is ``sqrt(T_i T_d)`` with ``T_i = K_P/K_I`` and
+``T_d = K_D/K_P`` (their rule of thumb: between ``T_d`` and ``T_i``), i.e.
+``sqrt(‖K_D[j]‖/‖K_I[j]‖)`` for the coupled gain rows; ``T_t ≥ Ts`` is required, since in
+discrete time the tracking loop ``w_{k+1} − w_k = (Ts/T_t)(u_k − v_k)`` overshoots for
+``T_t < Ts`` (and diverges for ``T_t < Ts/2``).
+
+Units: e in rad, ė in rad/s, torques in N·m, times in s, ``N`` in 1/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import control as ct
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_choice, check_real
+from ..exceptions import ArgumentValueError
+
+__all__ = ["DiscretePID", "INTEGRATOR_METHODS", "DERIVATIVE_MODES", "default_tracking_time"]
+
+Array = NDArray[np.float64]
+
+#: Discretizations of the integrator: forward Euler, trapezoidal (Tustin), backward Euler.
+INTEGRATOR_METHODS = ("forward", "tustin", "backward")
+#: Derivative term: measured ė (q̇ measured), or a filtered difference of e (no q̇).
+DERIVATIVE_MODES = ("measured", "filtered")
+
+
+def default_tracking_time(K_I: ArrayLike, K_D: ArrayLike, Ts: float) -> Array:
+    """Default back-calculation time constant per torque, ``sqrt(‖K_D[j]‖ / ‖K_I[j]‖)``, s.
+
+    For a diagonal PID this is Åström and Hägglund's ``T_t = sqrt(T_i T_d)``; rows without
+    integral action get ``T_t = 1 s`` (the anti-windup has nothing to do there). Each value
+    is at least `Ts`.
+
+    Parameters
+    ----------
+    K_I, K_D : array_like, shape (m, p)
+        Integral (N·m/(rad·s)) and derivative (N·m·s/rad) gains.
+    Ts : float
+        Sample time, s.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+    """
+    ki = np.linalg.norm(np.asarray(K_I, dtype=float), axis=1)
+    kd = np.linalg.norm(np.asarray(K_D, dtype=float), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tt = np.where(ki > 0, np.sqrt(kd / np.where(ki > 0, ki, 1.0)), 1.0)
+    return np.asarray(np.maximum(np.where(tt > 0, tt, 1.0), Ts), dtype=float)
+
+
+def _rows(M: Array) -> tuple[tuple[float, ...], ...]:
+    return tuple(tuple(float(v) for v in row) for row in M)
+
+
+@dataclass
+class DiscretePID:
+    """A sampled PID with torque limits, back-calculation anti-windup and bumpless start.
+
+    Build it with :meth:`scara_robust.Design.discretize`; see the module docstring for
+    the equations. ``m`` is the number of torques, ``p`` of joints (e has shape (p,)).
+
+    Parameters
+    ----------
+    Ts : float
+        Sample time, s (> 0).
+    K_I, K_P, K_D : array_like, shape (m, p)
+        The design's PID matrices (``u = K_I ∫e + K_P e + K_D ė``), N·m/(rad·s),
+        N·m/rad, N·m·s/rad.
+    integrator : {'tustin', 'forward', 'backward'}
+        Discretization of ``∫e`` (default Tustin: second-order accurate, and the
+        integrator's pole stays at z = 1 whatever Ts).
+    derivative : {'measured', 'filtered'}
+        ``K_D ė`` with ė measured (default), or the filtered difference of e.
+    N : float
+        Derivative filter bandwidth, 1/s (> 0), used with ``derivative='filtered'``.
+    torque_limit : None, float or array_like of shape (m,)
+        Per-torque limit ``|u_j| ≤ u_max,j``, N·m (> 0); None for none.
+    tracking_time : None, float or array_like of shape (m,)
+        Back-calculation time constant T_t, s (≥ Ts); default
+        :func:`default_tracking_time`.
+    anti_windup : bool
+        False leaves the integrator free to wind up against the limit (for comparison).
+
+    Attributes
+    ----------
+    state : ndarray, shape (n_z,)
+        ``z = [w, x_f]`` (N·m), ``n_z = m`` or ``2m``; set by :meth:`reset`.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=50)
+    >>> pid.reset(e0=[0.1, 0.0])
+    >>> print(pid.step([0.1, 0.0], [0.0, 0.0]).round(2))
+    [29.37 -1.48]
+    """
+
+    Ts: float
+    K_I: Array
+    K_P: Array
+    K_D: Array
+    integrator: str = "tustin"
+    derivative: str = "measured"
+    N: float = 100.0
+    torque_limit: Array | None = None
+    tracking_time: Array | None = None
+    anti_windup: bool = True
+    state: Array = field(init=False, repr=False)
+    _cache: tuple[Any, Any, Any, Any] = field(init=False, repr=False)
+    _limit: tuple[float, ...] | None = field(init=False, repr=False)
+    _gain: tuple[float, ...] | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.Ts = check_real("Ts", self.Ts, positive=True)
+        self.K_I = check_array("K_I", self.K_I, ndim=2)
+        m, p = self.K_I.shape
+        self.K_P = check_array("K_P", self.K_P, shape=(m, p))
+        self.K_D = check_array("K_D", self.K_D, shape=(m, p))
+        check_choice("integrator", self.integrator, INTEGRATOR_METHODS)
+        check_choice("derivative", self.derivative, DERIVATIVE_MODES)
+        self.N = check_real("N", self.N, positive=True)
+        if self.torque_limit is not None:
+            limit = np.broadcast_to(check_array("torque_limit", self.torque_limit), (m,)).astype(float)
+            if np.any(limit <= 0):
+                raise ArgumentValueError("torque_limit", f"must be > 0 N·m, found {limit.tolist()}")
+            self.torque_limit = limit
+        if self.tracking_time is None:
+            self.tracking_time = default_tracking_time(self.K_I, self.K_D, self.Ts)
+        else:
+            tt = np.broadcast_to(check_array("tracking_time", self.tracking_time), (m,)).astype(float)
+            if np.any(tt <= 0):
+                raise ArgumentValueError("tracking_time", f"must be > 0 s, found {tt.tolist()}")
+            if np.any(tt < self.Ts):
+                raise ArgumentValueError(
+                    "tracking_time",
+                    f"must be >= Ts = {self.Ts:g} s (a shorter T_t makes the sampled back-calculation overshoot), "
+                    f"found {tt.tolist()}",
+                )
+            self.tracking_time = tt
+        if not isinstance(self.anti_windup, (bool, np.bool_)):
+            raise ArgumentValueError("anti_windup", f"must be True or False, found {self.anti_windup!r}")
+        A, B, C, D = self.matrices()
+        # Plain-float copies for the per-sample loops (fields are not meant to change after construction).
+        self._cache = (_rows(A), _rows(B), _rows(C), _rows(D))
+        self._limit = None if self.torque_limit is None else tuple(float(v) for v in self.torque_limit)
+        self._gain = (
+            tuple(float(self.Ts / t) for t in self.tracking_time)
+            if self.anti_windup and self.torque_limit is not None
+            else None
+        )
+        self.reset()
+
+    # -- the linear part --------------------------------------------------------------
+
+    @property
+    def n_joints(self) -> int:
+        """p, the length of e."""
+        return int(self.K_I.shape[1])
+
+    @property
+    def n_torques(self) -> int:
+        """m, the length of u."""
+        return int(self.K_I.shape[0])
+
+    @property
+    def filter_coefficients(self) -> tuple[float, Array]:
+        """``(a, b)`` of the derivative filter: ``a = 1/(1 + N Ts)``, ``b = K_D N a`` (m, p)."""
+        a = 1.0 / (1.0 + self.N * self.Ts)
+        return a, np.asarray(self.K_D * self.N * a, dtype=float)
+
+    def matrices(self) -> tuple[Array, Array, Array, Array]:
+        """The linear part ``z_{k+1} = A z_k + B y_k``, ``v_k = C z_k + D y_k``, ``y = [e, ė]``.
+
+        Returns
+        -------
+        A : ndarray, shape (n_z, n_z)
+        B : ndarray, shape (n_z, 2p)
+        C : ndarray, shape (m, n_z)
+        D : ndarray, shape (m, 2p)
+            With ``derivative='filtered'`` the ė columns of B and D are zero.
+        """
+        m, p = self.K_I.shape
+        c = {"forward": 0.0, "tustin": 0.5 * self.Ts, "backward": self.Ts}[self.integrator]
+        kp = self.K_P + c * self.K_I
+        zero = np.zeros((m, p))
+        if self.derivative == "measured":
+            return np.eye(m), np.hstack([self.Ts * self.K_I, zero]), np.eye(m), np.hstack([kp, self.K_D])
+        a, b = self.filter_coefficients
+        A = np.block([[np.eye(m), np.zeros((m, m))], [np.zeros((m, m)), a * np.eye(m)]])
+        B = np.block([[self.Ts * self.K_I, zero], [-(1.0 - a) * b, zero]])
+        C = np.hstack([np.eye(m), np.eye(m)])
+        D = np.hstack([kp + b, zero])
+        return A, B, C, D
+
+    def to_statespace(self) -> ct.StateSpace:
+        """The linear part (no limit) as a python-control discrete-time system, ``dt = Ts``.
+
+        Returns
+        -------
+        control.StateSpace
+            Inputs ``e[0..p-1], edot[0..p-1]`` (rad, rad/s), states ``w[..]`` (and
+            ``xf[..]``), outputs ``u[0..m-1]`` (N·m).
+        """
+        m, p = self.K_I.shape
+        A, B, C, D = self.matrices()
+        states = [f"w[{j}]" for j in range(m)] + ([f"xf[{j}]" for j in range(m)] if A.shape[0] > m else [])
+        return ct.ss(
+            A, B, C, D, dt=self.Ts,
+            inputs=[f"e[{i}]" for i in range(p)] + [f"edot[{i}]" for i in range(p)],
+            outputs=[f"u[{j}]" for j in range(m)], states=states, name="pid_discrete",
+        )
+
+    # -- running it ---------------------------------------------------------------------
+
+    def _y(self, e: ArrayLike, edot: ArrayLike | None) -> list[float]:
+        p = self.n_joints
+        ev = check_array("e", e, shape=(p,))
+        if edot is None:
+            if self.derivative == "measured":
+                raise ArgumentValueError("edot", "is required with derivative='measured', found None")
+            dv = np.zeros(p)
+        else:
+            dv = check_array("edot", edot, shape=(p,))
+        return [float(v) for v in ev] + [float(v) for v in dv]
+
+    def initial_state(
+        self, e0: ArrayLike | None = None, edot0: ArrayLike | None = None, u0: ArrayLike | None = None
+    ) -> Array:
+        """The state for a bumpless start at ``e0, ė0`` (see :meth:`reset`); shape (n_z,)."""
+        m, p = self.K_I.shape
+        e = np.zeros(p) if e0 is None else check_array("e0", e0, shape=(p,))
+        ed = np.zeros(p) if edot0 is None else check_array("edot0", edot0, shape=(p,))
+        _, _, _, D = self.matrices()
+        if self.derivative == "measured":
+            xf = np.zeros(0)
+            rest = D[:, p:] @ ed  # K_D ė0
+        else:
+            _, b = self.filter_coefficients
+            xf = self.K_D @ ed - b @ e  # so that D_0 = x_f + b e0 = K_D ė0
+            rest = xf
+        if u0 is None:  # the integral term c K_I e0 + w0 starts at 0: the paper's ∫e(0) = 0
+            w = -(D[:, :p] - (self.K_P + (0.0 if self.derivative == "measured" else self.filter_coefficients[1]))) @ e
+        else:
+            w = np.broadcast_to(check_array("u0", u0), (m,)) - D[:, :p] @ e - rest
+        return np.concatenate([w, xf]).astype(float)
+
+    def reset(self, e0: ArrayLike | None = None, edot0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
+        """Set the state for a bumpless start.
+
+        Parameters
+        ----------
+        e0 : array_like, shape (p,), optional
+            Error at the first sample, rad. With the filtered derivative it seeds the
+            difference, so the first sample has no derivative kick.
+        edot0 : array_like, shape (p,), optional
+            Error rate at start, rad/s: the filtered derivative starts at ``K_D ė0``
+            (default 0).
+        u0 : array_like, shape (m,), optional
+            Torque applied before the switch, N·m: the integral term is set so that the
+            first unsaturated output at ``e0, ė0`` equals it (bumpless transfer). Default:
+            integral term 0 at the first sample, the paper's ``∫e(0) = 0`` (with Tustin and
+            backward Euler, whose first sample already holds ``c K_I e0``, ``w`` starts at
+            ``−c K_I e0``). ``reset()`` without arguments is the zero state, the ``_init``
+            of the exported C code.
+        """
+        self.state = self.initial_state(e0, edot0, u0)
+
+    def output(self, z: Sequence[float], y: Sequence[float]) -> tuple[list[float], list[float]]:
+        """Applied and unsaturated torque ``(u, v)`` at state `z` and input ``y = [e, ė]``.
+
+        Plain floats, in the operation order of the exported C code (so both agree to
+        rounding); use :meth:`step` for the checked interface.
+        """
+        m, q = self.n_torques, len(y)
+        _, _, C, D = self._cache
+        v = []
+        for i in range(m):
+            acc = 0.0
+            for j in range(len(z)):
+                acc += C[i][j] * z[j]
+            for j in range(q):
+                acc += D[i][j] * y[j]
+            v.append(acc)
+        lim = self._limit
+        u = v if lim is None else [min(max(v[i], -lim[i]), lim[i]) for i in range(m)]
+        return u, v
+
+    def update(self, z: Sequence[float], y: Sequence[float], u: Sequence[float], v: Sequence[float]) -> list[float]:
+        """The next state from state `z`, input `y`, applied `u` and unsaturated `v` torques."""
+        A, B, _, _ = self._cache
+        nz, q, m = len(z), len(y), self.n_torques
+        out = []
+        for i in range(nz):
+            acc = 0.0
+            for j in range(nz):
+                acc += A[i][j] * z[j]
+            for j in range(q):
+                acc += B[i][j] * y[j]
+            if i < m and self._gain is not None:
+                acc += self._gain[i] * (u[i] - v[i])
+            out.append(acc)
+        return out
+
+    def step(self, e: ArrayLike, edot: ArrayLike | None = None) -> Array:
+        """One sample: the torque to hold until the next sample, and the state update.
+
+        Parameters
+        ----------
+        e : array_like, shape (p,)
+            ``r − q`` at this sample, rad.
+        edot : array_like, shape (p,), optional
+            ``ṙ − q̇``, rad/s; required with ``derivative='measured'``, ignored otherwise.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Applied (saturated) torque, N·m.
+        """
+        y = self._y(e, edot)
+        z = [float(v) for v in self.state]
+        u, v = self.output(z, y)
+        self.state = np.array(self.update(z, y, u, v), dtype=float)
+        return np.array(u, dtype=float)
+
