@@ -1,5 +1,5 @@
 # Every target creates .venv and installs the package with its test tools and the
-# optional extras (lmi: cvxpy; dask; parquet: pyarrow) on first use, so their tests run.
+# optional extras (lmi: cvxpy; dask; parquet: pyarrow; compiled: numba) on first use, so their tests run.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -10,7 +10,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet]"
+	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet,compiled]"
 	touch $(STAMP)
 
 test: $(STAMP)

@@ -67,6 +67,9 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs
+    ControlLaw                      -- what a package controller computes (its ``law``), for the compiled engine
+    compiled_run, compiled_batch, CompiledRun, CompiledEngine -- the compiled engine (numba, extra ``compiled``)
+    pack_loop, compiled_support, N_THETA, numba_available, compile_seconds -- its packed inputs, scope, compile cost
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
     sampled_pid_controller, SampledPID -- a DiscretePID on the robot, zero-order hold (``pid-sampled``)
     ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
@@ -87,6 +90,7 @@ Studies (:mod:`scara_robust.studies`)
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
+    CAMPAIGN_ENGINES, COMPILED_CONTROLLERS, resolve_engine -- compiled or scipy engines for a campaign
     campaign_report                 -- per-controller statistics
     anti_windup_study, AntiWindupStudy, ANTI_WINDUP_COLUMNS -- the sampled PID under a torque limit, anti-windup on/off
     overshoot, settling_time        -- transient measures of an error history

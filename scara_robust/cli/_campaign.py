@@ -6,7 +6,7 @@ import argparse
 from dataclasses import replace
 from typing import Any
 
-from ..studies.campaign.runner import SCHEDULERS, run_campaign
+from ..studies.campaign.runner import CAMPAIGN_ENGINES, SCHEDULERS, run_campaign
 from ..studies.campaign.spec import SPEC_FIELDS, load_spec
 from ._common import CommandLineError, output_exists, resolve_setup
 
@@ -38,6 +38,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--output", dest="results_output", help="results file, .csv or .parquet (default results.csv)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted campaign in --output")
     p.add_argument("--chunk-size", type=int, default=4, help="scenarios per task (default 4)")
+    p.add_argument("--engine", choices=CAMPAIGN_ENGINES, default="auto",
+                   help="'compiled' (numba, extra compiled; the default when installed) or 'scipy'")
     p.set_defaults(func=run)
 
 
@@ -69,6 +71,7 @@ def run(args: argparse.Namespace) -> str:
         resume=args.resume,
         chunk_size=args.chunk_size,
         progress=True,
+        engine=args.engine,
     )
     failures = int((~table["success"].astype(bool)).sum())
     return (

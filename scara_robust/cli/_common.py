@@ -66,6 +66,7 @@ OPTION_NAMES: dict[str, str] = {
     "seed": "--seed",
     "workers": "--workers",
     "chunk_size": "--chunk-size",
+    "engine": "--engine",
     "scheduler": "--scheduler",
     "address": "--address",
     "output": "--output",

@@ -43,6 +43,9 @@ class Reference:
     position: Signal
     velocity: Signal
     acceleration: Signal
+    #: ``(a, ω)`` when the reference is ``a (sin ωt, cos ωt)`` (rad, rad/s): what a compiled
+    #: engine needs to evaluate it without calling back into Python; None otherwise.
+    sinusoid: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in ("position", "velocity", "acceleration"):
@@ -104,7 +107,7 @@ def paper_reference() -> Reference:
     ----------
     Paper, Section 4.
     """
-    return Reference(_sin_cos, _cos_minus_sin, _minus_sin_cos)
+    return Reference(_sin_cos, _cos_minus_sin, _minus_sin_cos, sinusoid=(1.0, 1.0))
 
 
 def sinusoidal_reference(amplitude: float = 1.0, omega: float = 1.0) -> Reference:
@@ -139,7 +142,7 @@ def sinusoidal_reference(amplitude: float = 1.0, omega: float = 1.0) -> Referenc
     def acceleration(t: Any) -> Array:
         return -(w**2) * position(t)
 
-    return Reference(position, velocity, acceleration)
+    return Reference(position, velocity, acceleration, sinusoid=(a, w))
 
 
 @dataclass(frozen=True)

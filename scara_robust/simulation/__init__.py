@@ -4,6 +4,8 @@ Imports :mod:`scara_robust.model` and :mod:`scara_robust.lyapunov` (the PID's de
 gain) below it.
 """
 
+from .compiled import *  # noqa: F403
+from .compiled import __all__ as _compiled
 from .controllers import *  # noqa: F403
 from .controllers import __all__ as _controllers
 from .engines import *  # noqa: F403
@@ -15,4 +17,4 @@ from .metrics import __all__ as _metrics
 from .run import *  # noqa: F403
 from .run import __all__ as _run
 
-__all__ = [*_controllers, *_loop, *_engines, *_run, *_metrics]
+__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics]

@@ -39,6 +39,7 @@ __all__ = [
     "make_controller",
     "check_torque_limit",
     "pid_lmi_gain",
+    "ControlLaw",
     "PID_LMI_FILE",
     "SampledPID",
     "sampled_pid_controller",
@@ -49,6 +50,33 @@ _MEASURED = ["q1", "q2", "q1_dot", "q2_dot"]
 #: Package file holding the ``pid-lmi`` gain (a design file, see :func:`pid_lmi_gain`).
 PID_LMI_FILE = "data/pid_lmi.json"
 _TORQUES = ["Tc1", "Tc2"]
+
+
+@dataclass(frozen=True)
+class ControlLaw:
+    """What a controller built here computes, for engines that evaluate it without Python.
+
+    The builders attach it as the system's ``law`` attribute.
+
+    Attributes
+    ----------
+    kind : {'pid', 'smc-boundary', 'smc-sign'}
+    reference : Reference
+    torque_limit : ndarray, shape (2,), or None
+        N·m.
+    K : ndarray, shape (2, 6), or None
+        The PID gain.
+    gains : SlidingModeGains or None
+    params : ScaraParams or None
+        The robot the sliding-mode law knows (used without payload).
+    """
+
+    kind: str
+    reference: Reference
+    torque_limit: Array | None
+    K: Array | None = None
+    gains: SlidingModeGains | None = None
+    params: ScaraParams | None = None
 
 
 def check_torque_limit(torque_limit: Any) -> Array | None:
@@ -124,9 +152,11 @@ def pid_controller(
         ed = np.asarray(ref.velocity(t), dtype=float) - u[2:]
         return _saturate(-K @ np.concatenate([x, e, ed]), limit)
 
-    return ct.NonlinearIOSystem(
+    sys = ct.NonlinearIOSystem(
         updfcn, outfcn, inputs=_MEASURED, outputs=_TORQUES, states=["int_e1", "int_e2"], name=name
     )
+    sys.law = ControlLaw("pid", ref, limit, K=K)
+    return sys
 
 
 @dataclass(frozen=True)
@@ -215,7 +245,9 @@ def sliding_mode_controller(
         tau = np.array([m11 * v[0] + m12 * v[1] + c1, m12 * v[0] + m22 * v[1] + c2])
         return _saturate(tau + g.k_d * s + g.k_s * sigma(s), limit)
 
-    return ct.NonlinearIOSystem(None, outfcn, inputs=_MEASURED, outputs=_TORQUES, name=name)
+    sys = ct.NonlinearIOSystem(None, outfcn, inputs=_MEASURED, outputs=_TORQUES, name=name)
+    sys.law = ControlLaw(f"smc-{variant}", ref, limit, gains=g, params=params)
+    return sys
 
 
 class SampledPID(ct.NonlinearIOSystem):  # type: ignore[misc]

@@ -25,6 +25,7 @@ from ..model.initial import SCENARIOS, Scenario
 from ..model.robot import ConstantPayload, PayloadProfile, ScaraParams, paper_payload
 from ..model.signals import Reference, SquareWave, paper_disturbance, paper_reference
 from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
+from .compiled import CompiledEngine, compiled_run, numba_available
 from .controllers import CONTROLLERS, make_controller
 from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
@@ -167,9 +168,14 @@ def _result(
     tolerance: float,
     rtol: float,
     atol: float,
+    known: tuple[Array, float] | None = None,
 ) -> SimulationResult:
+    """The result of a trajectory; `known` = (torque (2, k), peak torque) when the engine computed them."""
     t, X = traj.t, traj.x
-    Y = loop.outputs(t, X)
+    if known is None:
+        Y = loop.outputs(t, X)
+    else:
+        Y = np.vstack([X[:4], known[0], np.asarray(loop.disturbance(t), dtype=float).reshape(2, len(t))])
     response = ct.TimeResponseData(
         t,
         Y,
@@ -180,11 +186,14 @@ def _result(
         title=f"{loop.controller.name}, scenario {scenario}",
         issiso=False,
     )
-    # element by element: a user's reference need not be vectorized
-    r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
-    rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+    if loop.reference.sinusoid is not None:  # the package's own references are vectorized
+        r = np.asarray(loop.reference.position(t), dtype=float).reshape(2, len(t))
+        rd = np.asarray(loop.reference.velocity(t), dtype=float).reshape(2, len(t))
+    else:  # element by element: a user's reference need not be vectorized
+        r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+        rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
     e = r - Y[0:2]
-    peak = _peak_torque(engine, loop, t, X, Y[4:6], rtol, atol)
+    peak = _peak_torque(engine, loop, t, X, Y[4:6], rtol, atol) if known is None else known[1]
     after = t >= t_transient
     metrics = tracking_metrics(t, e, Y[4:6], t_transient=t_transient, peak_torque=peak) if after.sum() >= 2 else None
     status, reason = run_status(
@@ -232,6 +241,9 @@ def _engine_name(method: str | None, sample_time: float | None) -> str:
     if sample_time is not None and not ENGINES[name].sampled:
         sampled = ", ".join(repr(n) for n, e in ENGINES.items() if e.sampled)
         raise ArgumentValueError("method", f"must be {sampled} for a sampled controller, found {name!r}")
+    if name == CompiledEngine.name and not numba_available():
+        raise ArgumentValueError("method", "'compiled' needs numba: pip install scara_robust[compiled], "
+                                           "or use 'lsoda' (continuous) or 'rk4' (sampled)")
     return name
 
 
@@ -359,6 +371,12 @@ def simulate(
         x_init = np.concatenate([plant0, x_c0])
     else:
         x_init = check_array("x0", x0, shape=(loop.n_states,))
+    if engine == CompiledEngine.name:
+        run = compiled_run(loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit,
+                           peak_candidates=PEAK_CANDIDATES, peak_points=PEAK_POINTS)
+        traj = Trajectory(run.t, run.x, run.success, run.diverged, run.message)
+        return _result(loop, traj, scenario.name, ENGINES[engine], t_transient, tolerance, rtol, atol,
+                       known=(run.torque, run.peak_torque))
     traj = integrate(
         ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
     )

@@ -30,17 +30,23 @@ from ...model.initial import Scenario
 from ...model.robot import ConstantPayload, SinusoidalPayload
 from ...model.signals import SquareWave, sinusoidal_reference
 from ...model.uncertain import paper_model
+from ...simulation.compiled import numba_available
 from ...simulation.metrics import METRIC_NAMES
 from ...simulation.run import run_scenario
 from .spec import SPEC_FIELDS, CampaignSpec, draw_scenario
 
-__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "run_draw", "run_campaign", "read_results"]
+__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "CAMPAIGN_ENGINES", "COMPILED_CONTROLLERS", "run_draw", "run_campaign",
+           "read_results", "resolve_engine"]
 
 #: Where :func:`run_campaign` can run.
 SCHEDULERS = ("local", "dask")
+#: How its runs are integrated (``'auto'``: compiled when numba is installed).
+CAMPAIGN_ENGINES = ("auto", "compiled", "scipy")
+#: Controllers the compiled engine runs; the others use the scipy engines in any campaign.
+COMPILED_CONTROLLERS = ("pid", "pid-lmi", "smc", "smc-sign")
 
 
-def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]]:
+def run_draw(spec: CampaignSpec, draw: Mapping[str, Any], engine: str = "scipy") -> list[dict[str, Any]]:
     """Simulate every controller of `spec` on one drawn scenario; one row each.
 
     A run that raises or diverges gives a row with ``success = False`` and its
@@ -52,6 +58,10 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     spec : CampaignSpec
     draw : mapping
         From :func:`draw_scenario`.
+    engine : {'scipy', 'compiled'}
+        ``'compiled'`` runs the package's PID and sliding-mode laws on the compiled engine
+        (``method='compiled'``); other controllers, and everything with ``'scipy'``, on the
+        engines of :func:`scara_robust.simulate` by default.
 
     Returns
     -------
@@ -88,6 +98,7 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
                 payload=payload,
                 disturbance=wave,
                 K=K,
+                method="compiled" if engine == "compiled" and name in COMPILED_CONTROLLERS else None,
             )
             row.update(success=result.success, diverged=result.diverged, error="" if result.success else result.message)
             row.update(status=result.status, status_reason=result.status_reason)
@@ -101,11 +112,30 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any]) -> list[dict[str, Any]
     return rows
 
 
-def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int]) -> list[dict[str, Any]]:
+def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int], engine: str = "scipy") -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for i in indices:
-        rows.extend(run_draw(spec, draw_scenario(spec, seed, i)))
+        rows.extend(run_draw(spec, draw_scenario(spec, seed, i), engine))
     return rows
+
+
+def resolve_engine(engine: str) -> str:
+    """The campaign engine: ``'auto'`` is ``'compiled'`` when numba is installed, else ``'scipy'``.
+
+    Parameters
+    ----------
+    engine : {'auto', 'compiled', 'scipy'}
+
+    Returns
+    -------
+    {'compiled', 'scipy'}
+    """
+    engine = check_choice("engine", engine, CAMPAIGN_ENGINES)
+    if engine == "auto":
+        return "compiled" if numba_available() else "scipy"
+    if engine == "compiled" and not numba_available():
+        raise ArgumentValueError("engine", "'compiled' needs numba: pip install scara_robust[compiled], or use 'scipy'")
+    return engine
 
 
 #: Columns of a results table, in order.
@@ -190,6 +220,7 @@ def run_campaign(
     resume: bool = False,
     chunk_size: int = 4,
     progress: bool = False,
+    engine: str = "auto",
     on_chunk: Callable[[int], None] | None = None,
 ) -> pd.DataFrame:
     """Run a campaign and store one row per (scenario, controller) in `output`.
@@ -216,6 +247,9 @@ def run_campaign(
         Scenarios per task (>= 1).
     progress : bool
         A tqdm bar over scenarios on stderr.
+    engine : {'auto', 'compiled', 'scipy'}
+        See :func:`resolve_engine` and :func:`run_draw`; the table does not depend on the
+        worker count or the chunking with either.
     on_chunk : callable, optional
         Called with the number of scenarios stored after each chunk is written.
 
@@ -231,6 +265,7 @@ def run_campaign(
     checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
     for name, value, low in checks:
         check_int(name, value, low)
+    engine = resolve_engine(engine)
     path = os.fspath(output)
     table_format("output", path)
     columns = list(RESULT_COLUMNS)
@@ -262,7 +297,7 @@ def run_campaign(
             on_chunk(int(stored["scenario"].nunique()))
 
     try:
-        for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size)):
+        for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size), engine):
             store(rows)
     finally:
         bar.close()
@@ -272,19 +307,20 @@ def run_campaign(
 
 
 def _execute(
-    spec: CampaignSpec, seed: int, todo: list[int], workers: int, scheduler: str, address: str | None, size: int
+    spec: CampaignSpec, seed: int, todo: list[int], workers: int, scheduler: str, address: str | None, size: int,
+    engine: str,
 ) -> Iterable[list[dict[str, Any]]]:
     chunks = list(_chunks(todo, size))
     if not chunks:
         return
     if scheduler == "dask":
-        yield from _execute_dask(spec, seed, chunks, workers, address)
+        yield from _execute_dask(spec, seed, chunks, workers, address, engine)
     elif workers == 1:
         for chunk in chunks:
-            yield _run_chunk(spec, seed, chunk)
+            yield _run_chunk(spec, seed, chunk, engine)
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = [pool.submit(_run_chunk, spec, seed, chunk) for chunk in chunks]
+            futures = [pool.submit(_run_chunk, spec, seed, chunk, engine) for chunk in chunks]
             try:
                 for future in as_completed(futures):
                     yield future.result()
@@ -294,7 +330,7 @@ def _execute(
 
 
 def _execute_dask(
-    spec: CampaignSpec, seed: int, chunks: list[list[int]], workers: int, address: str | None
+    spec: CampaignSpec, seed: int, chunks: list[list[int]], workers: int, address: str | None, engine: str
 ) -> Iterable[list[dict[str, Any]]]:
     try:
         from dask.distributed import Client, LocalCluster
@@ -309,7 +345,7 @@ def _execute_dask(
     )
     client = Client(address if address else cluster)  # type: ignore[no-untyped-call]
     try:
-        futures = [client.submit(_run_chunk, spec, seed, chunk, pure=False) for chunk in chunks]
+        futures = [client.submit(_run_chunk, spec, seed, chunk, engine, pure=False) for chunk in chunks]
         for future in dask_completed(futures):  # type: ignore[no-untyped-call]
             yield future.result()
     finally:

@@ -1,0 +1,122 @@
+"""The compiled engine (numba): same model, same runs, same tables as the scipy reference."""
+
+import sys
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.simulation import compiled
+from scara_robust.simulation.engines import ENGINES, integrate
+from scara_robust.simulation.loop import ClosedLoop
+from scara_robust.studies.campaign.runner import resolve_engine, run_draw
+
+pytestmark = pytest.mark.compiled
+
+
+def _loop(name, payload=None, **options):
+    ctrl = sr.make_controller(name, **options)
+    return ClosedLoop(ctrl, sr.ScaraParams(), payload or sr.paper_payload(), sr.paper_reference(),
+                      sr.paper_disturbance(), sr.CONTROLLERS[name].sample_time)
+
+
+@pytest.mark.parametrize("name", ["pid", "smc", "smc-sign"])
+def test_compiled_right_hand_side_and_torque_are_the_python_ones(name):
+    loop = _loop(name, torque_limit=40.0)
+    kernels = compiled._build()
+    th = compiled.pack_loop(loop)
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        x = rng.normal(size=loop.n_states) * np.r_[1, 1, 3, 3, 0.5, 0.5][:loop.n_states]
+        t = float(rng.uniform(0, 20))
+        tc = np.zeros(2)
+        kernels["torque"](th, t, x, tc)
+        assert np.allclose(tc, loop.torque(t, x), rtol=1e-12, atol=1e-12)
+        td = float(sr.paper_disturbance()(t)[0])
+        dx = np.zeros(loop.n_states)
+        kernels["rhs"](th, t, x, tc, td, dx)
+        assert np.allclose(dx, loop.rhs(t, x, tc, np.array([td, td])), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("scenario", ["large", "small"])
+@pytest.mark.parametrize("name", ["pid", "smc", "smc-sign"])
+def test_paper_scenarios_agree_with_the_scipy_reference(name, scenario):
+    payload_on = name == "pid"  # the sliding-mode figures run without payload (Figures 4-5)
+    ref = sr.run_scenario(name, scenario, payload_on=payload_on)
+    fast = sr.run_scenario(name, scenario, payload_on=payload_on, method="compiled")
+    assert fast.method == "compiled" and fast.status == ref.status == "tracking"
+    a, b = ref.metrics(), fast.metrics()
+    assert abs(a.max_abs_error - b.max_abs_error) <= 1e-6
+    assert abs(a.max_abs_torque - b.max_abs_torque) <= 1e-4
+    assert abs(ref.peak_torque - fast.peak_torque) <= 1e-4
+    assert np.array_equal(ref.t, fast.t) and np.abs(ref.e - fast.e).max() <= 1e-6
+
+
+def test_random_campaign_draws_agree(tmp_path):
+    spec = sr.load_spec("examples/campaign.toml")
+    spec = type(spec)(**{**spec.__dict__, "t_final": 6.5})
+    for index in range(20):
+        draw = sr.draw_scenario(spec, 11, index)
+        for ref, fast in zip(run_draw(spec, draw, "scipy"), run_draw(spec, draw, "compiled")):
+            assert ref["status"] == fast["status"], (index, ref["controller"])
+            assert abs(ref["max_abs_error_after_6s"] - fast["max_abs_error_after_6s"]) <= 1e-6
+            assert abs(ref["max_abs_torque_after_6s"] - fast["max_abs_torque_after_6s"]) <= 1e-4
+            assert abs(ref["peak_torque"] - fast["peak_torque"]) <= 1e-4
+
+
+def test_a_diverging_run_is_frozen_where_the_reference_freezes_it():
+    K = -0.2 * sr.design(sr.paper_model(), 3, 90).K  # positive feedback: the loop runs away
+    ref = sr.run_scenario("pid", "small", K=K, t_final=5.0)
+    fast = sr.run_scenario("pid", "small", K=K, t_final=5.0, method="compiled")
+    assert ref.diverged and fast.diverged and fast.status == ref.status == "diverged"
+    assert fast.message == ref.message and fast.t[-1] == ref.t[-1]
+
+
+def test_batch_equals_single_runs_and_the_segment_engine_agrees():
+    loops = [_loop("pid", payload=sr.ConstantPayload(m)) for m in (0.0, 1.0, 3.0)]
+    x0s = [np.r_[sr.SCENARIOS["small"].initial_state(sr.paper_reference()), 0.0, 0.0] for _ in loops]
+    batch = compiled.compiled_batch(loops, x0s, 2.0)
+    for loop, x0, run in zip(loops, x0s, batch):
+        single = compiled.compiled_run(loop, x0, 2.0)
+        assert np.array_equal(single.x, run.x) and single.peak_torque == run.peak_torque
+    # the registry's entry through the shared segment loop (one compiled call per segment)
+    traj = integrate(ENGINES["compiled"], loops[1], x0s[1], 2.0, dt=1e-3, rtol=1e-8, atol=1e-10,
+                     divergence_limit=50.0)
+    assert np.abs(traj.x - batch[1].x).max() <= 1e-7  # other step sequences, same tolerances
+
+
+def test_compiled_engine_refuses_loops_it_cannot_run():
+    ctrl = sr.make_controller("pid")
+    own = ClosedLoop(ctrl, sr.ScaraParams(), lambda t: 1.0, sr.paper_reference(), sr.paper_disturbance())
+    with pytest.raises(sr.ArgumentValueError, match="`method` 'compiled' cannot run this loop: its payload"):
+        compiled.pack_loop(own)
+    with pytest.raises(sr.ArgumentValueError, match="`method` 'compiled' cannot run this loop: its controller"):
+        sr.run_scenario("pid-sampled", "small", t_final=0.1, method="compiled")
+
+
+def test_without_numba_the_scipy_engines_take_over(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "numba", None)  # import numba now raises ImportError
+    assert not compiled.numba_available()
+    assert resolve_engine("auto") == "scipy"
+    with pytest.raises(sr.ArgumentValueError, match="`engine` 'compiled' needs numba"):
+        resolve_engine("compiled")
+    with pytest.raises(sr.ArgumentValueError, match="`method` 'compiled' needs numba"):
+        sr.run_scenario("pid", "small", t_final=0.1, method="compiled")
+    spec_file = tmp_path / "s.toml"
+    spec_file.write_text('controllers = ["pid"]\nt_final = 6.1\nruns = 1\n')
+    table = sr.run_campaign(sr.load_spec(spec_file), tmp_path / "r.csv")
+    assert list(table["status"]) == ["tracking"]
+
+
+def test_campaign_tables_do_not_depend_on_workers_or_chunks_with_the_compiled_engine(tmp_path):
+    spec_file = tmp_path / "s.toml"
+    spec_file.write_text('controllers = ["pid", "smc-sign"]\nt_final = 6.2\nruns = 4\nseed = 5\n'
+                         'payload_peak = { min = 1.0, max = 3.0 }\ninitial_error = { min = -0.2, max = 0.2 }\n')
+    spec = sr.load_spec(spec_file)
+    one = sr.run_campaign(spec, tmp_path / "a.csv", engine="compiled", chunk_size=4)
+    two = sr.run_campaign(spec, tmp_path / "b.csv", engine="compiled", workers=2, chunk_size=1)
+    assert one.equals(two) and (one["status"] == "tracking").all()
+
+
+def test_compile_time_is_measured():
+    assert compiled.compile_seconds() > 0
