@@ -120,6 +120,16 @@ A[3, :3] = (44 / 45, -56 / 15, 32 / 9)
 A[4, :4] = (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729)
 A[5, :5] = (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656)
 A[6, :6] = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84)
+# scipy's RK45 dense output (Shampine's quartic): y(t + θh) = y + h Σ_s K_s (P_s · [θ, θ², θ³, θ⁴])
+P = np.array([
+    [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
+    [0, 0, 0, 0],
+    [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
+    [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
+    [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
+    [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
+    [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
+])
 E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 
 @jit
@@ -171,6 +181,72 @@ def dopri_interval(th: Array, x: Array, t0: float, t1: float, td: float, h0: flo
             if h < 1e-14 * max(1.0, abs(t)):
                 return h, False, calls
     return h, True, calls
+
+@jit
+def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rtol: float, atol: float,
+                K: Array, y: Array, tc: Array, t_out: Array, j: int, X: Array,
+                TC: Array) -> tuple[int, float, float, bool, int]:
+    """Advance x in place from a to b with natural steps, writing outputs t_out[j:] in (a, b] by dense output.
+
+    Returns (next output index, time reached, next step, ok, rhs calls).
+    """
+    n = x.shape[0]
+    t = a
+    calls = 1
+    closed_rhs(th, t, x, td, tc, K[0])
+    while t < b:
+        hh = h
+        if t + hh >= b or b - (t + hh) < 1e-12 * max(1.0, abs(b)):
+            hh = b - t
+        for s in range(1, 7):
+            for i in range(n):
+                acc = x[i]
+                for q in range(s):
+                    acc += hh * A[s, q] * K[q, i]
+                y[i] = acc
+            closed_rhs(th, t + c[s] * hh, y, td, tc, K[s])
+            calls += 1
+        err = 0.0
+        for i in range(n):
+            sc = atol + rtol * max(abs(x[i]), abs(y[i]))
+            ei = 0.0
+            for q in range(7):
+                ei += E[q] * K[q, i]
+            ei *= hh / sc
+            err += ei * ei
+        err = math.sqrt(err / n)
+        if not err == err:
+            return j, t, hh, False, calls
+        if err <= 1.0:
+            t_new = b if hh == b - t else t + hh
+            while j < t_out.shape[0] and t_out[j] <= t_new + 1e-12:
+                if t_out[j] >= t_new - 1e-15:
+                    for i in range(n):
+                        X[i, j] = y[i]
+                else:
+                    th1 = (t_out[j] - t) / hh
+                    th2 = th1 * th1
+                    th3 = th2 * th1
+                    th4 = th3 * th1
+                    for i in range(n):
+                        acc = 0.0
+                        for q in range(7):
+                            acc += K[q, i] * (P[q, 0] * th1 + P[q, 1] * th2 + P[q, 2] * th3 + P[q, 3] * th4)
+                        X[i, j] = x[i] + hh * acc
+                torque(th, t_out[j], X[:, j], tc)
+                TC[0, j], TC[1, j] = tc[0], tc[1]
+                j += 1
+            for i in range(n):
+                x[i] = y[i]
+                K[0, i] = K[6, i]  # first same as last
+            t = t_new
+            h = hh * (5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2)))
+        else:
+            h = hh * max(0.2, 0.9 * err ** -0.2)
+            if h < 1e-14 * max(1.0, abs(t)):
+                return j, t, h, False, calls
+    return j, t, h, True, calls
+
 
 @jit
 def rk4_step(th: Array, x: Array, a: float, b: float, td: float, tc: Array, K: Array, y: Array) -> None:
@@ -228,22 +304,10 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
                 TC[0, j], TC[1, j] = tc[0], tc[1]
                 j += 1
         else:
-            t = a
-            while t < b:
-                stop = b
-                if j < t_out.shape[0] and t_out[j] < b:
-                    stop = t_out[j]
-                h, ok, m = dopri_interval(th, x, t, stop, td, h, rtol, atol, K, y, tc)
-                calls += m
-                if not ok:
-                    return j, _FAILED, t, calls
-                t = stop
-                if j < t_out.shape[0] and t_out[j] <= t + 1e-12:
-                    for i in range(n):
-                        X[i, j] = x[i]
-                    torque(th, t_out[j], x, tc)
-                    TC[0, j], TC[1, j] = tc[0], tc[1]
-                    j += 1
+            j, t, h, ok, m = dopri_dense(th, x, a, b, td, h, rtol, atol, K, y, tc, t_out, j, X, TC)
+            calls += m
+            if not ok:
+                return j, _FAILED, t, calls
         if diverged(th, b, x, limit):
             return j, _DIVERGED, b, calls
     return j, _COMPLETED, edges[-1], calls

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import resources
 from typing import Any
 
@@ -342,11 +343,18 @@ def _sampled_pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
 SAMPLED_PID_TS = 1e-3
 
 
+@lru_cache(maxsize=64)
+def _paper_gain(rho: float, eta: float) -> Array:
+    """K(ρ, η) on the published model, solved once per (ρ, η) and process (read-only)."""
+    K = design(paper_model(), rho, eta).K
+    K.setflags(write=False)
+    return K
+
+
 def _pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
     K = kw.get("K")
     if K is None:
-        rho, eta = kw.get("rho", PAPER_DESIGN_POINT[0]), kw.get("eta", PAPER_DESIGN_POINT[1])
-        K = design(paper_model(), rho, eta).K
+        K = _paper_gain(float(kw.get("rho", PAPER_DESIGN_POINT[0])), float(kw.get("eta", PAPER_DESIGN_POINT[1])))
     return pid_controller(K, kw.get("reference"), torque_limit=kw.get("torque_limit"))
 
 
