@@ -33,6 +33,21 @@ def main(argv: list[str]) -> int:
     for label, fast, ref in pairs:
         if fast in mean and ref in mean:
             lines.append(f"| {label} | {mean[fast]:.4g} | {mean[ref]:.4g} | {mean[ref] / mean[fast]:.0f}x |")
+    lsoda, fast = mean.get("test_simulation_pid_20s[lsoda]"), mean.get("test_simulation_pid_20s[compiled]")
+    if lsoda and fast:
+        lines.append(f"| PID 20-s run, compiled vs lsoda | {fast:.4g} | {lsoda:.4g} | {lsoda / fast:.0f}x |")
+    extra = {b["name"]: b.get("extra_info", {}) for b in report["benchmarks"]}
+    rates = {}
+    for engine in ("compiled", "scipy"):
+        name = f"test_campaign_throughput[{engine}]"
+        if name in mean:
+            rates[engine] = extra[name]["scenarios"] / mean[name]
+    if len(rates) == 2:
+        lines.append(f"| campaign, 2 workers [scenarios/s] | {rates['compiled']:.3g} | {rates['scipy']:.3g} | "
+                     f"{rates['compiled'] / rates['scipy']:.0f}x |")
+    compile_s = extra.get("test_simulation_pid_20s[compiled]", {}).get("compile_seconds")
+    if compile_s is not None:
+        lines.append(f"| compiled engine: load from the disk cache, once per process | {compile_s:.3g} | | |")
     if "test_compare" in mean:
         lines.append(f"| whole `compare` (8 runs) | {mean['test_compare']:.3g} | | |")
     plain = mean.get("test_surface[50x50-structured]")

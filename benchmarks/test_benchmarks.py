@@ -35,11 +35,34 @@ def test_surface(benchmark, model, grid, method):
     assert surface.max_eig.shape == (n, n) and surface.hurwitz.all()
 
 
-@pytest.mark.parametrize("method", ["lsoda", "interconnect"], ids=["lsoda", "interconnect"])
+@pytest.mark.parametrize("method", ["lsoda", "interconnect", "compiled"], ids=["lsoda", "interconnect", "compiled"])
 def test_simulation_pid_20s(benchmark, method):
     benchmark.group = "simulation: PID, large IC, 20 s"
-    res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": 20.0, "method": method}, rounds=3)
+    if method == "compiled":
+        pytest.importorskip("numba")
+        benchmark.extra_info["compile_seconds"] = sr.compile_seconds()  # cached on disk after the first time
+        res = benchmark(sr.run_scenario, "pid", "large", t_final=20.0, method=method)
+    else:
+        res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": 20.0, "method": method}, rounds=3)
     assert res.success and res.t[-1] == pytest.approx(20.0)
+
+
+@pytest.mark.parametrize("engine", ["scipy", "compiled"])
+def test_campaign_throughput(benchmark, engine, tmp_path):
+    """examples/campaign.toml (PID and sliding mode, 20 s each) on 2 worker processes."""
+    if engine == "compiled":
+        pytest.importorskip("numba")
+    benchmark.group = "campaign: examples/campaign.toml, 2 workers"
+    spec = sr.load_spec("examples/campaign.toml")
+    runs = 40 if engine == "compiled" else 8
+    benchmark.extra_info["scenarios"] = runs
+    counter = iter(range(1000))
+
+    def campaign():
+        return sr.run_campaign(spec, tmp_path / f"r{next(counter)}.csv", runs=runs, workers=2, engine=engine)
+
+    table = benchmark.pedantic(campaign, rounds=1)
+    assert len(table) == 2 * runs and (table["status"] == "tracking").all()
 
 
 def test_compare(benchmark):
