@@ -167,7 +167,7 @@ def by_engine():
 
 
 def test_registry_names_algorithms():
-    assert set(sr.ENGINES) == {"lsoda", "interconnect", "rk4"}
+    assert set(sr.ENGINES) == {"lsoda", "interconnect", "rk4", "compiled"}
     assert sr.DEFAULT_ENGINE == "lsoda" and sr.ENGINES[sr.SAMPLED_ENGINE].sampled
 
 
@@ -190,7 +190,7 @@ def test_default_engine_follows_the_controller():
 
 
 def test_a_sampled_controller_needs_a_sampled_engine():
-    with pytest.raises(sr.ArgumentValueError, match="`method` must be 'rk4' for a sampled controller"):
+    with pytest.raises(sr.ArgumentValueError, match="`method` must be 'rk4', 'compiled' for a sampled controller"):
         sr.simulate("smc-sign", "small", t_final=0.2, method="lsoda")
 
 
