@@ -2,7 +2,8 @@
 
 ``make bench`` enables timing and writes ``benchmark.json``; ``python benchmarks/report.py
 benchmark.json`` turns it into the README's table of ratios. ``make test`` runs each
-benchmark once with ``--benchmark-disable`` so none of them can rot. Slow references run
+benchmark once with ``--benchmark-disable``, at reduced sizes (``benchmark.disabled``), so
+none of them can rot and the test suite stays short. Slow references run
 a fixed, small number of rounds (``benchmark.pedantic``).
 """
 
@@ -24,7 +25,8 @@ def model():
 def test_surface(benchmark, model, grid, method):
     benchmark.group = f"surface {grid}"
     benchmark.extra_info["points"] = GRIDS[grid] ** 2
-    n = GRIDS[grid]
+    # under `make test` (benchmarks disabled) a benchmark only has to run: a small grid
+    n = GRIDS[grid] if not benchmark.disabled else 10
     rhos, etas = np.linspace(0.1, 10, n), np.linspace(1, 200, n)
     if method == "reference":
         surface = benchmark.pedantic(
@@ -38,13 +40,14 @@ def test_surface(benchmark, model, grid, method):
 @pytest.mark.parametrize("method", ["lsoda", "interconnect", "compiled"], ids=["lsoda", "interconnect", "compiled"])
 def test_simulation_pid_20s(benchmark, method):
     benchmark.group = "simulation: PID, large IC, 20 s"
+    t_final = 20.0 if not benchmark.disabled else 2.0
     if method == "compiled":
         pytest.importorskip("numba")
         benchmark.extra_info["compile_seconds"] = sr.compile_seconds()  # cached on disk after the first time
-        res = benchmark(sr.run_scenario, "pid", "large", t_final=20.0, method=method)
+        res = benchmark(sr.run_scenario, "pid", "large", t_final=t_final, method=method)
     else:
-        res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": 20.0, "method": method}, rounds=3)
-    assert res.success and res.t[-1] == pytest.approx(20.0)
+        res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": t_final, "method": method}, rounds=3)
+    assert res.success and res.t[-1] == pytest.approx(t_final)
 
 
 @pytest.mark.parametrize("engine", ["scipy", "compiled"])
@@ -54,7 +57,7 @@ def test_campaign_throughput(benchmark, engine, tmp_path):
         pytest.importorskip("numba")
     benchmark.group = "campaign: examples/campaign.toml, 2 workers"
     spec = sr.load_spec("examples/campaign.toml")
-    runs = 40 if engine == "compiled" else 8
+    runs = (40 if engine == "compiled" else 8) if not benchmark.disabled else 1
     benchmark.extra_info["scenarios"] = runs
     counter = iter(range(1000))
 
@@ -67,7 +70,8 @@ def test_campaign_throughput(benchmark, engine, tmp_path):
 
 def test_compare(benchmark):
     benchmark.group = "compare: 4 controllers x 2 scenarios, 20 s"
-    table = benchmark.pedantic(sr.compare_controllers, rounds=2)
+    table = benchmark.pedantic(sr.compare_controllers, kwargs={"t_final": 20.0 if not benchmark.disabled else 6.5},
+                               rounds=2)
     assert (table["status"] == "tracking").all() and len(table) == 2 * len(sr.COMPARED_CONTROLLERS)
 
 
@@ -93,7 +97,9 @@ def test_margin_vertex_one_point(benchmark, model):
 def test_margin_map_vertex(benchmark, model):
     benchmark.group = "margin map 50x50"
     rhos, etas = _grid50()
+    if benchmark.disabled:
+        rhos, etas = rhos[::10], etas[::10]
     surface = benchmark.pedantic(
         sr.design_surface, (model, rhos, etas, "all"), {"measure": "margin", "margin_method": "vertex"}, rounds=1
     )
-    assert surface.margin.shape == (50, 50)
+    assert surface.margin.shape == (rhos.size, etas.size)
