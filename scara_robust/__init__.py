@@ -79,7 +79,11 @@ Studies (:mod:`scara_robust.studies`)
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
-    campaign_report                 -- per-controller statistics
+    FIXED_COLUMNS, DRAWN_COLUMNS, fixed_inputs, run_arguments -- a row's inputs and the run_scenario arguments they give
+    replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)
+    campaign_report, METRIC_UNITS   -- per-controller statistics with confidence intervals
+    wilson_interval, bootstrap_quantiles, BOOTSTRAP_RESAMPLES, REPORT_CONFIDENCE -- their intervals
+    worst_scenarios                 -- the worst runs of each controller with their drawn inputs
 Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, plot_comparison, SIGNALS
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design

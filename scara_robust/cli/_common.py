@@ -73,6 +73,9 @@ OPTION_NAMES: dict[str, str] = {
     "path": "RESULTS",
     "falsifier_tries": "--tries",
     "tol": "--tol",
+    "index": "--index",
+    "controller": "--controller",
+    "method": "--method",
 }
 
 

@@ -23,6 +23,7 @@ from ...model.initial import Scenario
 from ...model.robot import ConstantPayload, ScaraParams, SinusoidalPayload
 from ...model.signals import SquareWave, sinusoidal_reference
 from ...model.uncertain import paper_model
+from ...simulation.metrics import TRACKING_TOLERANCE
 from ...simulation.run import SimulationResult, run_scenario
 from .spec import SPEC_FIELDS, CampaignSpec
 
@@ -111,34 +112,45 @@ def run_arguments(inputs: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def replay_scenario(
-    results: pd.DataFrame, scenario: int, controller: str | None = None, *, method: str | None = None
+    results: pd.DataFrame,
+    index: int,
+    controller: str | None = None,
+    *,
+    method: str | None = None,
+    t_final: float | None = None,
+    tracking_tolerance: float = TRACKING_TOLERANCE,
 ) -> SimulationResult:
-    """Run scenario `scenario` of a campaign table again, from the inputs stored in its row.
+    """Run scenario `index` of a campaign table again, from the inputs stored in its row.
 
     Parameters
     ----------
     results : pandas.DataFrame
         A campaign table (:func:`~scara_robust.read_results`), with the columns
         :data:`DRAWN_COLUMNS` and :data:`FIXED_COLUMNS`.
-    scenario : int
-        The scenario index (column ``scenario``).
+    index : int
+        The scenario index (column ``scenario``), >= 0.
     controller : str, optional
         A controller of the table (default: the first of the table's, in its order).
     method : str, optional
         A key of :data:`scara_robust.ENGINES` (default: the engine a campaign uses).
+    t_final : float, optional
+        Horizon, s (default: the campaign's, stored in the row).
+    tracking_tolerance : float
+        Tolerance of the run's status, rad (default: the campaign's).
 
     Returns
     -------
     SimulationResult
-        With the same engine as the campaign, its metrics equal the row's exactly.
+        With the same engine and horizon as the campaign, its metrics and status equal
+        the row's exactly.
 
     Raises
     ------
     ArgumentValueError
-        If `scenario` or `controller` is not in the table, or the table lacks the
+        If `index` or `controller` is not in the table, or the table lacks the
         inputs (`results`: a table written before they were stored).
     """
-    index = check_int("scenario", scenario, 0)
+    index = check_int("index", index, 0)
     if not isinstance(results, pd.DataFrame) or "scenario" not in results or "controller" not in results:
         raise ArgumentValueError("results", "must be a campaign table with scenario and controller columns")
     missing = [c for c in (*DRAWN_COLUMNS, *FIXED_COLUMNS) if c not in results.columns]
@@ -148,10 +160,12 @@ def replay_scenario(
     if not len(rows):
         have = results["scenario"]
         span = f"{int(have.min())}..{int(have.max())}" if len(have) else "none"
-        raise ArgumentValueError("scenario", f"must be a scenario of the table (indices {span}), found {index}")
+        raise ArgumentValueError("index", f"must be a scenario of the table (indices {span}), found {index}")
     names = list(dict.fromkeys(rows["controller"]))
     name = names[0] if controller is None else controller
     if name not in names:
         raise ArgumentValueError("controller", f"must be one of the table's {names}, found {name!r}")
-    row = rows[rows["controller"] == name].iloc[0].to_dict()
-    return run_scenario(name, method=method, **run_arguments(row))
+    arguments = run_arguments(rows[rows["controller"] == name].iloc[0].to_dict())
+    if t_final is not None:
+        arguments["t_final"] = t_final
+    return run_scenario(name, method=method, tracking_tolerance=tracking_tolerance, **arguments)
