@@ -14,7 +14,6 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
-from scara_robust.studies import campaign as cp
 
 Z95 = 1.959963984540054  # standard normal quantile of 0.975
 
@@ -148,7 +147,7 @@ def test_worst_scenarios_put_non_tracking_first():
 def test_report_intervals(campaign):
     _, table = campaign
     report = sr.campaign_report(table)
-    for name, row in report.iterrows():
+    for _, row in report.iterrows():
         low, high = sr.wilson_interval(row["failures"], row["runs"])
         assert row["failure_rate low"] == low and row["failure_rate high"] == high
         for metric in sr.METRIC_NAMES:
@@ -199,3 +198,11 @@ def test_report_command_shows_the_statistics(campaign, capsys):
     assert main(["campaign-report", str(path), "--format", "csv"]) == 0
     stats, worst = capsys.readouterr().out.split("\n\n")
     assert stats.startswith("controller,runs,") and worst.startswith("controller,rank,scenario,status,")
+
+
+def test_resume_refuses_a_table_without_the_inputs(campaign, tmp_path):
+    _, table = campaign
+    old = tmp_path / "old.csv"
+    table.drop(columns=list(sr.FIXED_COLUMNS)).to_csv(old, index=False)
+    with pytest.raises(ValueError, match=r"`resume` cannot continue .* lacks the columns \['t_final'"):
+        sr.run_campaign(sr.spec_from_dict(TINY), old, runs=2, resume=True)

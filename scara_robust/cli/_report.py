@@ -36,7 +36,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "campaign-report",
-        help="per-controller statistics of a campaign (with 95 % intervals), its worst runs, and a figure",
+        help="per-controller statistics of a campaign (with 95 %% intervals), its worst runs, and a figure",
     )
     p.add_argument("results", help="results file of `campaign` (.csv or .parquet)")
     p.add_argument(

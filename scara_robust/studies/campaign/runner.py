@@ -220,6 +220,11 @@ def run_campaign(
         other = stored[(stored["spec"] != digest) | (stored["seed"] != seed)]
         if len(other):
             raise ArgumentValueError("resume", f"cannot continue {path!r}: it holds rows of another spec or seed")
+        lacking = [c for c in columns if c not in stored.columns]
+        if lacking:
+            raise ArgumentValueError(
+                "resume", f"cannot continue {path!r}: it lacks the columns {lacking} (an older table); start a new file"
+            )
         counts = stored.groupby("scenario")["controller"].nunique()
         done = set(counts[counts == len(spec.controllers)].index.astype(int))
         stored = stored[stored["scenario"].isin(done)]
