@@ -91,7 +91,11 @@ Studies (:mod:`scara_robust.studies`)
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
     CAMPAIGN_ENGINES, COMPILED_CONTROLLERS, resolve_engine -- compiled or scipy engines for a campaign
-    campaign_report                 -- per-controller statistics
+    FIXED_COLUMNS, DRAWN_COLUMNS, fixed_inputs, run_arguments -- a row's inputs and the run_scenario arguments they give
+    replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)
+    campaign_report, METRIC_UNITS   -- per-controller statistics with confidence intervals
+    wilson_interval, bootstrap_quantiles, BOOTSTRAP_RESAMPLES, REPORT_CONFIDENCE -- their intervals
+    worst_scenarios                 -- the worst runs of each controller with their drawn inputs
     anti_windup_study, AntiWindupStudy, ANTI_WINDUP_COLUMNS -- the sampled PID under a torque limit, anti-windup on/off
     overshoot, settling_time        -- transient measures of an error history
 Plotting (:mod:`scara_robust.plotting`)

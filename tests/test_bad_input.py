@@ -8,6 +8,7 @@ line on stderr, no traceback, and no file left behind.
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import scara_robust as sr
@@ -98,6 +99,11 @@ API_CASES = [
     ("plot-signals-empty", lambda: sr.plot_signals([]), ValueError, r"`results`"),
     ("campaign-spec-type", lambda: sr.run_campaign("spec.toml", "r.csv"), TypeError, r"`spec`"),
     ("campaign-report-frame", lambda: sr.campaign_report(np.zeros(3)), ValueError, r"`results`"),
+    ("campaign-report-confidence", lambda: sr.wilson_interval(1, 10, confidence=95), ValueError, r"`confidence`"),
+    ("worst-frame", lambda: sr.worst_scenarios([1, 2]), ValueError, r"`results`"),
+    ("replay-frame", lambda: sr.replay_scenario(pd.DataFrame({"scenario": [0], "controller": ["pid"]}), 0),
+     ValueError, r"`results` lacks the inputs needed to replay"),
+    ("run-arguments-missing", lambda: sr.run_arguments({"scenario": 0}), ValueError, r"`inputs` lacks"),
 ]
 
 
@@ -132,6 +138,12 @@ def _cli_cases(tmp):
     wide.write_text('{"format": "scara_robust design 1", "K": [[1.0, 2.0, 3.0]]}')
     foreign = tmp / "foreign.json"
     foreign.write_text('{"K": [[1.0]]}')
+    spec = sr.spec_from_dict({"controllers": ["pid"], "t_final": 6.5})
+    row = {**sr.draw_scenario(spec, 0, 0), **sr.fixed_inputs(spec), "controller": "pid", "status": "tracking",
+           "success": True, "diverged": False, "error": "", "status_reason": "", "seed": 0, "spec": spec.digest()}
+    table = tmp / "table.csv"
+    pd.DataFrame([{**row, **dict.fromkeys(sr.METRIC_NAMES, 0.01)}]).to_csv(table, index=False)
+    replay = ["simulate", "--from-campaign", str(table)]
     design = ["design", "--rho", "3", "--eta", "90"]
     export = ["export", "--rho", "3", "--eta", "90"]
     return [
@@ -201,6 +213,20 @@ def _cli_cases(tmp):
         ("export-missing-folder", [*export, "--ts", "0.001", "--output", str(tmp / "no")], "no such folder"),
         ("export-prefix", [*export, "--ts", "0.001", "--prefix", "scara-pid", "--output", str(tmp)],
          "`--prefix` must be a C identifier"),
+        ("replay-missing", ["simulate", "--from-campaign", str(tmp / "none.csv"), "--index", "0"],
+         "`--from-campaign` " + repr(str(tmp / "none.csv")) + ": No such file"),
+        ("replay-not-a-table", ["simulate", "--from-campaign", str(scen), "--index", "0"],
+         "`--from-campaign` must end in .csv or .parquet"),
+        ("replay-index", [*replay, "--index", "3"],
+         "`--index` must be a scenario of the table (indices 0..0), found 3"),
+        ("replay-negative-index", [*replay, "--index=-1"], "`--index` must be an integer >= 0"),
+        ("replay-controller", [*replay, "--index", "0", "--controller", "smc"],
+         "`--controller` must be one of the table's ['pid'], found 'smc'"),
+        ("replay-no-index", replay, "`--index` is needed with --from-campaign"),
+        ("replay-index-alone", ["simulate", "--index", "0"], "`--index` picks a run of a campaign table"),
+        ("replay-input-option", [*replay, "--index", "0", "--scenario", "small"],
+         "--scenario cannot go with it"),
+        ("simulate-method", ["simulate", "--method", "euler"], "argument --method: invalid choice"),
     ]
 
 
@@ -223,7 +249,9 @@ CLI_NAMES = [
     "certify-named-scenario", "typo", "campaign-empty-spec", "synthesize-gain-bound", "synthesize-decay",
     "synthesize-output-ext", "synthesize-margin-physical", "synthesize-physical-model", "design-file-shape",
     "design-file-format", "design-file-controller", "export-ts-zero", "export-ts-negative", "export-tt-zero",
-    "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix",
+    "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix", "replay-missing", "replay-not-a-table", "replay-index",
+    "replay-negative-index", "replay-controller", "replay-no-index", "replay-index-alone", "replay-input-option",
+    "simulate-method",
 ]
 
 

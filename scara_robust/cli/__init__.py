@@ -33,8 +33,9 @@ _EXAMPLES = """examples:
   python -m scara_robust simulate --controller smc --scenario small --output run.csv
   python -m scara_robust compare --format markdown
   python -m scara_robust campaign examples/campaign.toml --runs 20 --output results.csv
-  python -m scara_robust campaign-report results.csv --plot report.png
+  python -m scara_robust campaign-report results.csv --plot report.png --worst 3
   python -m scara_robust export --rho 3 --eta 90 --ts 0.001 --torque-limit 50 --output .
+  python -m scara_robust simulate --from-campaign results.csv --index 1 --controller smc
 
 Every command takes --help. Bad input: one line on stderr, exit code 2."""
 

@@ -80,6 +80,9 @@ OPTION_NAMES: dict[str, str] = {
     "integrator": "--integrator",
     "derivative": "--derivative",
     "prefix": "--prefix",
+    "index": "--index",
+    "controller": "--controller",
+    "method": "--method",
 }
 
 

@@ -8,13 +8,17 @@ from typing import Any
 
 import numpy as np
 
+from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_response
 from ..simulation.controllers import CONTROLLERS
+from ..simulation.engines import ENGINES
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.run import SimulationResult, run_scenario
+from ..studies.campaign.inputs import replay_scenario
+from ..studies.campaign.runner import read_results
 from ._common import (
     CommandLineError,
     add_design_option,
@@ -38,11 +42,34 @@ def add_parser(sub: Any) -> None:
     sub : argparse._SubParsersAction
     """
     p = sub.add_parser("simulate", help="one closed-loop run and its time series")
-    p.add_argument("--controller", choices=tuple(CONTROLLERS), default="pid")
+    p.add_argument(
+        "--controller",
+        choices=tuple(CONTROLLERS),
+        default=None,
+        help="default pid; with --from-campaign, the table's first controller",
+    )
     add_design_option(p)
     add_setup_options(p)
-    p.add_argument("--payload", choices=("on", "off"), default="on")
-    p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help="horizon, s (> 0)")
+    p.add_argument("--payload", choices=("on", "off"), default=None, help="payload m_p(t) on (default) or off")
+    p.add_argument(
+        "--t-final",
+        type=finite_float,
+        default=None,
+        help=f"horizon, s (> 0; default {PAPER_T_FINAL:g}, or the campaign's with --from-campaign)",
+    )
+    p.add_argument(
+        "--method",
+        choices=tuple(ENGINES),
+        default=None,
+        help="integration engine (default: lsoda for continuous controllers, rk4 for sampled ones)",
+    )
+    p.add_argument(
+        "--from-campaign",
+        metavar="R.csv|R.parquet",
+        help="replay one run of a campaign table from its stored inputs (with --index; the campaign's "
+        "engine gives the row's metrics exactly)",
+    )
+    p.add_argument("--index", type=int, default=None, help="scenario index of the run to replay (--from-campaign)")
     p.add_argument("--torque-limit", type=finite_float, default=None, help="per-joint saturation, N·m (> 0)")
     p.add_argument(
         "--tolerance",
@@ -88,35 +115,44 @@ def run(args: argparse.Namespace) -> str:
     -------
     str
     """
-    if args.t_final <= 0:
+    if args.t_final is not None and args.t_final <= 0:
         raise CommandLineError(f"`--t-final` must be > 0 s, found {args.t_final}")
     if args.torque_limit is not None and args.torque_limit <= 0:
         raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {args.torque_limit}")
     if args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
-    setup = resolve_setup(args)
-    loaded = resolve_design(args)
-    pid_like = args.controller in ("pid", "pid-sampled")
-    if loaded is not None and not pid_like:
-        raise CommandLineError(
-            f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {args.controller!r}"
+    loaded = None
+    if args.from_campaign is not None:
+        res = _replay(args)
+        payload = "drawn"
+    else:
+        if args.index is not None:
+            raise CommandLineError("`--index` picks a run of a campaign table; it goes with --from-campaign")
+        args.controller = args.controller or "pid"
+        payload = args.payload or "on"
+        setup = resolve_setup(args)
+        loaded = resolve_design(args)
+        pid_like = args.controller in ("pid", "pid-sampled")
+        if loaded is not None and not pid_like:
+            raise CommandLineError(
+                f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {args.controller!r}"
+            )
+        K: np.ndarray | None = None
+        if loaded is not None:
+            K = loaded.K
+        elif pid_like:
+            K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
+        res = run_scenario(
+            args.controller,
+            setup.initial or SCENARIOS["large"],
+            payload_on=payload == "on",
+            t_final=PAPER_T_FINAL if args.t_final is None else args.t_final,
+            torque_limit=args.torque_limit,
+            method=args.method,
+            K=K,
+            tracking_tolerance=args.tolerance,
+            **setup.signals(),
         )
-    K: np.ndarray | None = None
-    if loaded is not None:
-        K = loaded.K
-    elif pid_like:
-        K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
-    initial = setup.initial or SCENARIOS["large"]
-    res = run_scenario(
-        args.controller,
-        initial,
-        payload_on=args.payload == "on",
-        t_final=args.t_final,
-        torque_limit=args.torque_limit,
-        K=K,
-        tracking_tolerance=args.tolerance,
-        **setup.signals(),
-    )
     files = []
     if args.plot is not None:
         save_figure("--plot", args.plot, plot_response(res))
@@ -126,8 +162,8 @@ def run(args: argparse.Namespace) -> str:
         series = json.dumps(
             {
                 "controller": args.controller,
-                "scenario": initial.name,
-                "payload": args.payload,
+                "scenario": res.scenario,
+                "payload": payload,
                 "status": res.status,
                 "status_reason": res.status_reason,
                 "method": res.method,
@@ -147,4 +183,42 @@ def run(args: argparse.Namespace) -> str:
         files.insert(0, f"gain: design file {loaded.path}")
         if len(files) == 1:
             files.append("time series: not written (use --output FILE or --format csv|json)")
-    return _summary(res, args.payload, files) if args.format == "text" else ""
+    return _summary(res, payload, files) if args.format == "text" else ""
+
+
+#: Options that describe a run's inputs; a replayed run takes them from its campaign table.
+_INPUT_OPTIONS = ("robot", "scenario", "bounds", "design", "payload", "torque_limit")
+
+
+def _replay(args: argparse.Namespace) -> SimulationResult:
+    """The run of ``--from-campaign`` at ``--index``, from the inputs stored in its row."""
+    given = [f"--{name.replace('_', '-')}" for name in _INPUT_OPTIONS if getattr(args, name, None) is not None]
+    if given:
+        raise CommandLineError(
+            f"`--from-campaign` replays a run from the inputs in its table; {', '.join(given)} cannot go with it"
+        )
+    if args.index is None:
+        raise CommandLineError("`--index` is needed with --from-campaign: the scenario index of the run to replay")
+    path = args.from_campaign
+    try:
+        results = read_results(path)
+    except OSError as err:
+        raise CommandLineError(f"`--from-campaign` {path!r}: {err.strerror or err}") from err
+    except ArgumentError as err:
+        raise CommandLineError(f"`--from-campaign` {err.problem}") from err
+    rows = results[results["scenario"] == args.index]
+    if args.controller is None and len(rows):
+        args.controller = str(rows["controller"].iloc[0])  # the default of replay_scenario, named for the output
+    try:
+        return replay_scenario(
+            results,
+            args.index,
+            args.controller,
+            method=args.method,
+            t_final=args.t_final,
+            tracking_tolerance=args.tolerance,
+        )
+    except ArgumentError as err:
+        if err.argument != "results":
+            raise
+        raise CommandLineError(f"`--from-campaign` {path!r} {err.problem}") from err

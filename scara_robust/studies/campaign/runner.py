@@ -16,7 +16,6 @@ import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import replace
 from typing import Any
 
 import pandas as pd
@@ -25,15 +24,11 @@ from tqdm import tqdm
 from ..._validation import check_choice, check_instance, check_int
 from ...exceptions import ArgumentValueError
 from ...io import table_format, write_atomic
-from ...lyapunov.gain import design
-from ...model.initial import Scenario
-from ...model.robot import ConstantPayload, SinusoidalPayload
-from ...model.signals import SquareWave, sinusoidal_reference
-from ...model.uncertain import paper_model
 from ...simulation.compiled import numba_available
 from ...simulation.metrics import METRIC_NAMES
 from ...simulation.run import run_scenario
-from .spec import SPEC_FIELDS, CampaignSpec, draw_scenario
+from .inputs import DRAWN_COLUMNS, FIXED_COLUMNS, fixed_inputs, run_arguments
+from .spec import CampaignSpec, draw_scenario
 
 __all__ = ["SCHEDULERS", "RESULT_COLUMNS", "CAMPAIGN_ENGINES", "COMPILED_CONTROLLERS", "run_draw", "run_campaign",
            "read_results", "resolve_engine"]
@@ -66,40 +61,23 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any], engine: str = "scipy")
     Returns
     -------
     list of dict
-        One row per controller: the drawn inputs, ``controller``, ``success``,
-        ``diverged``, ``error``, ``status``, ``status_reason`` and the metrics of
+        One row per controller: the drawn and fixed inputs (the run's arguments come
+        from :func:`scara_robust.run_arguments`, as for :func:`scara_robust.replay_scenario`),
+        ``controller``, ``success``, ``diverged``, ``error``, ``status``, ``status_reason`` and the metrics of
         :func:`scara_robust.tracking_metrics`.
     """
-    params = replace(spec.robot, cp=draw["cp"])
-    peak = draw["payload_peak"]
-    if draw["payload_profile"] == "sinusoidal":
-        payload: Any = SinusoidalPayload(0.5 * peak, 0.5 * peak, draw["payload_omega"], draw["payload_phase"])
-    else:
-        payload = ConstantPayload(peak)
-    reference = sinusoidal_reference(draw["reference_amplitude"], draw["reference_omega"])
-    wave = SquareWave(draw["disturbance_amplitude"], draw["disturbance_period"], draw["disturbance_phase"])
-    scenario = Scenario(f"mc-{draw['scenario']}", (draw["e1_0"], draw["e2_0"]), (0.0, 0.0))
-    limit = None if math.isinf(draw["torque_limit"]) else draw["torque_limit"]
-    uses_gain = {"pid", "pid-sampled"} & set(spec.controllers)
-    K = design(paper_model(), spec.rho, spec.eta).K if uses_gain else None
+    inputs = {**draw, **fixed_inputs(spec)}
+    arguments = run_arguments(inputs)
     rows = []
     for name in spec.controllers:
-        row: dict[str, Any] = dict(draw)
+        row: dict[str, Any] = dict(inputs)
         row["controller"] = name
         metrics = dict.fromkeys(METRIC_NAMES, math.nan)
         try:
-            result = run_scenario(
-                name,
-                scenario,
-                t_final=spec.t_final,
-                torque_limit=limit,
-                params=params,
-                reference=reference,
-                payload=payload,
-                disturbance=wave,
-                K=K,
-                method="compiled" if engine == "compiled" and name in COMPILED_CONTROLLERS else None,
-            )
+            method = "compiled" if engine == "compiled" and name in COMPILED_CONTROLLERS else None
+            row["method"] = method or "default"
+            result = run_scenario(name, method=method, **arguments)
+            row["method"] = result.method
             row.update(success=result.success, diverged=result.diverged, error="" if result.success else result.message)
             row.update(status=result.status, status_reason=result.status_reason)
             if result.success and result.has_metrics:
@@ -139,7 +117,6 @@ def resolve_engine(engine: str) -> str:
 
 
 #: Columns of a results table, in order.
-_DRAWN = ("payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0")
 RESULT_COLUMNS = (
     "scenario",
     "controller",
@@ -148,7 +125,9 @@ RESULT_COLUMNS = (
     "diverged",
     "error",
     *METRIC_NAMES,
-    *_DRAWN,
+    *DRAWN_COLUMNS,
+    *FIXED_COLUMNS,
+    "method",
     "status_reason",
     "seed",
     "spec",
@@ -279,6 +258,11 @@ def run_campaign(
         other = stored[(stored["spec"] != digest) | (stored["seed"] != seed)]
         if len(other):
             raise ArgumentValueError("resume", f"cannot continue {path!r}: it holds rows of another spec or seed")
+        lacking = [c for c in columns if c not in stored.columns]
+        if lacking:
+            raise ArgumentValueError(
+                "resume", f"cannot continue {path!r}: it lacks the columns {lacking} (an older table); start a new file"
+            )
         counts = stored.groupby("scenario")["controller"].nunique()
         done = set(counts[counts == len(spec.controllers)].index.astype(int))
         stored = stored[stored["scenario"].isin(done)]
