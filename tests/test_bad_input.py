@@ -249,7 +249,8 @@ CLI_NAMES = [
     "certify-named-scenario", "typo", "campaign-empty-spec", "synthesize-gain-bound", "synthesize-decay",
     "synthesize-output-ext", "synthesize-margin-physical", "synthesize-physical-model", "design-file-shape",
     "design-file-format", "design-file-controller", "export-ts-zero", "export-ts-negative", "export-tt-zero",
-    "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix", "replay-missing", "replay-not-a-table", "replay-index",
+    "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix", "replay-missing",
+    "replay-not-a-table", "replay-index",
     "replay-negative-index", "replay-controller", "replay-no-index", "replay-index-alone", "replay-input-option",
     "simulate-method",
 ]

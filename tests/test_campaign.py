@@ -102,11 +102,11 @@ def test_interrupted_and_resumed_equals_straight(straight, tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        cp.run_campaign(spec, out, chunk_size=1, on_chunk=stop_after_two)
+        cp.run_campaign(spec, out, chunk_size=1, checkpoint=0.0, on_chunk=stop_after_two)
     partial = cp.read_results(out)
     assert partial["scenario"].nunique() == 2  # the finished chunks were kept
     seen = []
-    cp.run_campaign(spec, out, chunk_size=1, resume=True, on_chunk=seen.append)
+    cp.run_campaign(spec, out, chunk_size=1, checkpoint=0.0, resume=True, on_chunk=seen.append)
     assert seen == [3, 4]  # only the two missing scenarios ran
     pd.testing.assert_frame_equal(cp.read_results(out), table)
 
@@ -295,3 +295,14 @@ def test_a_campaign_row_is_run_scenario_on_the_drawn_inputs(tiny_spec):
                                       draw["disturbance_phase"]),
         )
         assert {k: rows[name][k] for k in sr.METRIC_NAMES} == res.metrics().to_dict()
+
+
+def test_checkpoints_bound_the_rewrites_and_lose_nothing(straight, tmp_path):
+    spec, table = straight
+    out = tmp_path / "r.csv"
+    seen: list[int] = []
+    cp.run_campaign(spec, out, chunk_size=1, checkpoint=1e9, on_chunk=seen.append)
+    assert seen == [1, 4]  # the first chunk, then only the end: no checkpoint fell due
+    pd.testing.assert_frame_equal(cp.read_results(out), table)
+    with pytest.raises(ValueError, match="`checkpoint` must be >= 0"):
+        cp.run_campaign(spec, tmp_path / "bad.csv", checkpoint=-1.0)

@@ -38,6 +38,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--output", dest="results_output", help="results file, .csv or .parquet (default results.csv)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted campaign in --output")
     p.add_argument("--chunk-size", type=int, default=4, help="scenarios per task (default 4)")
+    p.add_argument("--checkpoint", type=float, default=2.0, metavar="S",
+                   help="least time between two rewrites of --output, s (default 2; 0: after every chunk)")
     p.add_argument("--engine", choices=CAMPAIGN_ENGINES, default="auto",
                    help="'compiled' (numba, extra compiled; the default when installed) or 'scipy'")
     p.set_defaults(func=run)
@@ -72,6 +74,7 @@ def run(args: argparse.Namespace) -> str:
         chunk_size=args.chunk_size,
         progress=True,
         engine=args.engine,
+        checkpoint=args.checkpoint,
     )
     failures = int((~table["success"].astype(bool)).sum())
     return (

@@ -81,6 +81,7 @@ OPTION_NAMES: dict[str, str] = {
     "derivative": "--derivative",
     "prefix": "--prefix",
     "index": "--index",
+    "checkpoint": "--checkpoint",
     "controller": "--controller",
     "method": "--method",
 }

@@ -27,18 +27,26 @@ inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always"
 
 
 @inline
-def terms(rb: Array, off: int, q2: float, w1: float, w2: float, mp: float) -> tuple[float, float, float, float, float]:
+def mass_terms(rb: Array, off: int, c2: float, s2: float, w1: float, w2: float,
+               mp: float) -> tuple[float, float, float, float, float]:
+    """M11, M12, M22 (kg·m²) and C1, C2 (N·m) of robot parameters rb[off:off+9], from cos q2 and sin q2."""
     m1, m2, L1, L2, Lc1, Lc2, I1, I2, cp = (rb[off], rb[off + 1], rb[off + 2], rb[off + 3], rb[off + 4],
                                             rb[off + 5], rb[off + 6], rb[off + 7], rb[off + 8])
     a1 = m1 * Lc1**2 + (m2 + mp) * L1**2 + I1
     a2 = m2 * Lc2**2 + mp * L2**2 + I2 + cp * mp
     a3 = L1 * (m2 * Lc2 + mp * L2)
-    c2, s2 = math.cos(q2), math.sin(q2)
     return a1 + a2 + 2 * a3 * c2, a2 + a3 * c2, a2, -a3 * (2 * w1 * w2 + w2 * w2) * s2, a3 * w1 * w1 * s2
 
 
 @inline
+def terms(rb: Array, off: int, q2: float, w1: float, w2: float, mp: float) -> tuple[float, float, float, float, float]:
+    return mass_terms(rb, off, math.cos(q2), math.sin(q2), w1, w2, mp)
+
+
+@inline
 def payload(th: Array, t: float) -> float:
+    if th[_PAYLOAD + 1] == 0.0:  # a constant payload: the same number without the sine
+        return float(th[_PAYLOAD])
     return float(th[_PAYLOAD] + th[_PAYLOAD + 1] * math.sin(th[_PAYLOAD + 2] * t + th[_PAYLOAD + 3]))
 
 
@@ -49,10 +57,11 @@ def disturbance_level(th: Array, t: float) -> float:
     return 1.0 if frac < 0.5 else -1.0
 
 
+# The kernels below take sin ωt, cos ωt (reference) and cos q2, sin q2 from their caller, so
+# one right-hand side evaluates each sine once: these calls are most of its cost.
 @inline
-def torque(th: Array, t: float, x: Array, out: Array) -> None:
+def torque_sc(th: Array, sw: float, cw: float, c2: float, s2: float, x: Array, out: Array) -> None:
     a, w = th[_REF], th[_REF + 1]
-    sw, cw = math.sin(w * t), math.cos(w * t)
     r1, r2 = a * sw, a * cw
     v1, v2 = a * w * cw, -a * w * sw
     e1, e2 = r1 - x[0], r2 - x[1]
@@ -64,24 +73,31 @@ def torque(th: Array, t: float, x: Array, out: Array) -> None:
         u2 = -(k[6] * x[4] + k[7] * x[5] + k[8] * e1 + k[9] * e2 + k[10] * d1 + k[11] * d2)
     else:
         lam, kd, ks, phi = th[_SMC], th[_SMC + 1], th[_SMC + 2], th[_SMC + 3]
-        s1, s2 = d1 + lam * e1, d2 + lam * e2
+        s1, s2_ = d1 + lam * e1, d2 + lam * e2
         acc1, acc2 = -w * w * r1 + lam * d1, -w * w * r2 + lam * d2
-        m11, m12, m22, c1, c2 = terms(th, _SMC_ROBOT, x[1], x[2], x[3], 0.0)
+        m11, m12, m22, c1, c2_ = mass_terms(th, _SMC_ROBOT, c2, s2, x[2], x[3], 0.0)
         if kind == 1:
             g1 = min(max(s1 / phi, -1.0), 1.0)
-            g2 = min(max(s2 / phi, -1.0), 1.0)
+            g2 = min(max(s2_ / phi, -1.0), 1.0)
         else:
             g1 = (s1 > 0) - (s1 < 0) * 1.0
-            g2 = (s2 > 0) - (s2 < 0) * 1.0
+            g2 = (s2_ > 0) - (s2_ < 0) * 1.0
         u1 = m11 * acc1 + m12 * acc2 + c1 + kd * s1 + ks * g1
-        u2 = m12 * acc1 + m22 * acc2 + c2 + kd * s2 + ks * g2
+        u2 = m12 * acc1 + m22 * acc2 + c2_ + kd * s2_ + ks * g2
     lim1, lim2 = th[_LIMIT], th[_LIMIT + 1]
     out[0] = min(max(u1, -lim1), lim1)
     out[1] = min(max(u2, -lim2), lim2)
 
 
 @inline
-def rhs(th: Array, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
+def torque(th: Array, t: float, x: Array, out: Array) -> None:
+    w = th[_REF + 1]
+    torque_sc(th, math.sin(w * t), math.cos(w * t), math.cos(x[1]), math.sin(x[1]), x, out)
+
+
+@inline
+def rhs_sc(th: Array, t: float, sw: float, cw: float, c2: float, s2: float, x: Array, tc: Array, td: float,
+           dx: Array) -> None:
     n = x.shape[0]
     big = 0.0
     for i in range(4):
@@ -92,24 +108,36 @@ def rhs(th: Array, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
         for i in range(n):
             dx[i] = 0.0
         return
-    m11, m12, m22, c1, c2 = terms(th, _ROBOT, x[1], x[2], x[3], payload(th, t))
+    m11, m12, m22, c1, c2_ = mass_terms(th, _ROBOT, c2, s2, x[2], x[3], payload(th, t))
     b1 = tc[0] + td * th[_DIST + 3] - c1
-    b2 = tc[1] + td * th[_DIST + 4] - c2
+    b2 = tc[1] + td * th[_DIST + 4] - c2_
     det = m11 * m22 - m12 * m12
     dx[0] = x[2]
     dx[1] = x[3]
     dx[2] = (m22 * b1 - m12 * b2) / det
     dx[3] = (m11 * b2 - m12 * b1) / det
     if n > 4:
-        a, w = th[_REF], th[_REF + 1]
-        dx[4] = a * math.sin(w * t) - x[0]
-        dx[5] = a * math.cos(w * t) - x[1]
+        a = th[_REF]
+        dx[4] = a * sw - x[0]
+        dx[5] = a * cw - x[1]
+
+
+@inline
+def rhs(th: Array, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
+    sw = cw = 0.0
+    if x.shape[0] > 4:
+        w = th[_REF + 1]
+        sw, cw = math.sin(w * t), math.cos(w * t)
+    rhs_sc(th, t, sw, cw, math.cos(x[1]), math.sin(x[1]), x, tc, td, dx)
 
 
 @inline
 def closed_rhs(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
-    torque(th, t, x, tc)
-    rhs(th, t, x, tc, td, dx)
+    w = th[_REF + 1]
+    sw, cw = math.sin(w * t), math.cos(w * t)
+    c2, s2 = math.cos(x[1]), math.sin(x[1])
+    torque_sc(th, sw, cw, c2, s2, x, tc)
+    rhs_sc(th, t, sw, cw, c2, s2, x, tc, td, dx)
 
 # Dormand–Prince 5(4) tableau
 c = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])

@@ -2,8 +2,9 @@
 
 :func:`run_campaign` simulates the scenarios of a :class:`~scara_robust.CampaignSpec` in
 chunks, locally (one process, or a pool of processes) or on a ``dask.distributed``
-cluster (extra ``dask``), and rewrites the results file atomically after every chunk, so
-an interrupted campaign keeps every chunk it finished and ``resume=True`` runs only the
+cluster (extra ``dask``), and rewrites the results file atomically after the first chunk
+and then at checkpoints a few seconds apart, so a killed campaign keeps what it had
+stored, an interrupted one everything it finished, and ``resume=True`` runs only the
 rest. A failed run (diverged, solver error) becomes a row with its error; it never stops
 the campaign. Each run goes through :func:`scara_robust.run_scenario`, like every other
 run of the package.
@@ -14,6 +15,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
@@ -21,10 +23,10 @@ from typing import Any
 import pandas as pd
 from tqdm import tqdm
 
-from ..._validation import check_choice, check_instance, check_int
+from ..._validation import check_choice, check_instance, check_int, check_real
 from ...exceptions import ArgumentValueError
 from ...io import table_format, write_atomic
-from ...simulation.compiled import numba_available
+from ...simulation.compiled import compile_seconds, numba_available
 from ...simulation.metrics import METRIC_NAMES
 from ...simulation.run import run_scenario
 from .inputs import DRAWN_COLUMNS, FIXED_COLUMNS, fixed_inputs, run_arguments
@@ -200,6 +202,7 @@ def run_campaign(
     chunk_size: int = 4,
     progress: bool = False,
     engine: str = "auto",
+    checkpoint: float = 2.0,
     on_chunk: Callable[[int], None] | None = None,
 ) -> pd.DataFrame:
     """Run a campaign and store one row per (scenario, controller) in `output`.
@@ -208,8 +211,9 @@ def run_campaign(
     ----------
     spec : CampaignSpec
     output : path
-        ``.csv`` or ``.parquet`` file, rewritten atomically after every chunk, sorted by
-        scenario and controller.
+        ``.csv`` or ``.parquet`` file, sorted by scenario and controller, rewritten
+        atomically after the first chunk, then at checkpoints (see `checkpoint`), and at
+        the end or on an interruption.
     runs, seed : int, optional
         Number of scenarios and seed (default: the spec's).
     workers : int
@@ -229,8 +233,13 @@ def run_campaign(
     engine : {'auto', 'compiled', 'scipy'}
         See :func:`resolve_engine` and :func:`run_draw`; the table does not depend on the
         worker count or the chunking with either.
+    checkpoint : float
+        Least time between two rewrites of `output`, s (>= 0; 0 rewrites it after every
+        chunk). The interval also grows to ten times the last rewrite's duration, so that
+        rewriting a large table costs at most about a tenth of the campaign. A killed
+        campaign loses the chunks finished since the last rewrite; ``resume`` reruns them.
     on_chunk : callable, optional
-        Called with the number of scenarios stored after each chunk is written.
+        Called with the number of scenarios stored after each rewrite of `output`.
 
     Returns
     -------
@@ -244,6 +253,7 @@ def run_campaign(
     checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
     for name, value, low in checks:
         check_int(name, value, low)
+    checkpoint = check_real("checkpoint", checkpoint, nonnegative=True)
     engine = resolve_engine(engine)
     path = os.fspath(output)
     table_format("output", path)
@@ -271,20 +281,35 @@ def run_campaign(
         total=int(runs), initial=len(done), disable=not progress, file=sys.stderr, desc="campaign", unit="scenario"
     )
 
-    def store(rows: list[dict[str, Any]]) -> None:
-        nonlocal stored
-        fresh = pd.DataFrame(rows).assign(seed=int(seed), spec=digest)
+    pending: list[dict[str, Any]] = []
+    last_write = -math.inf
+    interval = checkpoint
+
+    def flush() -> None:
+        nonlocal stored, pending, last_write, interval
+        if not pending:
+            return
+        fresh = pd.DataFrame(pending).assign(seed=int(seed), spec=digest)
         stored = _normalize(pd.concat([stored, fresh], ignore_index=True) if len(stored) else fresh, columns)
+        start = time.monotonic()
         _write(path, stored)
-        bar.update(len({r["scenario"] for r in rows}))
+        last_write = time.monotonic()
+        interval = max(checkpoint, 10.0 * (last_write - start)) if checkpoint > 0 else 0.0
+        pending = []
         if on_chunk is not None:
             on_chunk(int(stored["scenario"].nunique()))
 
     try:
         for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size), engine):
-            store(rows)
+            pending.extend(rows)
+            bar.update(len({r["scenario"] for r in rows}))
+            if time.monotonic() - last_write >= interval:
+                flush()
     finally:
-        bar.close()
+        try:
+            flush()
+        finally:
+            bar.close()
     if not len(stored):
         stored = _normalize(pd.DataFrame(columns=columns), columns)
     return stored
@@ -303,6 +328,8 @@ def _execute(
         for chunk in chunks:
             yield _run_chunk(spec, seed, chunk, engine)
     else:
+        if engine == "compiled":
+            compile_seconds()  # load the kernels once here; forked workers inherit them
         with ProcessPoolExecutor(max_workers=workers) as pool:
             futures = [pool.submit(_run_chunk, spec, seed, chunk, engine) for chunk in chunks]
             try:
