@@ -139,6 +139,18 @@ def closed_rhs(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -
     torque_sc(th, sw, cw, c2, s2, x, tc)
     rhs_sc(th, t, sw, cw, c2, s2, x, tc, td, dx)
 
+@inline
+def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
+    """Sample j: torque TC[:, j] (N·m) and errors ER[:, j] = (r - q, ṙ - q̇) (rad, rad/s) at state x."""
+    a, w = th[_REF], th[_REF + 1]
+    sw, cw = math.sin(w * t), math.cos(w * t)
+    torque_sc(th, sw, cw, math.cos(x[1]), math.sin(x[1]), x, tc)
+    TC[0, j], TC[1, j] = tc[0], tc[1]
+    ER[0, j] = a * sw - x[0]
+    ER[1, j] = a * cw - x[1]
+    ER[2, j] = a * w * cw - x[2]
+    ER[3, j] = -a * w * sw - x[3]
+
 # Dormand–Prince 5(4) tableau
 c = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
 A = np.zeros((7, 6))
@@ -213,7 +225,7 @@ def dopri_interval(th: Array, x: Array, t0: float, t1: float, td: float, h0: flo
 @jit
 def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rtol: float, atol: float,
                 K: Array, y: Array, tc: Array, t_out: Array, j: int, X: Array,
-                TC: Array) -> tuple[int, float, float, bool, int]:
+                TC: Array, ER: Array) -> tuple[int, float, float, bool, int]:
     """Advance x in place from a to b with natural steps, writing outputs t_out[j:] in (a, b] by dense output.
 
     Returns (next output index, time reached, next step, ok, rhs calls).
@@ -261,8 +273,7 @@ def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rt
                         for q in range(7):
                             acc += K[q, i] * (P[q, 0] * th1 + P[q, 1] * th2 + P[q, 2] * th3 + P[q, 3] * th4)
                         X[i, j] = x[i] + hh * acc
-                torque(th, t_out[j], X[:, j], tc)
-                TC[0, j], TC[1, j] = tc[0], tc[1]
+                output(th, t_out[j], X[:, j], tc, TC, ER, j)
                 j += 1
             for i in range(n):
                 x[i] = y[i]
@@ -304,8 +315,8 @@ def diverged(th: Array, t: float, x: Array, limit: float) -> bool:
 
 @jit
 def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: float, limit: float,
-        X: Array, TC: Array) -> tuple[int, int, float, int]:
-    """One run: states X (n, k) and torques TC (2, k) on t_out; (samples, code, t_stop, rhs calls)."""
+        X: Array, TC: Array, ER: Array) -> tuple[int, int, float, int]:
+    """One run: states X (n, k), torques TC (2, k) and errors ER (4, k) on t_out; (samples, code, t_stop, calls)."""
     n = x0.shape[0]
     x = x0.copy()
     K = np.zeros((7, n))
@@ -314,8 +325,7 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
     calls = 0
     for i in range(n):
         X[i, 0] = x[i]
-    torque(th, t_out[0], x, tc)
-    TC[0, 0], TC[1, 0] = tc[0], tc[1]
+    output(th, t_out[0], x, tc, TC, ER, 0)
     j = 1  # next output sample
     h = 1e-4
     sampled = th[_TS] > 0
@@ -328,11 +338,10 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
             while j < t_out.shape[0] and t_out[j] <= b + 1e-12:
                 for i in range(n):
                     X[i, j] = x[i]
-                torque(th, t_out[j], x, tc)
-                TC[0, j], TC[1, j] = tc[0], tc[1]
+                output(th, t_out[j], x, tc, TC, ER, j)
                 j += 1
         else:
-            j, t, h, ok, m = dopri_dense(th, x, a, b, td, h, rtol, atol, K, y, tc, t_out, j, X, TC)
+            j, t, h, ok, m = dopri_dense(th, x, a, b, td, h, rtol, atol, K, y, tc, t_out, j, X, TC, ER)
             calls += m
             if not ok:
                 return j, _FAILED, t, calls
@@ -369,10 +378,10 @@ def refine(th: Array, x: Array, t0: float, fine: Array, counted: Array, rtol: fl
 
 @jit
 def batch(TH: Array, X0: Array, t_out: Array, edges_all: Array, n_edges: Array, rtol: float, atol: float,
-          limit: float, X: Array, TC: Array, info: Array) -> None:
+          limit: float, X: Array, TC: Array, ER: Array, info: Array) -> None:
     for r in range(TH.shape[0]):
         j, code, t_stop, calls = run(TH[r], X0[r], t_out, edges_all[r, :n_edges[r]], rtol, atol, limit,
-                                     X[r], TC[r])
+                                     X[r], TC[r], ER[r])
         info[r, 0], info[r, 1], info[r, 2], info[r, 3] = j, code, t_stop, calls
 
 

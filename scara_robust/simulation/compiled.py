@@ -173,11 +173,11 @@ def _build() -> dict[str, Any]:
     th[_LIMIT:_LIMIT + 2] = np.inf
     x0 = np.zeros(6)
     t_out = np.array([0.0, 0.01])
-    X, TC = np.zeros((6, 2)), np.zeros((2, 2))
-    run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC)
+    X, TC, ER = np.zeros((6, 2)), np.zeros((2, 2)), np.zeros((4, 2))
+    run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC, ER)
     refine(th, x0, 0.0, t_out[1:], np.ones(1, np.bool_), 1e-6, 1e-9)
     batch(th[None], x0[None], t_out, t_out[None], np.array([2]), 1e-6, 1e-9, 50.0, X[None], TC[None],
-             np.zeros((1, 4)))
+          ER[None], np.zeros((1, 4)))
     _COMPILE_SECONDS.append(time.perf_counter() - start)
     segment(th, x0, 0.0, t_out[1:], 1.0, 1e-6, 1e-9, X[:, :1])
     _KERNELS.update({"run": run, "refine": refine, "batch": batch, "torque": torque, "rhs": rhs, "segment": segment})
@@ -213,6 +213,8 @@ class CompiledRun:
         :class:`~scara_robust.SimulationResult`).
     rhs_calls : int
         Right-hand-side evaluations of the main run.
+    error : ndarray, shape (4, k)
+        ``r - q`` (rad) and ``ṙ - q̇`` (rad/s) at `t`, from the kernel's own reference.
     """
 
     t: Array
@@ -223,6 +225,7 @@ class CompiledRun:
     message: str
     peak_torque: float
     rhs_calls: int
+    error: Array
 
 
 def _edges(loop: ClosedLoop, t_out: Array, t_final: float) -> Array:
@@ -238,10 +241,10 @@ def _grid(loop: ClosedLoop, t_final: float, dt: float) -> Array:
     return output_grid(t_final, dt)
 
 
-def _finish(loop: ClosedLoop, th: Array, t_out: Array, X: Array, TC: Array, info: Array, limit: float,
+def _finish(loop: ClosedLoop, th: Array, t_out: Array, X: Array, TC: Array, ER: Array, info: Array, limit: float,
             rtol: float, atol: float, peak_candidates: int, peak_points: int) -> CompiledRun:
     k, code, t_stop, calls = int(info[0]), int(info[1]), float(info[2]), int(info[3])
-    t, x, tc = t_out[:k], X[:, :k], TC[:, :k]
+    t, x, tc, er = t_out[:k], X[:, :k], TC[:, :k], ER[:, :k]
     if code == _DIVERGED:
         message = f"diverged by t = {t_stop:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
     elif code == _FAILED:
@@ -264,7 +267,7 @@ def _finish(loop: ClosedLoop, th: Array, t_out: Array, X: Array, TC: Array, info
             value = float(refine(th, np.ascontiguousarray(x[:, a]), float(t[a]), pts[order], counted, rtol, atol))
             if not math.isnan(value):
                 peak = max(peak, value)
-    return CompiledRun(t, x, tc, code == _COMPLETED, code == _DIVERGED, message, peak, calls)
+    return CompiledRun(t, x, tc, code == _COMPLETED, code == _DIVERGED, message, peak, calls, er)
 
 
 def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-3, rtol: float = 1e-8,
@@ -297,8 +300,9 @@ def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-
     x0 = np.ascontiguousarray(x0, dtype=float)
     X = np.zeros((x0.size, t_out.size))
     TC = np.zeros((2, t_out.size))
-    j, code, t_stop, calls = kernels["run"](th, x0, t_out, edges, rtol, atol, divergence_limit, X, TC)
-    return _finish(loop, th, t_out, X, TC, np.array([j, code, t_stop, calls], dtype=float), divergence_limit,
+    ER = np.zeros((4, t_out.size))
+    j, code, t_stop, calls = kernels["run"](th, x0, t_out, edges, rtol, atol, divergence_limit, X, TC, ER)
+    return _finish(loop, th, t_out, X, TC, ER, np.array([j, code, t_stop, calls], dtype=float), divergence_limit,
                    rtol, atol, peak_candidates, peak_points)
 
 
@@ -337,9 +341,10 @@ def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *,
     X0 = np.ascontiguousarray(np.stack([np.asarray(x, dtype=float) for x in x0s]))
     X = np.zeros((len(loops), X0.shape[1], t_out.size))
     TC = np.zeros((len(loops), 2, t_out.size))
+    ER = np.zeros((len(loops), 4, t_out.size))
     info = np.zeros((len(loops), 4))
-    kernels["batch"](TH, X0, t_out, edges_all, n_edges, rtol, atol, divergence_limit, X, TC, info)
-    return [_finish(lp, TH[r], t_out, X[r], TC[r], info[r], divergence_limit, rtol, atol, 5, 41)
+    kernels["batch"](TH, X0, t_out, edges_all, n_edges, rtol, atol, divergence_limit, X, TC, ER, info)
+    return [_finish(lp, TH[r], t_out, X[r], TC[r], ER[r], info[r], divergence_limit, rtol, atol, 5, 41)
             for r, lp in enumerate(loops)]
 
 

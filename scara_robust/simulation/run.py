@@ -11,7 +11,7 @@ Times in s, angles in rad, torques in N·m, masses in kg.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import control as ct
@@ -98,10 +98,14 @@ class SimulationResult:
     t_transient: float = PAPER_TRANSIENT
     tracking_tolerance: float = TRACKING_TOLERANCE
     peak_torque: float = float("nan")
+    #: The metrics at `t_transient`, computed once when the run is made.
+    _metrics: TrackingMetrics | None = field(default=None, repr=False, compare=False)
 
     def metrics(self, t_transient: float | None = None) -> TrackingMetrics:
         """:func:`scara_robust.tracking_metrics` of this run after `t_transient` (s; default the run's)."""
         t0 = self.t_transient if t_transient is None else t_transient
+        if self._metrics is not None and t0 == self.t_transient:
+            return self._metrics
         return tracking_metrics(self.t, self.e, self.torque, t_transient=t0, peak_torque=self.peak_torque)
 
     @property
@@ -168,9 +172,12 @@ def _result(
     tolerance: float,
     rtol: float,
     atol: float,
-    known: tuple[Array, float] | None = None,
+    known: tuple[Array, float, Array] | None = None,
 ) -> SimulationResult:
-    """The result of a trajectory; `known` = (torque (2, k), peak torque) when the engine computed them."""
+    """The result of a trajectory.
+
+    `known` = (torque (2, k), peak torque, errors (4, k)) when the engine computed them.
+    """
     t, X = traj.t, traj.x
     if known is None:
         Y = loop.outputs(t, X)
@@ -186,13 +193,16 @@ def _result(
         title=f"{loop.controller.name}, scenario {scenario}",
         issiso=False,
     )
-    if loop.reference.sinusoid is not None:  # the package's own references are vectorized
-        r = np.asarray(loop.reference.position(t), dtype=float).reshape(2, len(t))
-        rd = np.asarray(loop.reference.velocity(t), dtype=float).reshape(2, len(t))
-    else:  # element by element: a user's reference need not be vectorized
-        r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
-        rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
-    e = r - Y[0:2]
+    if known is not None:  # (r - q, ṙ - q̇) from the engine
+        e, edot = known[2][0:2], known[2][2:4]
+    else:
+        if loop.reference.sinusoid is not None:  # the package's own references are vectorized
+            r = np.asarray(loop.reference.position(t), dtype=float).reshape(2, len(t))
+            rd = np.asarray(loop.reference.velocity(t), dtype=float).reshape(2, len(t))
+        else:  # element by element: a user's reference need not be vectorized
+            r = np.array([np.asarray(loop.reference.position(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+            rd = np.array([np.asarray(loop.reference.velocity(ti), dtype=float) for ti in t]).reshape(len(t), 2).T
+        e, edot = r - Y[0:2], rd - Y[2:4]
     peak = _peak_torque(engine, loop, t, X, Y[4:6], rtol, atol) if known is None else known[1]
     after = t >= t_transient
     metrics = tracking_metrics(t, e, Y[4:6], t_transient=t_transient, peak_torque=peak) if after.sum() >= 2 else None
@@ -208,7 +218,7 @@ def _result(
         response=response,
         t=t,
         e=e,
-        edot=rd - Y[2:4],
+        edot=edot,
         torque=Y[4:6],
         disturbance=Y[6:8],
         payload=np.broadcast_to(np.asarray(loop.payload(t), dtype=float), t.shape).copy(),
@@ -223,6 +233,7 @@ def _result(
         t_transient=t_transient,
         tracking_tolerance=tolerance,
         peak_torque=peak,
+        _metrics=metrics,
     )
 
 
@@ -376,7 +387,7 @@ def simulate(
                            peak_candidates=PEAK_CANDIDATES, peak_points=PEAK_POINTS)
         traj = Trajectory(run.t, run.x, run.success, run.diverged, run.message)
         return _result(loop, traj, scenario.name, ENGINES[engine], t_transient, tolerance, rtol, atol,
-                       known=(run.torque, run.peak_torque))
+                       known=(run.torque, run.peak_torque, run.error))
     traj = integrate(
         ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
     )
