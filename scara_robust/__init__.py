@@ -70,6 +70,7 @@ Simulation (:mod:`scara_robust.simulation`)
     ControlLaw                      -- what a package controller computes (its ``law``), for the compiled engine
     compiled_run, compiled_batch, CompiledRun, CompiledEngine -- the compiled engine (numba, extra ``compiled``)
     pack_loop, compiled_support, N_THETA, numba_available, compile_seconds -- its packed inputs, scope, compile cost
+    COMPILED_INTEGRATORS            -- its integrators of a continuous law: stiff BDF (default) or Dormand–Prince
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
     sampled_pid_controller, SampledPID -- a DiscretePID on the robot, zero-order hold (``pid-sampled``)
     ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits

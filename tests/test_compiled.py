@@ -120,3 +120,72 @@ def test_campaign_tables_do_not_depend_on_workers_or_chunks_with_the_compiled_en
 
 def test_compile_time_is_measured():
     assert compiled.compile_seconds() > 0
+
+
+# --- the stiff integrator (BDF, scipy's method in machine code) ------------------------------
+
+
+def test_difference_array_rescaling_is_scipys():
+    from scipy.integrate._ivp.bdf import change_D as scipy_change_D
+
+    from scara_robust.simulation import _kernels
+
+    rng = np.random.default_rng(3)
+    work = np.zeros((4, 6, 6))
+    for order in range(1, 6):
+        for factor in (0.2, 0.5, 1.0, 1.7, 10.0):
+            D = rng.normal(size=(8, 6))
+            want = D.copy()
+            scipy_change_D(want, order, factor)
+            _kernels.change_D(D, order, factor, work)
+            assert np.allclose(D, want, rtol=1e-13, atol=1e-13), (order, factor)
+
+
+def test_small_lu_solves_like_lapack():
+    from scara_robust.simulation import _kernels
+
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        A = rng.normal(size=(6, 6))
+        A[0, 0] = 1e-12  # a zero-ish leading pivot: only row exchanges get this right
+        b = rng.normal(size=6)
+        LU, piv, x = A.copy(), np.zeros(6, np.int64), b.copy()
+        _kernels.lu_factor(LU, piv)
+        _kernels.lu_solve(LU, piv, x)
+        want = np.linalg.solve(A, b)
+        assert np.allclose(x, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
+
+
+def test_bdf_takes_the_steps_of_scipys_bdf_on_the_python_model():
+    """Independent cross-check: scipy's BDF on the Python right-hand side, segment by segment."""
+    from scipy.integrate import solve_ivp
+
+    loop = _loop("pid")
+    x0 = np.r_[sr.SCENARIOS["large"].initial_state(sr.paper_reference()), 0.0, 0.0]
+    t_final = 2.0
+    run = compiled.compiled_run(loop, x0, t_final, integrator="bdf")
+    torque, rhs = loop.torque, loop.rhs
+    edges = np.r_[0.0, loop.disturbance.switching_times(0.0, t_final), t_final]
+    x, nfev, states = x0.copy(), 0, [x0[:, None]]
+    for a, b in zip(edges[:-1], edges[1:]):
+        td = np.asarray(loop.disturbance(0.5 * (a + b)), dtype=float)
+        sol = solve_ivp(lambda t, y: rhs(t, y, torque(t, y), td), (a, b), x, method="BDF", rtol=1e-8, atol=1e-10,
+                        dense_output=True)
+        assert sol.success
+        inside = run.t[(run.t > a) & (run.t <= b)]
+        states.append(sol.sol(inside))
+        x, nfev = sol.y[:, -1], nfev + sol.nfev
+    X = np.hstack(states)
+    assert np.abs(X[:4] - run.x[:4]).max() <= 1e-7  # same method, same tolerances: same trajectory
+    assert abs(run.rhs_calls - nfev) <= 0.05 * nfev  # and nearly the same work (Jacobians differ)
+
+
+def test_both_integrators_agree_and_bdf_needs_a_fraction_of_the_calls():
+    loop = _loop("pid")
+    x0 = np.r_[sr.SCENARIOS["large"].initial_state(sr.paper_reference()), 0.0, 0.0]
+    bdf = compiled.compiled_run(loop, x0, 8.0, integrator="bdf")
+    dopri = compiled.compiled_run(loop, x0, 8.0, integrator="dopri5")
+    assert np.abs(bdf.error - dopri.error)[:2].max() <= 1e-7 and abs(bdf.peak_torque - dopri.peak_torque) <= 1e-5
+    assert bdf.rhs_calls < dopri.rhs_calls / 3
+    with pytest.raises(sr.ArgumentValueError, match="`integrator` must be one of"):
+        compiled.compiled_run(loop, x0, 1.0, integrator="rk45")

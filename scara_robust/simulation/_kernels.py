@@ -287,6 +287,325 @@ def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rt
     return j, t, h, True, calls
 
 
+
+# Variable-order BDF in the NDF form with a quasi-constant step: the method of
+# scipy.integrate.BDF (Shampine & Reichelt 1997, "The MATLAB ODE suite"), step for step,
+# with a forward-difference Jacobian. The stiff closed loop (a pole near -1500 1/s) holds an
+# explicit method to its stability limit; this one takes the steps accuracy needs.
+_MAX_ORDER = 5
+_NEWTON_MAXITER = 4
+_EPS = float(np.finfo(np.float64).eps)
+_KAPPA = np.array([0.0, -0.1850, -1 / 9, -0.0823, -0.0415, 0.0])
+_GAMMA = np.concatenate((np.zeros(1), np.cumsum(1 / np.arange(1, _MAX_ORDER + 1))))
+_ALPHA = (1 - _KAPPA) * _GAMMA
+_ERROR_CONST = _KAPPA * _GAMMA + 1 / np.arange(1, _MAX_ORDER + 2)
+
+
+@inline
+def rms_scaled(v: Array, scale: Array) -> float:
+    acc = 0.0
+    for i in range(v.shape[0]):
+        q = v[i] / scale[i]
+        acc += q * q
+    return math.sqrt(acc / v.shape[0])
+
+
+@jit
+def change_D(D: Array, order: int, factor: float, work: Array) -> None:
+    """Rescale the difference array D to a step `factor` times the current one (scipy's change_D).
+
+    `work` is scratch of shape (4, MAX_ORDER + 1, max(MAX_ORDER + 1, n)).
+    """
+    m = order + 1
+    R, U, RU, new = work[0], work[1], work[2], work[3]
+    for col in range(m):
+        R[0, col] = 1.0
+        U[0, col] = 1.0
+    for i in range(1, m):
+        R[i, 0] = 0.0
+        U[i, 0] = 0.0
+        for col in range(1, m):
+            R[i, col] = R[i - 1, col] * (i - 1 - factor * col) / i
+            U[i, col] = U[i - 1, col] * (i - 1 - 1.0 * col) / i
+    for i in range(m):
+        for col in range(m):
+            acc = 0.0
+            for k in range(m):
+                acc += R[i, k] * U[k, col]
+            RU[i, col] = acc
+    n = D.shape[1]
+    for i in range(m):
+        for q in range(n):
+            acc = 0.0
+            for k in range(m):
+                acc += RU[k, i] * D[k, q]
+            new[i, q] = acc
+    for i in range(m):
+        for q in range(n):
+            D[i, q] = new[i, q]
+
+
+@jit
+def lu_factor(A: Array, piv: NDArray[np.int64]) -> None:
+    """In-place LU with partial pivoting of a small dense matrix."""
+    n = A.shape[0]
+    for k in range(n):
+        p = k
+        big = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > big:
+                big = abs(A[i, k])
+                p = i
+        piv[k] = p
+        if p != k:
+            for q in range(n):
+                A[k, q], A[p, q] = A[p, q], A[k, q]
+        if A[k, k] != 0.0:
+            for i in range(k + 1, n):
+                A[i, k] /= A[k, k]
+                for q in range(k + 1, n):
+                    A[i, q] -= A[i, k] * A[k, q]
+
+
+@inline
+def lu_solve(LU: Array, piv: NDArray[np.int64], b: Array) -> None:
+    n = LU.shape[0]
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            b[k], b[p] = b[p], b[k]
+    for i in range(n):
+        acc = b[i]
+        for q in range(i):
+            acc -= LU[i, q] * b[q]
+        b[i] = acc
+    for i in range(n - 1, -1, -1):
+        acc = b[i]
+        for q in range(i + 1, n):
+            acc -= LU[i, q] * b[q]
+        b[i] = acc / LU[i, i]
+
+
+@jit
+def jacobian(th: Array, t: float, y: Array, f: Array, td: float, tc: Array, J: Array, w: Array,
+             fw: Array) -> None:
+    """Forward differences: J[:, k] = (f(y + h e_k) - f(y)) / h, h = sqrt(eps) max(1, |y_k|)."""
+    n = y.shape[0]
+    for k in range(n):
+        for i in range(n):
+            w[i] = y[i]
+        h = math.sqrt(_EPS) * max(1.0, abs(y[k]))
+        w[k] = y[k] + h
+        h = w[k] - y[k]
+        closed_rhs(th, t, w, td, tc, fw)
+        for i in range(n):
+            J[i, k] = (fw[i] - f[i]) / h
+
+
+@jit
+def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, atol: float, tc: Array,
+              t_out: Array, j: int, X: Array, TC: Array, ER: Array) -> tuple[int, float, bool, int]:
+    """Advance x in place from a to b (one solve of scipy's BDF), writing outputs t_out[j:] in (a, b].
+
+    Returns (next output index, time reached, ok, rhs calls).
+    """
+    n = x.shape[0]
+    f0 = np.empty(n)
+    w = np.empty(n)
+    fw = np.empty(n)
+    scale = np.empty(n)
+    ypred = np.empty(n)
+    psi = np.empty(n)
+    y = np.empty(n)
+    d = np.empty(n)
+    dy = np.empty(n)
+    J = np.empty((n, n))
+    LU = np.empty((n, n))
+    piv = np.zeros(n, np.int64)
+    D = np.zeros((_MAX_ORDER + 3, n))
+    work = np.zeros((4, _MAX_ORDER + 1, max(_MAX_ORDER + 1, n)))
+    calls = 0
+    t = a
+    closed_rhs(th, t, x, td, tc, f0)
+    calls += 1
+    # initial step: scipy's select_initial_step with order 1
+    interval = b - a
+    for i in range(n):
+        scale[i] = atol + abs(x[i]) * rtol
+    d0 = rms_scaled(x, scale)
+    d1 = rms_scaled(f0, scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    for i in range(n):
+        w[i] = x[i] + h0 * f0[i]
+    closed_rhs(th, t + h0, w, td, tc, fw)
+    calls += 1
+    for i in range(n):
+        dy[i] = fw[i] - f0[i]
+    d2 = rms_scaled(dy, scale) / h0
+    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** 0.5
+    h_abs = min(100 * h0, h1, interval)
+    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol ** 0.5))
+    jacobian(th, t, x, f0, td, tc, J, w, fw)
+    calls += n
+    for i in range(n):
+        D[0, i] = x[i]
+        D[1, i] = f0[i] * h_abs
+    order = 1
+    n_equal = 0
+    lu_ok = False
+    while t < b:
+        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs < min_step:
+            change_D(D, order, min_step / h_abs, work)
+            h_abs = min_step
+            n_equal = 0
+        current_jac = False
+        accepted = False
+        t_new = t
+        error_norm = 0.0
+        safety = 0.0
+        while not accepted:
+            if h_abs < min_step:
+                return j, t, False, calls
+            t_new = t + h_abs
+            if t_new - b > 0:
+                t_new = b
+                change_D(D, order, abs(t_new - t) / h_abs, work)
+                n_equal = 0
+                lu_ok = False
+            h = t_new - t
+            h_abs = abs(h)
+            for i in range(n):
+                acc = 0.0
+                for k in range(order + 1):
+                    acc += D[k, i]
+                ypred[i] = acc
+                scale[i] = atol + rtol * abs(acc)
+                acc = 0.0
+                for k in range(1, order + 1):
+                    acc += D[k, i] * _GAMMA[k]
+                psi[i] = acc / _ALPHA[order]
+            c = h / _ALPHA[order]
+            converged = False
+            n_iter = 0
+            while not converged:
+                if not lu_ok:
+                    for i in range(n):
+                        for q in range(n):
+                            LU[i, q] = (1.0 if i == q else 0.0) - c * J[i, q]
+                    lu_factor(LU, piv)
+                    lu_ok = True
+                # Newton iterations (scipy's solve_bdf_system)
+                for i in range(n):
+                    y[i] = ypred[i]
+                    d[i] = 0.0
+                dy_norm_old = -1.0
+                converged = False
+                for k in range(_NEWTON_MAXITER):
+                    n_iter = k + 1
+                    closed_rhs(th, t_new, y, td, tc, fw)
+                    calls += 1
+                    finite = True
+                    for i in range(n):
+                        if not math.isfinite(fw[i]):
+                            finite = False
+                    if not finite:
+                        break
+                    for i in range(n):
+                        dy[i] = c * fw[i] - psi[i] - d[i]
+                    lu_solve(LU, piv, dy)
+                    dy_norm = rms_scaled(dy, scale)
+                    rate = -1.0 if dy_norm_old < 0 else dy_norm / dy_norm_old
+                    if rate >= 0 and (rate >= 1 or rate ** (_NEWTON_MAXITER - k) / (1 - rate) * dy_norm > newton_tol):
+                        break
+                    for i in range(n):
+                        y[i] += dy[i]
+                        d[i] += dy[i]
+                    if dy_norm == 0 or (rate >= 0 and rate / (1 - rate) * dy_norm < newton_tol):
+                        converged = True
+                        break
+                    dy_norm_old = dy_norm
+                if not converged:
+                    if current_jac:
+                        break
+                    closed_rhs(th, t_new, ypred, td, tc, f0)
+                    jacobian(th, t_new, ypred, f0, td, tc, J, w, fw)
+                    calls += 1 + n
+                    lu_ok = False
+                    current_jac = True
+            if not converged:
+                h_abs *= 0.5
+                change_D(D, order, 0.5, work)
+                n_equal = 0
+                lu_ok = False
+                continue
+            safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
+            for i in range(n):
+                scale[i] = atol + rtol * abs(y[i])
+                dy[i] = _ERROR_CONST[order] * d[i]
+            error_norm = rms_scaled(dy, scale)
+            if error_norm > 1:
+                factor = max(0.2, safety * error_norm ** (-1 / (order + 1)))
+                h_abs *= factor
+                change_D(D, order, factor, work)
+                n_equal = 0
+            else:
+                accepted = True
+        n_equal += 1
+        t_old = t
+        t = t_new
+        for i in range(n):
+            x[i] = y[i]
+            D[order + 2, i] = d[i] - D[order + 1, i]
+            D[order + 1, i] = d[i]
+        for k in range(order, -1, -1):
+            for i in range(n):
+                D[k, i] += D[k + 1, i]
+        if n_equal >= order + 1:
+            em = math.inf
+            ep = math.inf
+            if order > 1:
+                for i in range(n):
+                    dy[i] = _ERROR_CONST[order - 1] * D[order, i]
+                em = rms_scaled(dy, scale)
+            if order < _MAX_ORDER:
+                for i in range(n):
+                    dy[i] = _ERROR_CONST[order + 1] * D[order + 2, i]
+                ep = rms_scaled(dy, scale)
+            fm = math.inf if em == 0 else em ** (-1 / order)
+            fc = math.inf if error_norm == 0 else error_norm ** (-1 / (order + 1))
+            fp = math.inf if ep == 0 else ep ** (-1 / (order + 2))
+            best, delta = fm, -1
+            if fc > best:
+                best, delta = fc, 0
+            if fp > best:
+                best, delta = fp, 1
+            order += delta
+            factor = min(10.0, safety * best)
+            h_abs *= factor
+            change_D(D, order, factor, work)
+            n_equal = 0
+            lu_ok = False
+        # dense output on (t_old, t] (scipy's BdfDenseOutput, with the step and order now in force)
+        while j < t_out.shape[0] and t_out[j] <= t + 1e-12:
+            if t_out[j] >= t - 1e-15:
+                for i in range(n):
+                    X[i, j] = x[i]
+            else:
+                for i in range(n):
+                    X[i, j] = D[0, i]
+                p = 1.0
+                for k in range(order):
+                    p *= (t_out[j] - (t - h_abs * k)) / (h_abs * (1 + k))
+                    for i in range(n):
+                        X[i, j] += D[k + 1, i] * p
+            output(th, t_out[j], X[:, j], tc, TC, ER, j)
+            j += 1
+        if t_old == t:
+            return j, t, False, calls
+    return j, t, True, calls
+
 @jit
 def rk4_step(th: Array, x: Array, a: float, b: float, td: float, tc: Array, K: Array, y: Array) -> None:
     n = x.shape[0]
@@ -315,8 +634,11 @@ def diverged(th: Array, t: float, x: Array, limit: float) -> bool:
 
 @jit
 def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: float, limit: float,
-        X: Array, TC: Array, ER: Array) -> tuple[int, int, float, int]:
-    """One run: states X (n, k), torques TC (2, k) and errors ER (4, k) on t_out; (samples, code, t_stop, calls)."""
+        X: Array, TC: Array, ER: Array, stiff: bool) -> tuple[int, int, float, int]:
+    """One run: states X (n, k), torques TC (2, k) and errors ER (4, k) on t_out; (samples, code, t_stop, calls).
+
+    A continuous law is integrated by BDF when `stiff`, else by Dormand–Prince 5(4).
+    """
     n = x0.shape[0]
     x = x0.copy()
     K = np.zeros((7, n))
@@ -340,6 +662,11 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
                     X[i, j] = x[i]
                 output(th, t_out[j], x, tc, TC, ER, j)
                 j += 1
+        elif stiff:
+            j, t, ok, m = bdf_dense(th, x, a, b, td, rtol, atol, tc, t_out, j, X, TC, ER)
+            calls += m
+            if not ok:
+                return j, _FAILED, t, calls
         else:
             j, t, h, ok, m = dopri_dense(th, x, a, b, td, h, rtol, atol, K, y, tc, t_out, j, X, TC, ER)
             calls += m
@@ -378,10 +705,10 @@ def refine(th: Array, x: Array, t0: float, fine: Array, counted: Array, rtol: fl
 
 @jit
 def batch(TH: Array, X0: Array, t_out: Array, edges_all: Array, n_edges: Array, rtol: float, atol: float,
-          limit: float, X: Array, TC: Array, ER: Array, info: Array) -> None:
+          limit: float, X: Array, TC: Array, ER: Array, info: Array, stiff: bool) -> None:
     for r in range(TH.shape[0]):
         j, code, t_stop, calls = run(TH[r], X0[r], t_out, edges_all[r, :n_edges[r]], rtol, atol, limit,
-                                     X[r], TC[r], ER[r])
+                                     X[r], TC[r], ER[r], stiff)
         info[r, 0], info[r, 1], info[r, 2], info[r, 3] = j, code, t_stop, calls
 
 

@@ -11,14 +11,21 @@ torque saturation, a constant or sinusoidal payload, the reference ``a (sin ωt,
 and square-wave disturbances. Anything else (a user's own controller, reference or
 payload callable, the discrete PID) is refused with a message; the scipy engines take it.
 
-Integrator, chosen for accuracy: for a continuous law, Dormand–Prince 5(4) with its
-embedded error estimate and the step controller of Hairer, Nørsett and Wanner (*Solving
-Ordinary Differential Equations I*, §II.4), stepping exactly onto every output time and
-every switching instant of the disturbance, so no step straddles a discontinuity; the
-tolerances are the caller's. For a sampled law, one classical RK4 step per sample with the
-torque held, the disturbance taken at the step's midpoint: the ``rk4`` engine's scheme,
-step for step. A run leaving the limits is frozen at the end of the disturbance segment
-where it left them, as the shared segment loop does.
+Integrators. A continuous law is stiff in closed loop (the PID's fastest pole is near
+-1500 1/s), so by default (``integrator='bdf'``) it runs the variable-order BDF method
+of :class:`scipy.integrate.BDF` (numerical differentiation formulas of orders 1 to 5 with
+a quasi-constant step, Shampine and Reichelt, "The MATLAB ODE suite", SIAM J. Sci.
+Comput. 18, 1997), step for step, with a forward-difference Jacobian and scipy's dense
+output at the output times. ``integrator='dopri5'`` runs Dormand–Prince 5(4) with its
+embedded error estimate and scipy's quartic dense output instead: it is held to steps of
+about 1 ms by its stability region, five times the right-hand-side calls. Either is
+restarted at every switching instant of the disturbance, so no step straddles a
+discontinuity, with the caller's tolerances. The peak torque's refinement and the shared
+segment loop's :meth:`CompiledEngine.advance` step Dormand–Prince exactly onto their
+times. For a sampled law, one classical RK4 step per sample with the torque held, the
+disturbance taken at the step's midpoint: the ``rk4`` engine's scheme, step for step. A
+run leaving the limits is frozen at the end of the disturbance segment where it left
+them, as the shared segment loop does.
 
 Compilation is cached on disk (numba ``cache=True``); :func:`compile_seconds` reports the
 first call's cost separately.
@@ -34,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._validation import check_choice
 from ..exceptions import ArgumentValueError
 from ..model.robot import ConstantPayload, SinusoidalPayload
 from .controllers import ControlLaw
@@ -50,9 +58,13 @@ __all__ = [
     "compiled_support",
     "N_THETA",
     "CompiledEngine",
+    "COMPILED_INTEGRATORS",
 ]
 
 Array = NDArray[np.float64]
+
+#: Integrators of a continuous law: ``'bdf'`` (the default; stiff) and ``'dopri5'`` (explicit).
+COMPILED_INTEGRATORS = ("bdf", "dopri5")
 
 # Layout of the packed parameter vector θ of one run.
 _ROBOT = 0  # m1, m2, L1, L2, Lc1, Lc2, I1, I2, cp
@@ -174,10 +186,11 @@ def _build() -> dict[str, Any]:
     x0 = np.zeros(6)
     t_out = np.array([0.0, 0.01])
     X, TC, ER = np.zeros((6, 2)), np.zeros((2, 2)), np.zeros((4, 2))
-    run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC, ER)
+    for stiff in (True, False):
+        run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC, ER, stiff)
     refine(th, x0, 0.0, t_out[1:], np.ones(1, np.bool_), 1e-6, 1e-9)
     batch(th[None], x0[None], t_out, t_out[None], np.array([2]), 1e-6, 1e-9, 50.0, X[None], TC[None],
-          ER[None], np.zeros((1, 4)))
+          ER[None], np.zeros((1, 4)), True)
     _COMPILE_SECONDS.append(time.perf_counter() - start)
     segment(th, x0, 0.0, t_out[1:], 1.0, 1e-6, 1e-9, X[:, :1])
     _KERNELS.update({"run": run, "refine": refine, "batch": batch, "torque": torque, "rhs": rhs, "segment": segment})
@@ -272,7 +285,7 @@ def _finish(loop: ClosedLoop, th: Array, t_out: Array, X: Array, TC: Array, ER: 
 
 def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-3, rtol: float = 1e-8,
                  atol: float = 1e-10, divergence_limit: float = 50.0, peak_candidates: int = 5,
-                 peak_points: int = 41) -> CompiledRun:
+                 peak_points: int = 41, integrator: str = "bdf") -> CompiledRun:
     """Integrate one loop with the compiled engine.
 
     Parameters
@@ -288,11 +301,14 @@ def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-
         rad.
     peak_candidates, peak_points : int
         The peak torque's refinement (as the Python engines do it).
+    integrator : {'bdf', 'dopri5'}
+        For a continuous law (see :data:`COMPILED_INTEGRATORS`); a sampled law always steps RK4.
 
     Returns
     -------
     CompiledRun
     """
+    stiff = check_choice("integrator", integrator, COMPILED_INTEGRATORS) == "bdf"
     th = pack_loop(loop)
     kernels = _build()
     t_out = _grid(loop, t_final, dt)
@@ -301,20 +317,21 @@ def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-
     X = np.zeros((x0.size, t_out.size))
     TC = np.zeros((2, t_out.size))
     ER = np.zeros((4, t_out.size))
-    j, code, t_stop, calls = kernels["run"](th, x0, t_out, edges, rtol, atol, divergence_limit, X, TC, ER)
+    j, code, t_stop, calls = kernels["run"](th, x0, t_out, edges, rtol, atol, divergence_limit, X, TC, ER, stiff)
     return _finish(loop, th, t_out, X, TC, ER, np.array([j, code, t_stop, calls], dtype=float), divergence_limit,
                    rtol, atol, peak_candidates, peak_points)
 
 
 def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *, dt: float = 1e-3,
-                   rtol: float = 1e-8, atol: float = 1e-10, divergence_limit: float = 50.0) -> list[CompiledRun]:
+                   rtol: float = 1e-8, atol: float = 1e-10, divergence_limit: float = 50.0,
+                   integrator: str = "bdf") -> list[CompiledRun]:
     """Integrate many loops in one compiled call (same horizon, state size and sample time).
 
     Parameters
     ----------
     loops : list of ClosedLoop
     x0s : list of ndarray, shape (n_states,)
-    t_final, dt, rtol, atol, divergence_limit
+    t_final, dt, rtol, atol, divergence_limit, integrator
         As :func:`compiled_run`.
 
     Returns
@@ -322,6 +339,7 @@ def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *,
     list of CompiledRun
         One per loop, equal to :func:`compiled_run` of each.
     """
+    stiff = check_choice("integrator", integrator, COMPILED_INTEGRATORS) == "bdf"
     if not loops:
         return []
     if len(x0s) != len(loops):
@@ -343,7 +361,7 @@ def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *,
     TC = np.zeros((len(loops), 2, t_out.size))
     ER = np.zeros((len(loops), 4, t_out.size))
     info = np.zeros((len(loops), 4))
-    kernels["batch"](TH, X0, t_out, edges_all, n_edges, rtol, atol, divergence_limit, X, TC, ER, info)
+    kernels["batch"](TH, X0, t_out, edges_all, n_edges, rtol, atol, divergence_limit, X, TC, ER, info, stiff)
     return [_finish(lp, TH[r], t_out, X[r], TC[r], ER[r], info[r], divergence_limit, rtol, atol, 5, 41)
             for r, lp in enumerate(loops)]
 
