@@ -37,6 +37,12 @@ def main(argv: list[str]) -> int:
     if lsoda and fast:
         lines.append(f"| PID 20-s run, compiled vs lsoda | {fast:.4g} | {lsoda:.4g} | {lsoda / fast:.0f}x |")
     extra = {b["name"]: b.get("extra_info", {}) for b in report["benchmarks"]}
+    for integrator in ("bdf", "dopri5"):
+        name = f"test_compiled_integrators[{integrator}]"
+        if name in mean:
+            calls = extra[name]["rhs_calls"]
+            lines.append(f"| compiled kernel, {integrator}: {calls} right-hand-side calls, "
+                         f"{mean[name] / calls * 1e9:.0f} ns per call | {mean[name]:.4g} | | |")
     rates = {}
     for engine in ("compiled", "scipy"):
         name = f"test_campaign_throughput[{engine}]"

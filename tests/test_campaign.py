@@ -306,3 +306,45 @@ def test_checkpoints_bound_the_rewrites_and_lose_nothing(straight, tmp_path):
     pd.testing.assert_frame_equal(cp.read_results(out), table)
     with pytest.raises(ValueError, match="`checkpoint` must be >= 0"):
         cp.run_campaign(spec, tmp_path / "bad.csv", checkpoint=-1.0)
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc to find the worker processes")
+def test_worker_processes_exit_when_the_campaign_is_killed(tmp_path):
+    spec = tmp_path / "long.toml"
+    spec.write_text('controllers = ["pid"]\nt_final = 20.0\nruns = 400\n')
+    out = tmp_path / "r.csv"
+    cmd = [sys.executable, "-m", "scara_robust", "campaign", str(spec), "--workers", "2", "--chunk-size", "1",
+           "--output", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    workers: list[int] = []
+    while time.monotonic() < deadline and proc.poll() is None and not out.exists():
+        time.sleep(0.05)
+    workers = _children(proc.pid)
+    assert len(workers) >= 2 and proc.poll() is None
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(w) for w in workers):
+        time.sleep(0.1)
+    assert not any(_alive(w) for w in workers)  # none left computing, or blocked on a dead queue

@@ -169,8 +169,8 @@ def test_bdf_takes_the_steps_of_scipys_bdf_on_the_python_model():
     x, nfev, states = x0.copy(), 0, [x0[:, None]]
     for a, b in zip(edges[:-1], edges[1:]):
         td = np.asarray(loop.disturbance(0.5 * (a + b)), dtype=float)
-        sol = solve_ivp(lambda t, y: rhs(t, y, torque(t, y), td), (a, b), x, method="BDF", rtol=1e-8, atol=1e-10,
-                        dense_output=True)
+        sol = solve_ivp(lambda t, y, td=td: rhs(t, y, torque(t, y), td), (a, b), x, method="BDF", rtol=1e-8,
+                        atol=1e-10, dense_output=True)
         assert sol.success
         inside = run.t[(run.t > a) & (run.t <= b)]
         states.append(sol.sol(inside))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -330,7 +331,7 @@ def _execute(
     else:
         if engine == "compiled":
             compile_seconds()  # load the kernels once here; forked workers inherit them
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with ProcessPoolExecutor(max_workers=workers, initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
             futures = [pool.submit(_run_chunk, spec, seed, chunk, engine) for chunk in chunks]
             try:
                 for future in as_completed(futures):
@@ -338,6 +339,21 @@ def _execute(
             finally:
                 for future in futures:
                     future.cancel()
+
+
+def _exit_with_parent(parent: int, period: float = 0.5) -> None:
+    """In a worker process: exit as soon as the campaign's process is gone (killed, say).
+
+    A worker blocked on its task queue would otherwise outlive a ``kill -9`` of the
+    campaign, since its siblings keep the queue's pipe open.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(period)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 def _execute_dask(
