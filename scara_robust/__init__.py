@@ -76,6 +76,7 @@ Simulation (:mod:`scara_robust.simulation`)
     ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
     ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
     simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
+    run_scenarios, ERROR_POLICIES   -- many runs, the compiled ones batched (a campaign chunk)
     tracking_metrics, TrackingMetrics, metric_names, METRIC_NAMES -- errors and torques after the transient
     run_status, STATUSES, TRACKING_TOLERANCE -- does a run track: tracking, not-tracking, diverged, failed, too-short
 Files (:mod:`scara_robust.io`)
@@ -90,7 +91,7 @@ Studies (:mod:`scara_robust.studies`)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
-    run_campaign, run_draw, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
+    run_campaign, run_draw, run_draws, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
     CAMPAIGN_ENGINES, COMPILED_CONTROLLERS, resolve_engine -- compiled or scipy engines for a campaign
     FIXED_COLUMNS, DRAWN_COLUMNS, fixed_inputs, run_arguments -- a row's inputs and the run_scenario arguments they give
     replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)

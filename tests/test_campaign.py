@@ -131,14 +131,15 @@ def test_killed_process_resumes_to_the_same_table(straight, tmp_path, tiny_spec)
 
 def test_failed_run_is_a_row_not_a_crash(monkeypatch, tiny_spec, tmp_path):
     spec = cp.load_spec(tiny_spec)
-    real = cp.runner.run_scenario
+    real = cp.runner.run_scenarios
 
-    def flaky(controller, *args, **kwargs):
-        if controller.startswith("smc"):
-            raise RuntimeError("solver exploded")
-        return real(controller, *args, **kwargs)
+    def flaky(requests, errors="raise"):
+        assert errors == "return"  # a campaign never lets one run stop it
+        results = real(requests, errors=errors)
+        return [RuntimeError("solver exploded") if r["controller"].startswith("smc") else res
+                for r, res in zip(requests, results)]
 
-    monkeypatch.setattr(cp.runner, "run_scenario", flaky)
+    monkeypatch.setattr(cp.runner, "run_scenarios", flaky)
     table = cp.run_campaign(spec, tmp_path / "r.csv", runs=2)
     smc = table[table["controller"] == "smc"]
     assert len(table) == 4 and not smc["success"].any()

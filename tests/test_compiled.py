@@ -3,6 +3,7 @@
 import sys
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import scara_robust as sr
@@ -189,3 +190,35 @@ def test_both_integrators_agree_and_bdf_needs_a_fraction_of_the_calls():
     assert bdf.rhs_calls < dopri.rhs_calls / 3
     with pytest.raises(sr.ArgumentValueError, match="`integrator` must be one of"):
         compiled.compiled_run(loop, x0, 1.0, integrator="rk45")
+
+
+def test_run_scenarios_batches_compiled_runs_and_equals_single_runs():
+    requests = [
+        {"controller": "pid", "scenario": "small", "t_final": 6.5, "method": "compiled"},
+        {"controller": "smc", "scenario": "large", "t_final": 6.5, "method": "compiled"},
+        {"controller": "nope", "scenario": "small"},
+        {"controller": "pid", "scenario": "large", "t_final": 6.5, "method": "compiled",
+         "payload": sr.ConstantPayload(2.0)},
+        {"controller": "pid", "scenario": "small", "t_final": 6.5},  # lsoda, one by one
+    ]
+    results = sr.run_scenarios(requests, errors="return")
+    assert isinstance(results[2], sr.ArgumentValueError) and "`controller` must be one of" in str(results[2])
+    for request, result in zip(requests, results):
+        if request["controller"] == "nope":
+            continue
+        single = sr.run_scenario(**request)
+        assert result.method == single.method and result.status == single.status
+        assert result.metrics() == single.metrics() and np.array_equal(result.e, single.e)  # bit for bit
+    with pytest.raises(sr.ArgumentValueError, match="`controller` must be one of"):
+        sr.run_scenarios(requests)
+    with pytest.raises(sr.ArgumentValueError, match="`errors` must be one of"):
+        sr.run_scenarios(requests, errors="ignore")
+
+
+def test_a_batched_chunk_gives_the_rows_of_single_draws():
+    spec = sr.load_spec("examples/campaign.toml")
+    spec = type(spec)(**{**spec.__dict__, "t_final": 6.5})
+    draws = [sr.draw_scenario(spec, 3, i) for i in range(3)]
+    chunk = sr.run_draws(spec, draws, "compiled")
+    one_by_one = [row for draw in draws for row in run_draw(spec, draw, "compiled")]
+    assert pd.DataFrame(chunk).equals(pd.DataFrame(one_by_one))

@@ -11,6 +11,7 @@ Times in s, angles in rad, torques in N·m, masses in kg.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,13 +26,13 @@ from ..model.initial import SCENARIOS, Scenario
 from ..model.robot import ConstantPayload, PayloadProfile, ScaraParams, paper_payload
 from ..model.signals import Reference, SquareWave, paper_disturbance, paper_reference
 from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
-from .compiled import CompiledEngine, compiled_run, numba_available
+from .compiled import CompiledEngine, CompiledRun, compiled_batch, compiled_run, numba_available
 from .controllers import CONTROLLERS, make_controller
 from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
 
-__all__ = ["SimulationResult", "simulate", "run_scenario"]
+__all__ = ["SimulationResult", "simulate", "run_scenario", "run_scenarios", "ERROR_POLICIES"]
 
 Array = NDArray[np.float64]
 
@@ -331,6 +332,51 @@ def simulate(
     >>> res.e.shape[0], res.success, res.method
     (2, True, 'lsoda')
     """
+    return _execute(
+        _prepare(controller, scenario, params, payload, reference, disturbance, t_final, dt, x0, rtol, atol,
+                 divergence_limit, method, sample_time, t_transient, tracking_tolerance)
+    )
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """A checked run, ready for its engine."""
+
+    loop: ClosedLoop
+    x0: Array
+    engine: str
+    scenario: str
+    t_final: float
+    dt: float
+    rtol: float
+    atol: float
+    limit: float
+    t_transient: float
+    tolerance: float
+
+    def batch_key(self) -> tuple[Any, ...]:
+        """Runs with equal keys can share one compiled call."""
+        return (self.x0.size, self.loop.sample_time, self.t_final, self.dt, self.rtol, self.atol, self.limit)
+
+
+def _prepare(
+    controller: ct.NonlinearIOSystem | str,
+    scenario: Scenario | str,
+    params: ScaraParams | None,
+    payload: PayloadProfile | None,
+    reference: Reference | None,
+    disturbance: SquareWave | None,
+    t_final: float,
+    dt: float,
+    x0: ArrayLike | None,
+    rtol: float,
+    atol: float,
+    divergence_limit: float,
+    method: str | None,
+    sample_time: float | None,
+    t_transient: float,
+    tracking_tolerance: float,
+) -> _Prepared:
     params = params or ScaraParams()
     reference = reference or paper_reference()
     if isinstance(controller, str):
@@ -382,16 +428,26 @@ def simulate(
         x_init = np.concatenate([plant0, x_c0])
     else:
         x_init = check_array("x0", x0, shape=(loop.n_states,))
-    if engine == CompiledEngine.name:
-        run = compiled_run(loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit,
-                           peak_candidates=PEAK_CANDIDATES, peak_points=PEAK_POINTS)
-        traj = Trajectory(run.t, run.x, run.success, run.diverged, run.message)
-        return _result(loop, traj, scenario.name, ENGINES[engine], t_transient, tolerance, rtol, atol,
-                       known=(run.torque, run.peak_torque, run.error))
-    traj = integrate(
-        ENGINES[engine], loop, x_init, t_final, dt=dt, rtol=rtol, atol=atol, divergence_limit=limit
-    )
-    return _result(loop, traj, scenario.name, ENGINES[engine], t_transient, tolerance, rtol, atol)
+    return _Prepared(loop, x_init, engine, scenario.name, t_final, dt, rtol, atol, limit, t_transient, tolerance)
+
+
+
+
+def _from_compiled(prep: _Prepared, run: CompiledRun) -> SimulationResult:
+    traj = Trajectory(run.t, run.x, run.success, run.diverged, run.message)
+    return _result(prep.loop, traj, prep.scenario, ENGINES[prep.engine], prep.t_transient, prep.tolerance,
+                   prep.rtol, prep.atol, known=(run.torque, run.peak_torque, run.error))
+
+
+def _execute(prep: _Prepared) -> SimulationResult:
+    if prep.engine == CompiledEngine.name:
+        run = compiled_run(prep.loop, prep.x0, prep.t_final, dt=prep.dt, rtol=prep.rtol, atol=prep.atol,
+                           divergence_limit=prep.limit, peak_candidates=PEAK_CANDIDATES, peak_points=PEAK_POINTS)
+        return _from_compiled(prep, run)
+    traj = integrate(ENGINES[prep.engine], prep.loop, prep.x0, prep.t_final, dt=prep.dt, rtol=prep.rtol,
+                     atol=prep.atol, divergence_limit=prep.limit)
+    return _result(prep.loop, traj, prep.scenario, ENGINES[prep.engine], prep.t_transient, prep.tolerance,
+                   prep.rtol, prep.atol)
 
 
 def run_scenario(
@@ -439,6 +495,27 @@ def run_scenario(
     -------
     SimulationResult
     """
+    return _execute(
+        _prepare_scenario(controller, scenario, payload_on, t_final, torque_limit, params, method, reference, payload,
+                          disturbance, K, t_transient, tracking_tolerance)
+    )
+
+
+def _prepare_scenario(
+    controller: str,
+    scenario: Scenario | str,
+    payload_on: bool = True,
+    t_final: float = PAPER_T_FINAL,
+    torque_limit: Any = None,
+    params: ScaraParams | None = None,
+    method: str | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    disturbance: SquareWave | None = None,
+    K: ArrayLike | None = None,
+    t_transient: float = PAPER_TRANSIENT,
+    tracking_tolerance: float = TRACKING_TOLERANCE,
+) -> _Prepared:
     name = check_choice("controller", controller, tuple(CONTROLLERS))
     params = params or ScaraParams()
     reference = reference or paper_reference()
@@ -450,16 +527,73 @@ def run_scenario(
         profile = payload if payload is not None else paper_payload(params)
     else:
         profile = ConstantPayload(0.0)
-    return simulate(
-        ctrl,
-        scenario,
-        params=params,
-        payload=profile,
-        reference=reference,
-        disturbance=disturbance,
-        t_final=t_final,
-        method=method,
-        sample_time=CONTROLLERS[name].sample_time,
-        t_transient=t_transient,
-        tracking_tolerance=tracking_tolerance,
-    )
+    return _prepare(ctrl, scenario, params, profile, reference, disturbance, t_final, 1e-3, None, 1e-8, 1e-10,
+                    DIVERGENCE_LIMIT, method, CONTROLLERS[name].sample_time, t_transient, tracking_tolerance)
+
+
+#: What :func:`run_scenarios` does with a request that raises.
+ERROR_POLICIES = ("raise", "return")
+
+
+def run_scenarios(
+    requests: Sequence[Mapping[str, Any]], *, errors: str = "raise"
+) -> list[SimulationResult | Exception]:
+    """Run many named scenarios; the compiled runs among them in as few compiled calls as possible.
+
+    Each request gives the arguments of :func:`run_scenario`. Runs on the compiled engine
+    that share their state size, sample time, horizon and tolerances are integrated in one
+    call of :func:`scara_robust.compiled_batch` (a campaign's chunk, say); the others run
+    one by one. Every result equals ``run_scenario(**request)``.
+
+    Parameters
+    ----------
+    requests : sequence of mapping
+        Keyword arguments of :func:`run_scenario`, with ``controller`` and ``scenario``.
+    errors : {'raise', 'return'}
+        Raise the first error of a request, or put the exception in its place.
+
+    Returns
+    -------
+    list of SimulationResult (or Exception, with ``errors='return'``)
+        In the order of `requests`.
+    """
+    policy = check_choice("errors", errors, ERROR_POLICIES)
+    out: list[SimulationResult | Exception | None] = [None] * len(requests)
+    prepared: dict[int, _Prepared] = {}
+    for i, request in enumerate(requests):
+        try:
+            prepared[i] = _prepare_scenario(**request)
+        except Exception as err:
+            if policy == "raise":
+                raise
+            out[i] = err
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for i, prep in prepared.items():
+        if prep.engine == CompiledEngine.name:
+            groups.setdefault(prep.batch_key(), []).append(i)
+        else:
+            out[i] = _guarded(prep, policy)
+    for members in groups.values():
+        first = prepared[members[0]]
+        try:
+            runs = compiled_batch([prepared[i].loop for i in members], [prepared[i].x0 for i in members],
+                                  first.t_final, dt=first.dt, rtol=first.rtol, atol=first.atol,
+                                  divergence_limit=first.limit)
+        except Exception:  # find which request fails, one by one
+            for i in members:
+                out[i] = _guarded(prepared[i], policy)
+            continue
+        for i, run in zip(members, runs):
+            out[i] = _from_compiled(prepared[i], run)
+    done = [r for r in out if r is not None]
+    assert len(done) == len(requests)
+    return done
+
+
+def _guarded(prep: _Prepared, policy: str) -> SimulationResult | Exception:
+    try:
+        return _execute(prep)
+    except Exception as err:
+        if policy == "raise":
+            raise
+        return err

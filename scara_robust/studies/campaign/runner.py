@@ -29,12 +29,12 @@ from ...exceptions import ArgumentValueError
 from ...io import table_format, write_atomic
 from ...simulation.compiled import compile_seconds, numba_available
 from ...simulation.metrics import METRIC_NAMES
-from ...simulation.run import run_scenario
+from ...simulation.run import run_scenarios
 from .inputs import DRAWN_COLUMNS, FIXED_COLUMNS, fixed_inputs, run_arguments
 from .spec import CampaignSpec, draw_scenario
 
-__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "CAMPAIGN_ENGINES", "COMPILED_CONTROLLERS", "run_draw", "run_campaign",
-           "read_results", "resolve_engine"]
+__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "CAMPAIGN_ENGINES", "COMPILED_CONTROLLERS", "run_draw", "run_draws",
+           "run_campaign", "read_results", "resolve_engine"]
 
 #: Where :func:`run_campaign` can run.
 SCHEDULERS = ("local", "dask")
@@ -69,35 +69,56 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any], engine: str = "scipy")
         ``controller``, ``success``, ``diverged``, ``error``, ``status``, ``status_reason`` and the metrics of
         :func:`scara_robust.tracking_metrics`.
     """
-    inputs = {**draw, **fixed_inputs(spec)}
-    arguments = run_arguments(inputs)
-    rows = []
-    for name in spec.controllers:
-        row: dict[str, Any] = dict(inputs)
-        row["controller"] = name
-        metrics = dict.fromkeys(METRIC_NAMES, math.nan)
-        try:
+    return run_draws(spec, [draw], engine)
+
+
+def run_draws(spec: CampaignSpec, draws: Sequence[Mapping[str, Any]], engine: str = "scipy") -> list[dict[str, Any]]:
+    """:func:`run_draw` for several draws (a chunk), its compiled runs batched.
+
+    The runs go through :func:`scara_robust.run_scenarios`, so the compiled ones of a chunk
+    are integrated in one compiled call per controller kind; the rows equal those of
+    :func:`run_draw` for each draw.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+    draws : sequence of mapping
+        From :func:`draw_scenario`.
+    engine : {'scipy', 'compiled'}
+        As :func:`run_draw`.
+
+    Returns
+    -------
+    list of dict
+        The rows of every draw, in order (draw by draw, controller by controller).
+    """
+    fixed = fixed_inputs(spec)
+    rows: list[dict[str, Any]] = []
+    requests: list[dict[str, Any]] = []
+    for draw in draws:
+        inputs = {**draw, **fixed}
+        arguments = run_arguments(inputs)
+        for name in spec.controllers:
             method = "compiled" if engine == "compiled" and name in COMPILED_CONTROLLERS else None
-            row["method"] = method or "default"
-            result = run_scenario(name, method=method, **arguments)
+            rows.append({**inputs, "controller": name, "method": method or "default"})
+            requests.append({"controller": name, "method": method, **arguments})
+    for row, result in zip(rows, run_scenarios(requests, errors="return")):
+        metrics = dict.fromkeys(METRIC_NAMES, math.nan)
+        if isinstance(result, Exception):  # a failed scenario is data, not a crash
+            error = f"{type(result).__name__}: {result}"
+            row.update(success=False, diverged=False, error=error, status="failed", status_reason=error)
+        else:
             row["method"] = result.method
             row.update(success=result.success, diverged=result.diverged, error="" if result.success else result.message)
             row.update(status=result.status, status_reason=result.status_reason)
             if result.success and result.has_metrics:
                 metrics = result.metrics().to_dict()
-        except Exception as err:  # a failed scenario is data, not a crash
-            error = f"{type(err).__name__}: {err}"
-            row.update(success=False, diverged=False, error=error, status="failed", status_reason=error)
         row.update(metrics)
-        rows.append(row)
     return rows
 
 
 def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int], engine: str = "scipy") -> list[dict[str, Any]]:
-    rows: list[dict[str, Any]] = []
-    for i in indices:
-        rows.extend(run_draw(spec, draw_scenario(spec, seed, i), engine))
-    return rows
+    return run_draws(spec, [draw_scenario(spec, seed, i) for i in indices], engine)
 
 
 def resolve_engine(engine: str) -> str:
