@@ -602,6 +602,10 @@ def _plain_log_ticks(ax: Any) -> None:
     ax.yaxis.set_minor_formatter(NullFormatter())
 
 
+#: Above this many runs per controller a campaign's figure shows their density, not every run.
+_STRIP_RUNS = 200
+
+
 def plot_campaign(results: Any) -> Any:
     """Distributions of a campaign's metrics per controller (box plots; log scale where they span 20x).
 
@@ -622,7 +626,8 @@ def plot_campaign(results: Any) -> Any:
         ("max_abs_torque_after_6s", f"max |Tc| after {PAPER_TRANSIENT:g} s [N·m]"),
     ]
     names = sorted(results["controller"].unique())
-    fig, axes = plt.subplots(1, len(panels), figsize=(9, 4.4))
+    many = bool((results.groupby("controller").size() > _STRIP_RUNS).any())
+    fig, axes = plt.subplots(1, len(panels), figsize=(9, 4.6))
     for ax, (metric, label) in zip(axes, panels):
         data, ticks = [], []
         for name in names:
@@ -634,8 +639,15 @@ def plot_campaign(results: Any) -> Any:
                 ticks.append(f"{name}\n({tracking} tracking,\n{len(group) - tracking} not)")
             else:
                 ticks.append(f"{name}\n({len(ok)} ok,\n{len(group) - len(ok)} failed)")
-        ax.boxplot(data, whis=(5, 95), showfliers=False)  # the dots show every run
-        for x, values in enumerate(data, start=1):  # every run, beside its box
+        ax.boxplot(data, whis=(5, 95), showfliers=False)  # the dots show the runs
+        for x, values in enumerate(data, start=1):  # beside its box: every run, or density and the tails
+            if many and len(values) > 1 and np.ptp(values) > 0:
+                body = ax.violinplot(values, positions=[x + 0.3], widths=0.35, showextrema=False)
+                for patch in body["bodies"]:
+                    patch.set_facecolor("0.6")
+                    patch.set_alpha(0.6)
+                low, high = np.percentile(values, [5, 95])
+                values = values[(values < low) | (values > high)]
             ax.plot(np.full(len(values), x + 0.3), values, "o", color="0.3", markersize=3, alpha=0.5)
         ax.set_xticks(range(1, len(ticks) + 1), ticks)
         values = np.concatenate([d for d in data if len(d)]) if any(len(d) for d in data) else np.ones(1)
@@ -646,10 +658,10 @@ def plot_campaign(results: Any) -> Any:
             label = label.replace("]", "] (log)")
         ax.set_ylabel(label)
         ax.grid(True, axis="y", lw=0.4, alpha=0.5)
-        ax.set_title(label.split(" [")[0] + ", per controller\n(box: quartiles, whiskers: 5-95 %, dots: runs)",
-                     fontsize=10)
+        ax.set_title(label.split(" [")[0] + ", per controller", fontsize=10)
     n = results["scenario"].nunique() if "scenario" in results else len(results)
-    fig.suptitle(f"Monte-Carlo campaign: {n} scenarios")
+    dots = "shaded: density, dots: runs outside 5-95 %" if many else "dots: runs"
+    fig.suptitle(f"Monte-Carlo campaign: {n} scenarios\n(box: quartiles, whiskers: 5-95 %, {dots})", fontsize=11)
     fig.tight_layout()
     return fig
 

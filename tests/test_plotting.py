@@ -286,6 +286,21 @@ def test_campaign_log_axis_reads_as_plain_decimals():
     _check_units(fig)
 
 
+def test_a_large_campaign_shows_density_and_only_the_tails_as_dots():
+    rng = np.random.default_rng(0)
+    n = 1000
+    table = pd.DataFrame({"controller": ["pid"] * n, "scenario": range(n), "success": True, "status": "tracking",
+                          "max_abs_error_after_6s": rng.lognormal(-4.5, 0.2, n),
+                          "max_abs_torque_after_6s": rng.normal(8.5, 1.0, n)})
+    fig = sr.plot_campaign(table)
+    for ax in fig.axes:
+        dots = [line for line in ax.lines if line.get_marker() == "o"]
+        assert len(dots) == 1 and 80 <= len(dots[0].get_ydata()) <= 120  # the 10 % outside 5-95 %
+        assert ax.collections  # the density
+    assert "dots: runs outside 5-95 %" in fig._suptitle.get_text()
+    _check_units(fig)
+
+
 def test_margin_figures_have_units_plain_labels_and_legends_off_the_data(surface_A):
     surface = sr.design_surface(sr.paper_model(), np.linspace(0.5, 10, 6), np.linspace(1, 200, 6), measure="margin")
     ax = sr.plot_margin_map(surface, mark=sr.PAPER_DESIGN_POINT)

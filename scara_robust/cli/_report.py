@@ -98,12 +98,17 @@ def run(args: argparse.Namespace) -> str:
     if args.format == "csv":
         return str(report.to_csv()) + "\n" + str(worst.to_csv(index=False))
     level = f"{REPORT_CONFIDENCE * 100:g} %"
-    shown = report.T.rename(index=lambda label: _with_unit(str(label), units))
+    # counts stay integers once transposed beside the floats
+    counts = {str(c) for c in report.columns if pd.api.types.is_integer_dtype(report[c])}
+    shown = pd.DataFrame(
+        {c: [f"{int(v)}" if str(c) in counts else f"{v:.4g}" for v in report[c]] for c in report.columns},
+        index=report.index,
+    ).T.rename(index=lambda label: _with_unit(str(label), units))
     table = worst.rename(columns=lambda label: _with_unit(str(label), units))
     lines = [
         f"statistics per controller; low/high: {level} intervals (failure_rate: Wilson score; quantiles: "
         f"percentile bootstrap, {BOOTSTRAP_RESAMPLES} resamples, seed {_SEED})",
-        str(shown.to_string(float_format="%.4g")),
+        str(shown.to_string()),
         "",
         f"worst {args.worst} runs per controller (not tracking first, then the largest max_abs_error_after_6s); "
         "replay one with simulate --from-campaign RESULTS --index SCENARIO --controller NAME",
