@@ -139,6 +139,12 @@ def closed_rhs(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -
     torque_sc(th, sw, cw, c2, s2, x, tc)
     rhs_sc(th, t, sw, cw, c2, s2, x, tc, td, dx)
 
+@jit
+def closed_rhs_call(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
+    """:func:`closed_rhs` as a called function, where a call costs little: it bounds the compile time."""
+    closed_rhs(th, t, x, td, tc, dx)
+
+
 @inline
 def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
     """Sample j: torque TC[:, j] (N·m) and errors ER[:, j] = (r - q, ṙ - q̇) (rad, rad/s) at state x."""
@@ -180,7 +186,7 @@ def dopri_interval(th: Array, x: Array, t0: float, t1: float, td: float, h0: flo
     t = t0
     h = min(h0, t1 - t0)
     calls = 0
-    closed_rhs(th, t, x, td, tc, K[0])
+    closed_rhs_call(th, t, x, td, tc, K[0])
     calls += 1
     while t < t1:
         if t + h >= t1 or t1 - (t + h) < 1e-12 * max(1.0, abs(t1)):
@@ -191,7 +197,7 @@ def dopri_interval(th: Array, x: Array, t0: float, t1: float, td: float, h0: flo
                 for j in range(s):
                     acc += h * A[s, j] * K[j, i]
                 y[i] = acc
-            closed_rhs(th, t + c[s] * h, y, td, tc, K[s])
+            closed_rhs_call(th, t + c[s] * h, y, td, tc, K[s])
             calls += 1
         err = 0.0
         for i in range(n):
@@ -397,7 +403,7 @@ def jacobian(th: Array, t: float, y: Array, f: Array, td: float, tc: Array, J: A
         h = math.sqrt(_EPS) * max(1.0, abs(y[k]))
         w[k] = y[k] + h
         h = w[k] - y[k]
-        closed_rhs(th, t, w, td, tc, fw)
+        closed_rhs_call(th, t, w, td, tc, fw)
         for i in range(n):
             J[i, k] = (fw[i] - f[i]) / h
 
@@ -426,7 +432,7 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
     work = np.zeros((4, _MAX_ORDER + 1, max(_MAX_ORDER + 1, n)))
     calls = 0
     t = a
-    closed_rhs(th, t, x, td, tc, f0)
+    closed_rhs_call(th, t, x, td, tc, f0)
     calls += 1
     # initial step: scipy's select_initial_step with order 1
     interval = b - a
@@ -438,7 +444,7 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
     h0 = min(h0, interval)
     for i in range(n):
         w[i] = x[i] + h0 * f0[i]
-    closed_rhs(th, t + h0, w, td, tc, fw)
+    closed_rhs_call(th, t + h0, w, td, tc, fw)
     calls += 1
     for i in range(n):
         dy[i] = fw[i] - f0[i]
@@ -529,7 +535,7 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
                 if not converged:
                     if current_jac:
                         break
-                    closed_rhs(th, t_new, ypred, td, tc, f0)
+                    closed_rhs_call(th, t_new, ypred, td, tc, f0)
                     jacobian(th, t_new, ypred, f0, td, tc, J, w, fw)
                     calls += 1 + n
                     lu_ok = False
