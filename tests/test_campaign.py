@@ -93,6 +93,19 @@ def test_same_seed_same_table_with_dask(straight, tmp_path):
     pd.testing.assert_frame_equal(cp.read_results(tmp_path / "dask.parquet"), table)
 
 
+@pytest.mark.dask
+def test_same_table_on_a_running_dask_cluster_by_address(straight, tmp_path):
+    from dask.distributed import LocalCluster
+
+    spec, table = straight
+    # a cluster started elsewhere (threads here: the compiled kernels release the GIL)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster:
+        cp.run_campaign(spec, tmp_path / "remote.csv", scheduler="dask", address=cluster.scheduler_address,
+                        chunk_size=1)
+        assert len(cluster.scheduler.workers) == 1  # the campaign used this cluster and left it running
+    pd.testing.assert_frame_equal(cp.read_results(tmp_path / "remote.csv"), table)
+
+
 def test_interrupted_and_resumed_equals_straight(straight, tmp_path):
     spec, table = straight
     out = tmp_path / "r.csv"
