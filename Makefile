@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test compare lint bench notebooks docs-figures clean
+.PHONY: test test-slow compare lint bench notebooks docs-figures clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -16,7 +16,11 @@ $(STAMP): pyproject.toml
 test: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
 	$(BIN)/mypy
-	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q
+	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q -m "not slow"
+
+# the full-size cross-checks (200-scenario campaigns on both engines: about 10 min on 2 cores)
+test-slow: $(STAMP)
+	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q -m slow
 
 compare: $(STAMP)
 	$(BIN)/python -m scara_robust.compare
