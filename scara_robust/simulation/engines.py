@@ -20,9 +20,10 @@ name            algorithm                                                       
                 controller's state jumps once per step, the disturbance is taken
                 at the step's midpoint
 ``compiled``    the package's own PID and sliding-mode laws in machine code        sampled or
-                (numba, extra ``compiled``): Dormand–Prince 5(4) with dense        continuous
-                output, RK4 per sample for a sampled law; it registers itself
-                from :mod:`scara_robust.simulation.compiled`
+                (numba, extra ``compiled``): scipy's variable-order BDF (or        continuous
+                Dormand–Prince 5(4)) with dense output, RK4 per sample for a
+                sampled law; it registers itself from
+                :mod:`scara_robust.simulation.compiled`
 ==============  ================================================================  ==========
 """
 
