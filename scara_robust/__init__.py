@@ -29,6 +29,7 @@ Model (:mod:`scara_robust.model`)
     SquareWave, paper_disturbance   -- square-wave disturbance torques
     Scenario, SCENARIOS             -- initial tracking errors ('large', 'small')
     UncertainElement, UncertainLTVModel, ELEMENT_SETS -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
+    ANCHORS                         -- what a margin θ scales the set about: the lower corner or the centre
     paper_model, derived_model, pid_state_matrices -- published bounds / bounds derived from the robot
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
     state_space, as_element         -- a continuous-time control.StateSpace / an element from its fields
@@ -48,12 +49,15 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
     box_vertices, box_closed_loops, MAX_BOX_ELEMENTS -- the box's corners and closed loops
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
+    lmi_verdict, LMI_VERDICTS       -- what an LMI answer proves: certified, infeasible, inaccurate, unknown
     LMI_SOLVERS, NOT_INSTALLED, cvxpy_available -- its solvers, and whether cvxpy is there
     falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
+    FROZEN_SCAN_RATIO               -- resolution of the frozen upper bound's scan
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
+    decay_floor, DECAY_FLOOR_RTOL, MARGIN_DECAY_RTOL -- below the floor a verified decay is marginal
     OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
@@ -64,6 +68,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P
     discrete_lyapunov_check         -- numpy's check of A_iᵀPA_i − P ≺ 0
     max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
+    check_sample_time, SampleTimeCheck, interior_grid -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs

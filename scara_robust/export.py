@@ -24,6 +24,7 @@ import json
 import os
 import re
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +119,7 @@ def _matrix(name: str, M: np.ndarray) -> str:
     return f"static const double {name}[{M.shape[0]}][{M.shape[1]}] = {{\n    {rows}\n}};\n"
 
 
-def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX) -> tuple[str, str]:
+def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str] = ()) -> tuple[str, str]:
     """The C99 header and source of the controller.
 
     Parameters
@@ -126,6 +127,8 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX) -> tuple[str, str]:
     pid : DiscretePID
     prefix : str
         C identifier that starts every exported name (and the file names).
+    notes : sequence of str
+        Lines for the header's opening comment (the sampled-data certificate, a warning).
 
     Returns
     -------
@@ -147,8 +150,9 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX) -> tuple[str, str]:
         + (f", torque limit {[float(v) for v in np.asarray(pid.torque_limit)]} N·m" if limited else ", no torque limit")
         + (f", back-calculation T_t = {[float(v) for v in np.asarray(pid.tracking_time)]} s" if windup else "")
     )
+    noted = "".join(f" * {line.replace('*/', '* /')}\n" for note in notes for line in note.splitlines())
     header = f"""/* {prefix}.h: discrete-time PID exported by scara_robust.
- * {settings}.
+{noted} * {settings}.
  * e = r - q [rad], edot = rdot - qdot [rad/s], u = joint torques [N·m].
  * Call {prefix}_init once, then {prefix}_step once per sample; hold u until the next sample.
  * Compile without -ffast-math (and with -ffp-contract=off where FMA is enabled) to match
@@ -233,6 +237,7 @@ def export_controller(
     format: str = "c",
     prefix: str = DEFAULT_PREFIX,
     metadata: dict[str, Any] | None = None,
+    notes: Sequence[str] = (),
 ) -> list[Path]:
     """Write the controller into `folder`: all files or none.
 
@@ -248,6 +253,9 @@ def export_controller(
         C identifier; also the file names.
     metadata : dict, optional
         Extra keys for the JSON record.
+    notes : sequence of str
+        Lines for the C header's opening comment (see :func:`c_source`) and, in JSON,
+        the record's ``notes``.
 
     Returns
     -------
@@ -273,10 +281,10 @@ def export_controller(
     if not target.is_dir():
         raise NotADirectoryError(20, "not an existing folder", str(target))
     if format == "c":
-        header, source = c_source(pid, prefix)
+        header, source = c_source(pid, prefix, notes)
         contents = {f"{prefix}.h": header, f"{prefix}.c": source}
     else:
-        record = controller_record(pid, **(metadata or {}))
+        record = controller_record(pid, **(metadata or {}), **({"notes": list(notes)} if notes else {}))
         contents = {f"{prefix}.json": json.dumps(record, indent=2) + "\n"}
     temps: list[str] = []
     try:

@@ -379,7 +379,7 @@ def table_format(name: str, path: str | os.PathLike[str]) -> str:
             import pyarrow  # noqa: F401
         except ImportError as err:
             raise ArgumentValueError(
-                name, f"{os.fspath(path)!r}: parquet files need pyarrow: pip install scara_robust[parquet], or use .csv"
+                name, f"{os.fspath(path)!r}: parquet files need pyarrow: pip install '.[parquet]', or use .csv"
             ) from err
     return TABLE_FORMATS[ext]
 

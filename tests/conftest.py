@@ -34,7 +34,7 @@ def pytest_runtest_setup(item):
     for extra, module in EXTRAS.items():
         if item.get_closest_marker(extra) is None or _installed(module):
             continue
-        message = f"the `{extra}` extra ({module}) is not installed: pip install scara_robust[{extra}]"
+        message = f"the `{extra}` extra ({module}) is not installed: pip install '.[{extra}]'"
         if REQUIRE_EXTRAS:
             pytest.fail(message + " (SCARA_ROBUST_REQUIRE_EXTRAS=1 requires it)", pytrace=False)
         pytest.skip(message)

@@ -282,7 +282,7 @@ def test_sinusoidal_reference_matches_paper():
 def test_parquet_without_pyarrow_is_a_clear_error(monkeypatch, tmp_path, tiny_spec, capsys):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     assert main(["campaign", str(tiny_spec), "--output", str(tmp_path / "r.parquet")]) == 2
-    assert "parquet files need pyarrow: pip install scara_robust[parquet]" in capsys.readouterr().err
+    assert "parquet files need pyarrow: pip install '.[parquet]'" in capsys.readouterr().err
     assert not (tmp_path / "r.parquet").exists()
 
 

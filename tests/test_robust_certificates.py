@@ -156,7 +156,7 @@ def test_lmi_without_cvxpy(monkeypatch, paper, paper_design):
     monkeypatch.setattr(lmi, "cvxpy_available", lambda: False)
     result = sr.lmi_certificate(sr.box_closed_loops(paper.subset("A"), paper_design.K))
     assert result.status == "not installed" and result.P is None and not result.certified
-    assert "pip install scara_robust[lmi]" in result.message
+    assert "pip install '.[lmi]'" in result.message
     table = sr.certificate_table(paper, paper_design, falsifier_tries=3).set_index("method")
     for method in ("lmi-box", "lmi-physical"):
         assert table.loc[method, "verdict"] == "not installed" and table.loc[method, "certified"] is None

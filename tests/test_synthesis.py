@@ -1,5 +1,6 @@
 """Robust synthesis: a gain designed with its Lyapunov certificate, re-verified by numpy."""
 
+import math
 from pathlib import Path
 
 import control as ct
@@ -172,18 +173,44 @@ def test_l2_objective_needs_an_output_for_an_unstructured_state():
     assert result.certified and result.gamma > 0
 
 
-def test_shipped_gain_is_what_synthesize_gives_and_numpy_certifies_it():
-    """The ``pid-lmi`` gain is the design file ``synthesize --output`` writes with its defaults."""
+#: How far a fresh L2 synthesis's γ may lie from the shipped one (the README states it): the
+#: solver stops short of a non-attained infimum at a point that depends on rounding; measured
+#: 0.01081 to 0.01098 (1.6 %) across three OpenBLAS kernels.
+GAMMA_RTOL = 0.05
+
+
+def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_objective():
+    """The ``pid-lmi`` file against numpy, and against what ``synthesize`` gives on this machine.
+
+    The LMI's minimizer is not unique (its infimum in γ is approached only as P grows along
+    ∫e), so a fresh K differs from machine to machine. What holds everywhere: the shipped
+    K and P pass numpy's checks with the numbers the file records, a fresh synthesis is
+    certified by numpy too, both γ lie above the worst frozen plant's H∞ norm (a lower bound
+    on any gain's worst-case L2 gain), and the fresh objective γ is within the tolerance the
+    README states (GAMMA_RTOL) of the shipped one.
+    """
     from scara_robust.cli._synthesize import CHECK_GRID, PHYSICAL_GRID
+    from scara_robust.robustness.l2gain import _bounded_real_ok
 
     shipped = sr.load_design(Path(sr.__file__).parent / sr.PID_LMI_FILE)
     assert np.array_equal(shipped.K, sr.pid_lmi_gain())
-    coarse = sr.physical_samples(times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
-    again = sr.synthesize((coarse.A, coarse.B), objective="l2")
-    assert np.allclose(again.K, shipped.K, rtol=1e-4, atol=1e-4 * np.abs(shipped.K).max())
-    fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
-    assert sr.decay_rate(fine.A - fine.B @ shipped.K, shipped.P) > 0.45
     assert shipped.info["certified"] is True and shipped.info["objective"] == "l2"
+    coarse = sr.physical_samples(times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
+    fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
+    C = sr.error_output(6, 2)
+    K, P, gamma = shipped.K, shipped.P, shipped.info["gamma"]
+    for samples, recorded in ((coarse, shipped.info["verified_decay"]), (fine, shipped.info["check_decay"])):
+        loops = samples.A - samples.B @ K
+        assert sr.decay_rate(loops, P) == pytest.approx(recorded, rel=1e-9)
+        assert _bounded_real_ok(loops, samples.B, C, gamma * P, gamma * (1 + 1e-9))
+    assert shipped.info["verified_decay"] >= sr.L2_DECAY * (1 - 1e-6)
+    again = sr.synthesize((coarse.A, coarse.B), objective="l2", check=(fine.A, fine.B))
+    assert again.certified and again.verified_decay >= sr.L2_DECAY * (1 - 1e-6) and again.check_decay > 0
+    assert math.isfinite(again.check_gamma) and again.check_gamma >= again.gamma
+    for gain in (K, again.K):
+        lower = sr.l2_gain(coarse.A - coarse.B @ gain, coarse.B, C).lower
+        assert lower <= min(gamma, again.gamma)
+    assert again.gamma == pytest.approx(gamma, rel=GAMMA_RTOL)
 
 
 def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):

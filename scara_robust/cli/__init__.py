@@ -60,14 +60,57 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _command_parsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The sub-command parsers of `parser`, by command name."""
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(subparsers.choices)
+
+
 def _refuse_unknown(parser: argparse.ArgumentParser, command: str, extras: list[str]) -> None:
     """Refuse arguments no option takes, suggesting the closest option of the command."""
-    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    options = sorted(subparsers.choices[command]._option_string_actions)
+    options = sorted(_command_parsers(parser)[command]._option_string_actions)
     word = extras[0].split("=", 1)[0]
     close = difflib.get_close_matches(word, options, n=1)
     hint = f"; did you mean {close[0]}?" if close else f"; see python -m scara_robust {command} --help"
     raise CommandLineError(f"{command}: unrecognized arguments: {' '.join(extras)}{hint}")
+
+
+def _takes_value(token: str) -> bool:
+    """True if `token` reads as the value of an option rather than as an option."""
+    if not token.startswith("-"):
+        return True
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _refuse_unknown_options(parser: argparse.ArgumentParser, argv: Sequence[str]) -> None:
+    """Refuse ``--name`` tokens the command does not know, if any (argv failed to parse).
+
+    argparse reports a missing required option before an unknown one, so a typo such as
+    ``--etta 90`` would read "the following arguments are required: --eta"; the typo is
+    the cause, and is reported first (with the value after it, and a suggestion).
+    """
+    command = next((token for token in argv if not token.startswith("-")), None)
+    commands = _command_parsers(parser)
+    if command not in commands:
+        return
+    options = commands[command]._option_string_actions
+    tokens = list(argv)[list(argv).index(command) + 1:]
+    unknown: list[str] = []
+    for i, token in enumerate(tokens):
+        if token == "--":
+            break
+        name = token.split("=", 1)[0]
+        if not token.startswith("--") or any(option.startswith(name) for option in options):
+            continue  # a value, a short option, an option or an abbreviation argparse accepts
+        unknown.append(token)
+        if "=" not in token and i + 1 < len(tokens) and _takes_value(tokens[i + 1]):
+            unknown.append(tokens[i + 1])
+    if unknown:
+        _refuse_unknown(parser, command, unknown)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -89,7 +132,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     matplotlib.use("Agg")  # figures go to files; no display is needed
     parser = build_parser()
     try:
-        args, extras = parser.parse_known_args(argv)
+        try:
+            args, extras = parser.parse_known_args(argv)
+        except CommandLineError:
+            _refuse_unknown_options(parser, sys.argv[1:] if argv is None else argv)
+            raise
         if extras:
             _refuse_unknown(parser, args.command, extras)
         check_outputs(args)

@@ -37,12 +37,14 @@ __all__ = [
     "write_text",
     "OUTPUT_OPTIONS",
     "finite_float",
+    "per_joint_values",
     "parse_range",
     "resolve_bounds",
     "resolve_model",
     "resolve_setup",
     "RANGE_HELP",
     "save_figure",
+    "FIGURE_FORMATS",
     "output_exists",
     "add_design_option",
     "resolve_design",
@@ -189,6 +191,30 @@ def finite_float(text: str) -> float:
     return value
 
 
+def per_joint_values(text: str) -> list[float]:
+    """An option's ``V[,V2,...]`` text: one value for all joints, or one per joint.
+
+    The type of every per-joint option (``--torque-limit``, ``--tracking-time``), so that
+    all commands read them alike. The count and the sign are checked where they are known
+    (the library names the number of torques and the unit).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    list of float
+        One or more finite numbers.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If a field is not a finite number.
+    """
+    return [finite_float(v) for v in text.split(",")]
+
+
 def _write(option: str, path: str, write: Callable[[str], None]) -> None:
     try:
         write_atomic(path, write)
@@ -228,6 +254,19 @@ def emit(text: str, output: str | None) -> None:
         sys.stdout.write(text if text.endswith("\n") else text + "\n")
 
 
+#: Figure formats of ``--plot``, chosen by the file's extension.
+FIGURE_FORMATS = ("png", "pdf", "svg")
+
+
+def _figure_format(option: str, path: str) -> str:
+    """The format of a figure file from its extension, or :class:`CommandLineError` naming `option`."""
+    extension = os.path.splitext(path)[1].lower().removeprefix(".")
+    if extension not in FIGURE_FORMATS:
+        allowed = ", ".join(f".{f}" for f in FIGURE_FORMATS[:-1]) + f" or .{FIGURE_FORMATS[-1]}"
+        raise CommandLineError(f"`{option}` {path!r}: the format follows the extension; use {allowed}")
+    return extension
+
+
 #: Attributes of a command's arguments that name files it writes, and their options.
 OUTPUT_OPTIONS = {"output": "--output", "series_output": "--output", "results_output": "--output", "plot": "--plot"}
 
@@ -243,12 +282,15 @@ def check_outputs(args: argparse.Namespace) -> None:
     ------
     CommandLineError
         Naming the option and the path the user gave: a folder, or a file in a folder
-        that does not exist or is not writable.
+        that does not exist or is not writable; a figure (``plot``) whose extension is
+        not one of :data:`FIGURE_FORMATS`.
     """
     for attr, option in OUTPUT_OPTIONS.items():
         path = getattr(args, attr, None)
         if path is None:
             continue
+        if attr == "plot":
+            _figure_format(option, path)
         folder = os.path.dirname(os.path.abspath(path))
         if os.path.isdir(path):
             raise CommandLineError(f"`{option}` {path!r}: is a directory")
@@ -261,19 +303,27 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 
 def save_figure(option: str, path: str, fig: Any) -> None:
-    """Save a matplotlib figure as PNG atomically and close it.
+    """Save a matplotlib figure atomically, in the format of its extension, and close it.
 
     Parameters
     ----------
     option : str
         The option that named the file, for errors.
     path : str
+        ``.png``, ``.pdf`` or ``.svg`` (:data:`FIGURE_FORMATS`).
     fig : matplotlib.figure.Figure
+
+    Raises
+    ------
+    CommandLineError
+        If the extension is not one of :data:`FIGURE_FORMATS` (the figure is closed
+        unwritten), or the file cannot be written.
     """
     import matplotlib.pyplot as plt
 
     try:
-        _write(option, path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"))
+        fmt = _figure_format(option, path)
+        _write(option, path, lambda tmp: fig.savefig(tmp, dpi=120, format=fmt))
     finally:
         plt.close(fig)
 

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..io import design_record
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.polytopic import PolytopicModel
@@ -41,7 +42,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
     add_model_options(p)
-    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--format", choices=("text", "json"), default="text",
+                   help="json: a design file (for simulate --design, compare --design) with the certificate")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
 
@@ -98,6 +100,7 @@ def run(args: argparse.Namespace) -> str:
             "contributions of each element to Z:",
             pd.DataFrame(out["contributions"]).to_string(index=False, float_format="%.4g"),
         ]
-    if args.format == "json":
-        return json.dumps(out, indent=2)
+    if args.format == "json":  # a design file (load_design, simulate --design) that also holds the certificate
+        return json.dumps(design_record(d.K, d.P, method="design", **{k: v for k, v in out.items() if k != "K"}),
+                          indent=2)
     return "\n".join(lines)

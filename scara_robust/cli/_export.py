@@ -10,16 +10,23 @@ from typing import Any
 import numpy as np
 
 from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, _check_prefix, export_controller
-from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS
+from ..io import load_design
+from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..lyapunov.gain import design
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+from ..model.uncertain import UncertainLTVModel, physical_samples
+from ..robustness.sampled import check_sample_time, interior_grid
+from ._common import (
+    CommandLineError,
+    _load_file,
+    add_setup_options,
+    finite_float,
+    per_joint_values,
+    resolve_bounds,
+    resolve_model,
+    resolve_setup,
+)
 
 __all__ = ["add_parser", "run"]
-
-
-def _positive_list(text: str) -> list[float] | float:
-    values = [finite_float(v) for v in text.split(",")]
-    return values[0] if len(values) == 1 else values
 
 
 def add_parser(sub: Any) -> None:
@@ -34,21 +41,28 @@ def add_parser(sub: Any) -> None:
         help="the designed PID, discretized at --ts, as C99 source (.h, .c) or JSON",
         description="Design K at (rho, eta), discretize it (Design.discretize) and write it into the folder "
         "--output: --format c writes PREFIX.h and PREFIX.c (PREFIX_init, PREFIX_step), --format json "
-        "PREFIX.json with every gain and limit. Without options, the controller of Design.discretize(Ts).",
+        "PREFIX.json with every gain and limit. Without options, the controller of Design.discretize(Ts). "
+        "The sampled-data certificate runs first, on --model's plants or the robot's physical set: a Ts it "
+        "does not certify is refused with the largest certified Ts, unless --allow-uncertified.",
     )
-    p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
-    p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
-    add_setup_options(p, scenario=None, model=True)
+    p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
+    p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
+    p.add_argument("--design", metavar="FILE.json",
+                   help="export the PID gain of a design file (design --output, synthesize --output) instead")
+    add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--ts", type=finite_float, required=True, help="sample time, s (> 0)")
     p.add_argument("--integrator", choices=INTEGRATOR_METHODS, default="tustin", help="discretization of the integral")
     p.add_argument("--derivative", choices=DERIVATIVE_MODES, default="measured",
                    help="measured edot, or a filtered difference of e (no joint velocity needed)")
     p.add_argument("--filter-n", type=finite_float, default=100.0, help="derivative filter bandwidth N, 1/s (> 0)")
-    p.add_argument("--torque-limit", type=_positive_list, default=None, metavar="L[,L2,...]",
+    p.add_argument("--torque-limit", type=per_joint_values, default=None, metavar="L[,L2,...]",
                    help="per-joint torque limit, N·m (> 0): one value for all joints or one per joint")
-    p.add_argument("--tracking-time", type=_positive_list, default=None, metavar="T[,T2,...]",
+    p.add_argument("--tracking-time", type=per_joint_values, default=None, metavar="T[,T2,...]",
                    help="anti-windup tracking time T_t, s (>= Ts; default sqrt(T_i T_d) per joint)")
     p.add_argument("--no-anti-windup", action="store_true", help="leave the integrator free against the limit")
+    p.add_argument("--allow-uncertified", action="store_true",
+                   help="write the controller even where the sampled-data certificate fails at --ts (the header "
+                   "and the JSON say so); by default such a Ts is refused")
     p.add_argument("--format", choices=EXPORT_FORMATS, default="c")
     p.add_argument("--prefix", default=DEFAULT_PREFIX, help=f"C identifier of the names and files ({DEFAULT_PREFIX})")
     p.add_argument("--output", dest="folder", metavar="DIR", required=True, help="existing, writable folder")
@@ -67,8 +81,31 @@ def _check_folder(folder: str) -> None:
     os.unlink(probe)
 
 
+#: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
+CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
+
+
+def _plant_set(args: argparse.Namespace, setup: Any, model: Any) -> tuple[Any, Any, str]:
+    """The plants the sampled-data certificate runs on, a second set to verify on, and their name."""
+    if args.model is not None:
+        if isinstance(model, UncertainLTVModel):
+            grid = interior_grid(model)
+            return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "
+                                 f"(verified on a {len(grid[0])}-plant grid of the box)")
+        return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
+    times = np.linspace(0.0, 2 * np.pi, CERTIFICATE_GRID[0])
+    plants = physical_samples(setup.params, setup.reference, setup.payload, times=times, n_masses=CERTIFICATE_GRID[1])
+    check = physical_samples(setup.params, setup.reference, setup.payload,
+                             times=np.linspace(0.0, 2 * np.pi, CERTIFICATE_CHECK_GRID[0]),
+                             n_masses=CERTIFICATE_CHECK_GRID[1])
+    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
+    return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
+                           f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
+                           f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
+
+
 def run(args: argparse.Namespace) -> str:
-    """Design, discretize and write the files; the list of files written.
+    """Design (or read), discretize, certify at Ts and write the files; the list of files written.
 
     Parameters
     ----------
@@ -77,26 +114,55 @@ def run(args: argparse.Namespace) -> str:
     Returns
     -------
     str
+
+    Raises
+    ------
+    CommandLineError
+        For a Ts the sampled-data certificate does not hold at (without
+        ``--allow-uncertified``), naming the largest certified Ts and the smallest Ts
+        with an unstable frozen plant.
     """
     _check_folder(args.folder)  # before any computation
     _check_prefix(args.prefix)
+    if args.design is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if args.design is None and (args.rho is None or args.eta is None):
+        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
     setup = resolve_setup(args)
     model = resolve_model(args, setup)
-    d = design(model, args.rho, args.eta)
-    pid = d.discretize(
-        args.ts,
-        integrator=args.integrator,
-        derivative=args.derivative,
-        N=args.filter_n,
-        torque_limit=args.torque_limit,
-        tracking_time=args.tracking_time,
-        anti_windup=not args.no_anti_windup,
-    )
+    options = {"integrator": args.integrator, "derivative": args.derivative, "N": args.filter_n,
+               "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
+               "anti_windup": not args.no_anti_windup}
+    if args.design is not None:
+        loaded = _load_file("--design", args.design, load_design)
+        m, n = loaded.K.shape
+        if n != model.n_states or n != 3 * m:
+            raise CommandLineError(
+                f"`--design` {args.design!r}: field `K` must have shape ({model.n_states // 3}, {model.n_states}) "
+                f"for this plant's PID (x = [∫e, e, ė]), found {loaded.K.shape}")
+        p = m
+        pid = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
+        gain = f"gain of {args.design!r}"
+        meta: dict[str, Any] = {"design_file": args.design, "model": model.name}
+    else:
+        d = design(model, args.rho, args.eta)
+        pid = d.discretize(args.ts, **options)
+        gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
+        meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
+    plants, check, set_name = _plant_set(args, setup, model)
+    result = check_sample_time(plants, pid, check=check, set_name=set_name)
+    if not result.certified and not args.allow_uncertified:
+        raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
+    meta["certificate"] = result.record()
+    meta["plant_file"] = args.model if args.model is not None else args.robot
+    notes = [f"Sampled-data certificate: {result.message}."]
+    if not result.certified:
+        notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
+                        "without your own analysis.")
     source = f"model {model.name}" if args.model is not None else f"bounds {resolve_bounds(args, setup)}"
-    meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
-    files = export_controller(pid, args.folder, format=args.format, prefix=args.prefix, metadata=meta)
-    lines = [f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g}), {source}, Ts = {pid.Ts:g} s, "
-             f"integrator {pid.integrator}, derivative {pid.derivative}"]
+    files = export_controller(pid, args.folder, format=args.format, prefix=args.prefix, metadata=meta, notes=notes)
+    lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}",
+             ("" if result.certified else "WARNING: not certified; ") + result.message]
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "

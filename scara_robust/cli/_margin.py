@@ -10,6 +10,7 @@ from typing import Any
 import pandas as pd
 
 from ..lyapunov.gain import design
+from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, payload_margin, robustness_margin
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
 
@@ -31,6 +32,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
     add_setup_options(p, scenario=None, model=True)
     p.add_argument("--elements", choices=("all", "A", "B"), default="all", help="elements scaled and varying")
+    p.add_argument("--anchor", choices=ANCHORS, default="lower",
+                   help="what theta scales the set about: the design plant at the lower corner, [theta*lower, "
+                   "theta*upper] (the paper's convention, default), or the set's centre; with 'lower' the "
+                   "centre-scaled vertex and frozen bounds are printed beside")
     p.add_argument("--method", choices=("all", *MARGIN_METHODS), default="all",
                    help="one method, or all of them and the bracket (default)")
     p.add_argument("--tol", type=finite_float, default=MARGIN_TOL, help=f"relative tolerance of the bisections "
@@ -64,26 +69,43 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     model = resolve_model(args, setup)
     d = design(model, args.rho, args.eta)
+    if args.anchor == "center" and args.elements != "all":
+        raise CommandLineError(f"`--anchor center` scales every element; it cannot go with --elements {args.elements}")
     if args.method == "all":
-        table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries)
+        table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries,
+                             anchor=args.anchor)
     else:
         m = robustness_margin(model, d, args.method, elements=args.elements, tol=args.tol,
-                              falsifier_tries=args.tries)
+                              falsifier_tries=args.tries, anchor=args.anchor)
         table = pd.DataFrame([(m.method, m.kind, m.theta, *m.bracket, m.seconds, m.message)],
                              columns=["method", "kind", "theta", "lo", "hi", "seconds", "message"])
+    table.insert(2, "anchor", args.anchor)
+    beside = []
+    if args.anchor == "lower" and args.elements == "all" and args.method == "all":
+        beside = [robustness_margin(model, d, method, tol=args.tol, anchor="center") for method in ("vertex", "frozen")]
     payload = None
     if getattr(model, "scara", False) and not args.no_payload:
         payload = payload_margin(d, setup.params, setup.reference, tol=max(args.tol, 1e-3))
     source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
     if args.format == "json":
         rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        rows += [{"method": m.method, "kind": m.kind, "anchor": "center", "theta": _number(m.theta),
+                  "lo": _number(m.bracket[0]), "hi": _number(m.bracket[1]), "seconds": m.seconds,
+                  "message": m.message} for m in beside]
         if payload is not None:
             rows += [{k: _number(v) for k, v in row.items()} for row in payload.to_dict(orient="records")]
         return json.dumps(rows, indent=2)
+    meaning = ("every element range scaled about the design plant (lower corner), [theta*lower, theta*upper]"
+               if args.anchor == "lower" else "every element range scaled about the box's centre, "
+               "[c - theta*w/2, c + theta*w/2]")
     lines = [f"margins of K(rho={d.rho:g}, eta={d.eta:g}), {source}, elements: {args.elements}",
-             "theta: every element range scaled about the nominal, [theta*lower, theta*upper]",
+             f"theta (anchor {args.anchor}): {meaning}",
              table.drop(columns="message").to_string(index=False, float_format="%.6g"), "",
              *[f"  {row.method}: {row.message}" for row in table.itertuples()]]
+    if beside:
+        vertex, frozen = beside
+        lines += ["", f"scaled about the set's centre instead (--anchor center): the vertex test certifies theta >= "
+                      f"{vertex.theta:.6g}; a frozen vertex is unstable at theta = {frozen.theta:.6g}"]
     if payload is not None:
         lines += ["", "payload margin of the robot's own sampled set (peak mass of m_p = (M/2)(1 + sin t)):",
                   pd.DataFrame(payload).drop(columns="message").to_string(index=False, float_format="%.6g")]

@@ -24,6 +24,7 @@ from ._common import (
     add_design_option,
     add_setup_options,
     finite_float,
+    per_joint_values,
     resolve_design,
     resolve_model,
     resolve_setup,
@@ -70,7 +71,8 @@ def add_parser(sub: Any) -> None:
         "engine gives the row's metrics exactly)",
     )
     p.add_argument("--index", type=int, default=None, help="scenario index of the run to replay (--from-campaign)")
-    p.add_argument("--torque-limit", type=finite_float, default=None, help="per-joint saturation, N·m (> 0)")
+    p.add_argument("--torque-limit", type=per_joint_values, default=None, metavar="L[,L2,...]",
+                   help="per-joint saturation, N·m (> 0): one value for all joints or one per joint")
     p.add_argument(
         "--tolerance",
         type=finite_float,
@@ -89,8 +91,13 @@ def add_parser(sub: Any) -> None:
         metavar="FILE",
         help="write the time series to FILE (.json: JSON, otherwise CSV) instead of stdout",
     )
-    p.add_argument("--plot", metavar="FILE.png", help="save a figure laid out like the paper's Figure 3")
+    p.add_argument("--plot", metavar="FILE",
+                   help="save a figure laid out like the paper's Figure 3 (.png, .pdf or .svg)")
     p.set_defaults(func=run)
+
+
+#: Joints of the SCARA, the one robot ``simulate`` runs.
+_JOINTS = 2
 
 
 def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
@@ -117,8 +124,14 @@ def run(args: argparse.Namespace) -> str:
     """
     if args.t_final is not None and args.t_final <= 0:
         raise CommandLineError(f"`--t-final` must be > 0 s, found {args.t_final}")
-    if args.torque_limit is not None and args.torque_limit <= 0:
-        raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {args.torque_limit}")
+    if args.torque_limit is not None:
+        limit = args.torque_limit
+        if len(limit) not in (1, _JOINTS):
+            raise CommandLineError(
+                f"`--torque-limit` must be one value or one per joint ({_JOINTS}), found {len(limit)} values"
+            )
+        if min(limit) <= 0:
+            raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {limit[0] if len(limit) == 1 else limit}")
     if args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
     loaded = None

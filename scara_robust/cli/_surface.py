@@ -6,6 +6,8 @@ import argparse
 import json
 from typing import Any
 
+import numpy as np
+
 from ..lyapunov.surface import (
     MARGIN_MAP_METHODS,
     MAX_SURFACE_POINTS,
@@ -42,7 +44,7 @@ def add_parser(sub: Any) -> None:
     add_model_options(p)
     p.add_argument("--format", choices=("text", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
-    p.add_argument("--plot", metavar="FILE.png", help="also save the 3D surface as a PNG")
+    p.add_argument("--plot", metavar="FILE", help="also save the 3D surface (.png, .pdf or .svg)")
     p.add_argument(
         "--measure",
         choices=SURFACE_MEASURES,
@@ -69,6 +71,17 @@ def _point(text: str) -> tuple[float, float]:
     return rho, eta
 
 
+def _check_mark(mark: tuple[float, float], rhos: np.ndarray, etas: np.ndarray) -> None:
+    """Refuse a ``--mark`` outside the grid (the figure would put it at the nearest corner)."""
+    for name, value, grid in (("rho", mark[0], rhos), ("eta", mark[1], etas)):
+        low, high = float(grid.min()), float(grid.max())
+        if not low <= value <= high:
+            raise CommandLineError(
+                f"`--mark` {name} = {value:g} is outside the --{name} grid [{low:g}, {high:g}]; "
+                "mark a point of the grid"
+            )
+
+
 def run(args: argparse.Namespace) -> str:
     """Evaluate the surface; the text, CSV or JSON to print.
 
@@ -88,6 +101,8 @@ def run(args: argparse.Namespace) -> str:
         )
     if args.mark is not None and args.plot is None:
         raise CommandLineError("`--mark` marks a point on the --plot figure; give --plot FILE.png too")
+    if args.mark is not None:
+        _check_mark(args.mark, args.rho, args.eta)
     model = resolve_model(args, resolve_setup(args))
     note = ""
     if isinstance(model, PolytopicModel):  # Theorem 1 needs intervals: the box around the polytope

@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> str:
         kind = "polytope" if isinstance(model, PolytopicModel) else "box"
         what = f"the {kind} of {model.name}, objective {objective}"
     if result.status == NOT_INSTALLED:
-        raise CommandLineError("synthesize needs cvxpy: pip install scara_robust[lmi]")
+        raise CommandLineError("synthesize needs cvxpy: pip install '.[lmi]'")
     margin = ""
     margin_value: dict[str, Any] = {}
     if result.design is not None and result.certified:

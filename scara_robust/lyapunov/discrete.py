@@ -80,6 +80,15 @@ def default_tracking_time(K_I: ArrayLike, K_D: ArrayLike, Ts: float) -> Array:
     return np.asarray(np.maximum(np.where(tt > 0, tt, 1.0), Ts), dtype=float)
 
 
+def _per_torque(name: str, value: ArrayLike, m: int) -> Array:
+    """`value` as one float per torque, shape (m,): a scalar (or one value) for all, or m values."""
+    arr = check_array(name, value)
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, m)):
+        found = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
+        raise ArgumentValueError(name, f"must be one value or one per torque ({m}), found {found}")
+    return np.broadcast_to(arr, (m,)).astype(float)
+
+
 def _rows(M: Array) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in M)
 
@@ -152,14 +161,14 @@ class DiscretePID:
         check_choice("derivative", self.derivative, DERIVATIVE_MODES)
         self.N = check_real("N", self.N, positive=True)
         if self.torque_limit is not None:
-            limit = np.broadcast_to(check_array("torque_limit", self.torque_limit), (m,)).astype(float)
+            limit = _per_torque("torque_limit", self.torque_limit, m)
             if np.any(limit <= 0):
                 raise ArgumentValueError("torque_limit", f"must be > 0 N·m, found {limit.tolist()}")
             self.torque_limit = limit
         if self.tracking_time is None:
             self.tracking_time = default_tracking_time(self.K_I, self.K_D, self.Ts)
         else:
-            tt = np.broadcast_to(check_array("tracking_time", self.tracking_time), (m,)).astype(float)
+            tt = _per_torque("tracking_time", self.tracking_time, m)
             if np.any(tt <= 0):
                 raise ArgumentValueError("tracking_time", f"must be > 0 s, found {tt.tolist()}")
             if np.any(tt < self.Ts):

@@ -21,9 +21,9 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_choice, check_instance, check_real
-from ..exceptions import ArgumentTypeError
+from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.polytopic import PolytopicModel
-from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
+from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
 from .gain import Design
 
 __all__ = [
@@ -136,19 +136,25 @@ def affine_margin(base: ArrayLike, direction: ArrayLike) -> Array:
     return np.asarray(np.where(definite, theta, 0.0), dtype=float)
 
 
-def theorem1_scaling(model: UncertainLTVModel, design: Design, elements: str = "all") -> tuple[Array, Array]:
+def theorem1_scaling(
+    model: UncertainLTVModel, design: Design, elements: str = "all", anchor: str = "lower"
+) -> tuple[Array, Array]:
     """Z of Theorem 1 for the box scaled by θ, as ``Z(θ) = base + θ·direction``.
 
-    Every element range scales about the nominal (``[θ l_j, θ u_j]``, the elements left out
-    of `elements` held at ``θ l_j``), so ``Ā₁(θ) = Ā + θ Σ l_j E_j`` and
+    With ``anchor='lower'`` every element range scales about the nominal (``[θ l_j, θ u_j]``,
+    the elements left out of `elements` held at ``θ l_j``), so ``Ā₁(θ) = Ā + θ Σ l_j E_j`` and
     ``Z(θ) = PĀ + ĀᵀP + θ (Σ_all l_j Ψ_j + Σ_varying (u_j − l_j) Ψ_j⁺)``, with P the design's
-    (Theorem 1's step 1 returns it).
+    (Theorem 1's step 1 returns it). With ``anchor='center'`` (every element varying) the
+    range is ``[c_j − θw_j/2, c_j + θw_j/2]`` (centre c, width w), so
+    ``Z(θ) = PĀ + ĀᵀP + Σ c_j Ψ_j + θ Σ w_j (Ψ_j⁺ − Ψ_j/2)``.
 
     Parameters
     ----------
     model : UncertainLTVModel
     design : Design
     elements : {'all', 'A', 'B'}
+    anchor : {'lower', 'center'}
+        ``'center'`` needs ``elements='all'``.
 
     Returns
     -------
@@ -156,12 +162,20 @@ def theorem1_scaling(model: UncertainLTVModel, design: Design, elements: str = "
     """
     check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
     check_choice("elements", elements, ELEMENT_SETS)
+    check_choice("anchor", anchor, ANCHORS)
+    if anchor == "center" and elements != "all":
+        raise ArgumentValueError("elements", f"must be 'all' with anchor 'center', found {elements!r}")
     P = design.P
     base = P @ design.A_cl + design.A_cl.T @ P
     E = model.perturbation_matrices(design.K)
     Psi = P @ E + np.swapaxes(E, -1, -2) @ P
     varying = np.array([elements in ("all", el.matrix) for el in model.elements], dtype=bool)
     widths = (model.upper_bounds() - model.lower_bounds()) * varying
+    if anchor == "center":
+        centre = 0.5 * (model.upper_bounds() + model.lower_bounds())
+        base = base + np.einsum("j,jik->ik", centre, Psi)
+        direction = np.einsum("j,jik->ik", widths, positive_part(Psi) - 0.5 * Psi) if len(widths) else 0 * base
+        return 0.5 * (base + base.T), 0.5 * (direction + direction.T)
     direction = np.einsum("j,jik->ik", model.lower_bounds(), Psi)
     if varying.any():
         direction = direction + np.einsum("j,jik->ik", widths[varying], positive_part(Psi[varying]))

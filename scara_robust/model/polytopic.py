@@ -16,9 +16,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_real
+from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
-from .uncertain import UncertainElement, UncertainLTVModel, state_space
+from .uncertain import ANCHORS, UncertainElement, UncertainLTVModel, state_space
 
 __all__ = ["PolytopicModel"]
 
@@ -144,23 +144,30 @@ class PolytopicModel:
         K = check_array("K", K, shape=(self.n_inputs, self.n_states))
         return np.asarray(self.vertices_A - self.vertices_B @ K, dtype=float)
 
-    def scaled(self, theta: float) -> PolytopicModel:
-        """The polytope scaled about its nominal: vertices ``A₀ + θ(A_i − A₀)``, ``B₀ + θ(B_i − B₀)``.
+    def scaled(self, theta: float, anchor: str = "lower") -> PolytopicModel:
+        """The polytope scaled by θ about an anchor.
+
+        ``anchor='lower'`` scales about the nominal ``(A₀, B₀)`` (the design plant):
+        vertices ``A₀ + θ(A_i − A₀)``; ``anchor='center'`` about the vertices' mean ``Ā``:
+        ``Ā + θ(A_i − Ā)``. The nominal stays ``(A₀, B₀)``.
 
         Parameters
         ----------
         theta : float
             θ >= 0; 1 is the polytope itself.
+        anchor : {'lower', 'center'}
 
         Returns
         -------
         PolytopicModel
         """
         theta = check_real("theta", theta, nonnegative=True)
+        check_choice("anchor", anchor, ANCHORS)
         A0, B0 = self.A, self.B
+        cA, cB = (A0, B0) if anchor == "lower" else (self.vertices_A.mean(axis=0), self.vertices_B.mean(axis=0))
         return PolytopicModel(
-            A0 + theta * (self.vertices_A - A0), B0 + theta * (self.vertices_B - B0), nominal=(A0, B0),
-            name=f"{self.name} x {theta:g}",
+            cA + theta * (self.vertices_A - cA), cB + theta * (self.vertices_B - cB), nominal=(A0, B0),
+            name=f"{self.name} x {theta:g} ({anchor})",
         )
 
     def box_hull(self, rtol: float = 1e-12) -> UncertainLTVModel:

@@ -31,6 +31,7 @@ __all__ = [
     "UncertainElement",
     "UncertainLTVModel",
     "ELEMENT_SETS",
+    "ANCHORS",
     "paper_model",
     "derived_model",
     "physical_samples",
@@ -40,6 +41,9 @@ __all__ = [
 
 Array = NDArray[np.float64]
 ELEMENT_SETS = ("all", "A", "B")
+#: Points a box or polytope is scaled about (:meth:`UncertainLTVModel.scaled`): the design
+#: plant at the lower corner (the paper's convention, the default) or the set's centre.
+ANCHORS = ("lower", "center")
 
 
 def state_space(sys: Any, name: str = "sys") -> ct.StateSpace:
@@ -301,24 +305,34 @@ class UncertainLTVModel:
             scara=self.scara,
         )
 
-    def scaled(self, theta: float) -> UncertainLTVModel:
-        """The same model with every element range scaled about the nominal: ``[θ·lower, θ·upper]``.
+    def scaled(self, theta: float, anchor: str = "lower") -> UncertainLTVModel:
+        """The same model with every element range scaled by θ about an anchor.
+
+        ``anchor='lower'`` (the paper's convention: the design plant is the box's lower
+        corner) gives ``[θ·lower, θ·upper]``, so θ = 0 is the nominal; ``anchor='center'``
+        gives ``[c − θw/2, c + θw/2]`` with ``c`` the range's centre and ``w`` its width,
+        so θ = 0 is the box's centre. Both give the model itself at θ = 1.
 
         Parameters
         ----------
         theta : float
-            θ >= 0; 1 is the model itself, 0 the nominal alone.
+            θ >= 0.
+        anchor : {'lower', 'center'}
 
         Returns
         -------
         UncertainLTVModel
         """
         theta = check_real("theta", theta, nonnegative=True)
-        els = tuple(
-            UncertainElement(el.matrix, el.row, el.col, theta * el.lower, theta * el.upper) for el in self.elements
-        )
-        return UncertainLTVModel(self.A, self.B, els, name=f"{self.name} x {theta:g}", n_joints=self.n_joints,
-                                 scara=self.scara)
+        check_choice("anchor", anchor, ANCHORS)
+        if anchor == "lower":
+            ranges = [(theta * el.lower, theta * el.upper) for el in self.elements]
+        else:
+            ranges = [(0.5 * (el.lower + el.upper) - 0.5 * theta * (el.upper - el.lower),
+                       0.5 * (el.lower + el.upper) + 0.5 * theta * (el.upper - el.lower)) for el in self.elements]
+        els = tuple(UncertainElement(el.matrix, el.row, el.col, lo, hi) for el, (lo, hi) in zip(self.elements, ranges))
+        return UncertainLTVModel(self.A, self.B, els, name=f"{self.name} x {theta:g} ({anchor})",
+                                 n_joints=self.n_joints, scara=self.scara)
 
     def box_vertices(self) -> Array:
         """All 2^N corners of the interval box: row v holds the element values of vertex v.

@@ -7,11 +7,13 @@ polytope (the interval box, or the physical samples) with cvxpy:
     minimize  λ   subject to   P ⪰ I,   P ⪯ λI,   Ā_vᵀP + PĀ_v ⪯ −I   for every v.
 
 A feasible P gives ``V̇ ≤ −‖x‖² ≤ −V/λmax(P)`` on the whole polytope, so V decays at
-least as ``exp(−t/λmax(P))``. The solver's answer is never taken on its word: the
-returned P is checked with numpy (symmetric, positive definite, every vertex's
-``λmax(Ā_vᵀP + PĀ_v) < 0``), and the reported margin comes from that check.
+least as ``exp(−t/λmax(P))`` and the state as ``exp(−αt)``, ``α = 1/(2λmax(P))``. Every
+decay rate this package reports is that state decay rate α, with ``V̇ ≤ −2αV``. The
+solver's answer is never taken on its word: the returned P is checked with numpy
+(symmetric, positive definite, every vertex's ``λmax(Ā_vᵀP + PĀ_v) < 0``), and the reported
+margin comes from that check.
 
-cvxpy is optional (``pip install scara_robust[lmi]``); without it every function here
+cvxpy is optional (``pip install ".[lmi]"``); without it every function here
 returns a result whose status is ``'not installed'``.
 """
 
@@ -25,7 +27,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice
 
-__all__ = ["LMICertificate", "LMI_SOLVERS", "NOT_INSTALLED", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
+__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "NOT_INSTALLED", "cvxpy_available", "lmi_certificate",
+           "lmi_verdict", "verify_lyapunov"]
 
 Array = NDArray[np.float64]
 
@@ -33,6 +36,44 @@ Array = NDArray[np.float64]
 LMI_SOLVERS = ("CLARABEL", "SCS")
 #: Status reported when cvxpy cannot be imported.
 NOT_INSTALLED = "not installed"
+
+#: What an LMI answer proves, once numpy has checked it: ``'certified'`` (numpy verified the
+#: matrix the solver returned), ``'infeasible'`` (the solver returned a certificate of
+#: infeasibility), ``'inaccurate'`` (the solver returned an answer, "optimal" or
+#: "inaccurate", that numpy rejects, or an inaccurate infeasibility) or ``'unknown'`` (no
+#: answer: solver error, iteration limit, cvxpy not installed). Only the first two are
+#: facts; a search (bisection) stops at the last two and says so.
+LMI_VERDICTS = ("certified", "infeasible", "inaccurate", "unknown")
+
+
+def lmi_verdict(status: str, verified: bool) -> str:
+    """What an LMI answer proves (one of :data:`LMI_VERDICTS`).
+
+    Parameters
+    ----------
+    status : str
+        The solver's status as cvxpy reports it (``'optimal'``, ``'infeasible'``,
+        ``'optimal_inaccurate'``, ...), ``'solver error: ...'`` or ``'not installed'``.
+    verified : bool
+        numpy's check of the returned matrix passed.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.lmi_verdict("optimal", True), sr.lmi_verdict("optimal", False), sr.lmi_verdict("infeasible", False)
+    ('certified', 'inaccurate', 'infeasible')
+    """
+    if verified:
+        return "certified"
+    if status == "infeasible":
+        return "infeasible"
+    if status in ("optimal", "optimal_inaccurate", "infeasible_inaccurate"):
+        return "inaccurate"
+    return "unknown"
 
 
 def cvxpy_available() -> bool:
@@ -63,8 +104,8 @@ class LMICertificate:
     max_vertex_eig : float
         numpy's ``max_v λmax(Ā_vᵀP + PĀ_v)`` (NaN without P).
     margin : float
-        Verified decay rate of V, 1/s: ``−max_vertex_eig / λmax(P)`` when P is positive
-        definite, else NaN. Positive means certified.
+        Verified decay rate α of the state, 1/s (``V̇ <= −2αV``): ``−max_vertex_eig /
+        (2 λmax(P))`` when P is positive definite, else NaN. Positive means certified.
     n_vertices : int
     """
 
@@ -81,16 +122,25 @@ class LMICertificate:
         return bool(self.margin > 0)
 
     @property
+    def verdict(self) -> str:
+        """What the answer proves: one of :data:`LMI_VERDICTS`."""
+        return lmi_verdict(self.status, self.certified)
+
+    @property
     def message(self) -> str:
         """One sentence saying what the result means."""
         if self.status == NOT_INSTALLED:
-            return "cvxpy is not installed (pip install scara_robust[lmi])"
+            return "cvxpy is not installed (pip install '.[lmi]')"
         if self.certified:
             note = f" (the solver said {self.status}; numpy's check passed)" if self.status != "optimal" else ""
-            return f"common quadratic Lyapunov P found and verified; V decays at rate >= {self.margin:.4g} 1/s{note}"
+            return (f"common quadratic Lyapunov P found and verified; decay rate α >= {self.margin:.4g} 1/s "
+                    f"(V̇ <= −2αV){note}")
+        if self.verdict == "infeasible":
+            return f"no common quadratic Lyapunov P exists ({self.solver} proved the LMI infeasible)"
         if self.P is None:
-            return f"no common quadratic Lyapunov P ({self.solver}: {self.status})"
-        return f"{self.solver} returned a P ({self.status}) that fails the independent check"
+            return f"no answer: {self.solver} said {self.status}; neither feasibility nor infeasibility is proven"
+        return (f"{self.solver} returned a P ({self.status}) that fails numpy's check: inaccurate, "
+                "neither feasibility nor infeasibility is proven")
 
 
 def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float]:
@@ -106,8 +156,9 @@ def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float
     max_vertex_eig : float
         ``max_v λmax(Ā_vᵀP + PĀ_v)``.
     margin : float
-        ``−max_vertex_eig / λmax(P)`` (1/s) when P is symmetric positive definite and
-        ``max_vertex_eig < 0``; ``-inf`` when P is not positive definite or not symmetric.
+        The state decay rate α it proves, ``−max_vertex_eig / (2 λmax(P))`` (1/s,
+        ``V̇ <= −2αV``), when P is symmetric positive definite (negative when it proves
+        nothing); ``-inf`` when P is not positive definite or not symmetric.
     """
     A_v = check_array("closed_loops", closed_loops, ndim=3)
     P = check_array("P", P, shape=(A_v.shape[1], A_v.shape[1]))
@@ -119,7 +170,7 @@ def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float
     eig_P = np.linalg.eigvalsh(0.5 * (P + P.T))
     if eig_P[0] <= 0:
         return max_vertex_eig, -np.inf
-    return max_vertex_eig, -max_vertex_eig / eig_P[-1]
+    return max_vertex_eig, -max_vertex_eig / (2 * eig_P[-1])
 
 
 def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMICertificate:

@@ -1,8 +1,11 @@
 """How much uncertainty does a design tolerate? Robustness margins by scaling the uncertainty set.
 
-The margin θ of a design is the largest scaling of its uncertainty set, every element
-range ``[θ·l_j, θ·u_j]`` about the nominal (a polytope: vertices ``A₀ + θ(A_i − A₀)``),
-for which a method still certifies. Each certificate gives a **lower** bound on the true
+The margin θ of a design is the largest scaling of its uncertainty set for which a method
+still certifies. θ scales about an **anchor**: by default the design plant at the box's
+lower corner, every element range ``[θ·l_j, θ·u_j]`` (a polytope: vertices
+``A₀ + θ(A_i − A₀)``), the paper's convention; with ``anchor='center'`` about the set's
+centre, ``[c_j − θw_j/2, c_j + θw_j/2]``. Both are the set itself at θ = 1, and they
+differ elsewhere: a margin is only meaningful with its anchor. Each certificate gives a **lower** bound on the true
 margin (the largest θ with robust stability); instability gives **upper** bounds:
 
 ==============  =====  ==========================================================================
@@ -12,9 +15,12 @@ method          kind   how
                        form an interval whose end is a generalized eigenvalue (no bisection)
 ``vertex``      lower  exact: the design's P at every vertex, each affine in θ, the least end
 ``lmi``         lower  bisection on θ with the common-P LMI (extra ``lmi``); the feasible θ are an
-                       interval when the scaled boxes are nested (every [l_j, u_j] holds 0)
+                       interval when the scaled boxes are nested (every [l_j, u_j] holds 0). Only a
+                       numpy-verified P moves the lower end and only a proven infeasibility the
+                       upper end; an inaccurate answer stops the search, and the message says where
 ``frozen``      upper  the smallest θ found where a frozen vertex is unstable: beyond it no
-                       certificate of any kind exists
+                       certificate of any kind exists (a geometric scan, ratio
+                       :data:`FROZEN_SCAN_RATIO`, then bisection; its message states the resolution)
 ``falsifier``   upper  the smallest θ found with a destabilizing switching signal (bisection;
                        the falsifier is a search, so this bound is valid, not tight)
 ==============  =====  ==========================================================================
@@ -41,7 +47,7 @@ from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
 from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.signals import Reference
-from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
+from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel, physical_samples
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .polytope import box_closed_loops, box_vertices, polytope_certificate
@@ -54,6 +60,7 @@ __all__ = [
     "margin_table",
     "payload_margin",
     "PAYLOAD_METHODS",
+    "FROZEN_SCAN_RATIO",
 ]
 
 Array = NDArray[np.float64]
@@ -103,14 +110,14 @@ class Margin:
     message: str
 
 
-def _closed_loops(model: Model, design: Design, theta: float) -> Array:
+def _closed_loops(model: Model, design: Design, theta: float, anchor: str = "lower") -> Array:
     if isinstance(model, PolytopicModel):
-        return model.scaled(theta).closed_loops(design.K)
-    return box_closed_loops(model.scaled(theta), design.K)
+        return model.scaled(theta, anchor).closed_loops(design.K)
+    return box_closed_loops(model.scaled(theta, anchor), design.K)
 
 
-def _unstable(model: Model, design: Design, theta: float) -> bool:
-    return bool(np.linalg.eigvals(_closed_loops(model, design, theta)).real.max() > 0)
+def _unstable(model: Model, design: Design, theta: float, anchor: str = "lower") -> bool:
+    return bool(np.linalg.eigvals(_closed_loops(model, design, theta, anchor)).real.max() > 0)
 
 
 def _bisect(ok: Callable[[float], bool], lo: float, hi: float, tol: float) -> tuple[float, float]:
@@ -126,40 +133,62 @@ def _bisect(ok: Callable[[float], bool], lo: float, hi: float, tol: float) -> tu
     return lo, hi
 
 
-def _theorem1(model: Model, design: Design, elements: str) -> tuple[float, str]:
+def _theorem1(model: Model, design: Design, elements: str, anchor: str) -> tuple[float, str]:
     if isinstance(model, PolytopicModel):
         raise ArgumentValueError("method", "'theorem1' needs interval elements; use model.box_hull() or 'vertex'")
-    theta = float(affine_margin(*theorem1_scaling(model, design, elements)))
+    theta = float(affine_margin(*theorem1_scaling(model, design, elements, anchor)))
     return theta, "exact: generalized eigenvalue of Z(θ) = Z₀ + θZ₁"
 
 
-def _vertex(model: Model, design: Design, elements: str) -> tuple[float, str]:
+def _vertex(model: Model, design: Design, elements: str, anchor: str) -> tuple[float, str]:
+    """The design's P at every vertex: each vertex's closed loop is ``Ā + C + θ·D_v``, affine in θ."""
     P = design.P
-    base = P @ design.A_cl + design.A_cl.T @ P
     if isinstance(model, PolytopicModel):
-        D = model.closed_loops(design.K) - (model.A - model.B @ design.K)
+        loops = model.closed_loops(design.K)
+        centre = loops.mean(axis=0) if anchor == "center" else model.A - model.B @ design.K
+        C, D = centre - design.A_cl, loops - centre
         where = f"{model.n_vertices} vertices of the polytope"
     else:
         sub = model.subset(elements)
         held = np.array([elements not in ("all", el.matrix) for el in model.elements], dtype=bool)
         E_all = model.perturbation_matrices(design.K)
+        E_sub = sub.perturbation_matrices(design.K)
         shift = np.einsum("j,jik->ik", model.lower_bounds() * held, E_all)
-        D = shift + np.einsum("vj,jik->vik", box_vertices(sub), sub.perturbation_matrices(design.K))
+        D = shift + np.einsum("vj,jik->vik", box_vertices(sub), E_sub)
+        C = np.zeros_like(design.A_cl)
+        if anchor == "center":  # vertex v at θ: c + θ(h_v − c), with h_v its corner and c the centre
+            centre = 0.5 * (sub.lower_bounds() + sub.upper_bounds())
+            C = np.einsum("j,jik->ik", centre, E_sub)
+            D = D - C
         where = f"{len(D)} vertices of the box"
+    PA = P @ (design.A_cl + C)
+    base = PA + PA.T
     S = P @ D + np.swapaxes(D, -1, -2) @ P
     theta = float(affine_margin(np.broadcast_to(base, S.shape), S).min())
     return theta, f"exact: the design's P at the {where}, each affine in θ"
 
 
-def _frozen(model: Model, design: Design, lo: float, tol: float) -> tuple[float, tuple[float, float], str]:
-    theta = max(lo, 1e-6)
-    prev = lo
+#: Ratio between successive θ of the frozen scan: an interval of instability narrower than
+#: this (relative) between two scanned θ can be missed, and the message says so.
+FROZEN_SCAN_RATIO = 1.02
+
+
+def _frozen(
+    model: Model, design: Design, lo: float, tol: float, anchor: str = "lower"
+) -> tuple[float, tuple[float, float], str]:
+    """Scan θ geometrically from `lo` (a certified θ, or 0) until a frozen vertex is unstable, then bisect."""
+    start = max(lo, 1e-6)
+    theta, prev = start, lo
     while theta <= _THETA_MAX:
-        if _unstable(model, design, theta):
-            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t), prev, theta, tol)
-            return hi_, (lo_, hi_), "a frozen vertex is unstable at θ = hi"
-        prev, theta = theta, theta * 1.5
-    return math.inf, (prev, math.inf), f"every frozen vertex is stable up to θ = {_THETA_MAX:g}"
+        if _unstable(model, design, theta, anchor):
+            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, tol)
+            return hi_, (lo_, hi_), (
+                f"a frozen vertex is unstable at θ = hi; scanned from θ = {start:.4g} in steps of "
+                f"x{FROZEN_SCAN_RATIO:g}, so a window of instability narrower than "
+                f"{100 * (FROZEN_SCAN_RATIO - 1):g} % below hi could be missed")
+        prev, theta = theta, theta * FROZEN_SCAN_RATIO
+    return math.inf, (prev, math.inf), (f"every frozen vertex is stable on a scan from θ = {start:.4g} to "
+                                        f"{_THETA_MAX:g} in steps of x{FROZEN_SCAN_RATIO:g}")
 
 
 def robustness_margin(
@@ -173,6 +202,7 @@ def robustness_margin(
     upper: float | None = None,
     falsifier_tries: int = 10,
     seed: int = 0,
+    anchor: str = "lower",
 ) -> Margin:
     """One robustness margin of a design (see the module's table).
 
@@ -194,6 +224,10 @@ def robustness_margin(
         Trajectories per falsifier call.
     seed : int
         Falsifier seed.
+    anchor : {'lower', 'center'}
+        What θ scales the set about: ``'lower'`` (the paper's convention and the default:
+        every range ``[θ·l_j, θ·u_j]`` from the design plant) or ``'center'`` (the set's
+        centre; needs ``elements='all'``). See :meth:`UncertainLTVModel.scaled`.
 
     Returns
     -------
@@ -209,6 +243,9 @@ def robustness_margin(
     check_instance("design", design, Design, "a Design")
     check_choice("method", method, tuple(MARGIN_METHODS))
     check_choice("elements", elements, ELEMENT_SETS)
+    check_choice("anchor", anchor, ANCHORS)
+    if anchor == "center" and elements != "all":
+        raise ArgumentValueError("elements", f"must be 'all' with anchor 'center', found {elements!r}")
     tol = check_real("tol", tol, positive=True)
     lower = check_real("lower", lower, nonnegative=True)
     falsifier_tries = check_int("falsifier_tries", falsifier_tries, 1)
@@ -219,45 +256,82 @@ def robustness_margin(
     kind = MARGIN_METHODS[method]
     start = time.perf_counter()
     if method in ("theorem1", "vertex"):
-        theta, message = (_theorem1 if method == "theorem1" else _vertex)(model, design, elements)
+        theta, message = (_theorem1 if method == "theorem1" else _vertex)(model, design, elements, anchor)
         bracket = (theta, theta)
     elif method == "frozen":
-        theta, bracket, message = _frozen(model, design, lower, tol)
+        theta, bracket, message = _frozen(model, design, lower, tol, anchor)
     else:
-        hi = _frozen(model, design, lower, tol)[0] if upper is None else check_real("upper", upper, positive=True)
+        hi = (_frozen(model, design, lower, tol, anchor)[0] if upper is None
+              else check_real("upper", upper, positive=True))
         if method == "lmi":
-            theta, bracket, message = _lmi_margin(model, design, lower, hi, tol)
+            theta, bracket, message = _lmi_margin(model, design, lower, hi, tol, anchor)
         else:
-            theta, bracket, message = _falsifier_margin(model, design, lower, hi, tol, falsifier_tries, seed)
+            theta, bracket, message = _falsifier_margin(model, design, lower, hi, tol, falsifier_tries, seed, anchor)
     return Margin(method, kind, float(theta), (float(bracket[0]), float(bracket[1])),
                   time.perf_counter() - start, message)
 
 
-def _lmi_ok(loops: Array) -> bool:
-    result = lmi_certificate(loops)
-    return bool(result.certified and result.P is not None and verify_lyapunov(loops, result.P)[1] > 0)
+def _lmi_verdict(loops: Array) -> str:
+    """The common-P LMI on `loops`: one of :data:`~scara_robust.LMI_VERDICTS` (numpy-checked)."""
+    return lmi_certificate(loops).verdict
 
 
 def _lmi_margin(
-    model: Model, design: Design, lo: float, hi: float, tol: float
+    model: Model, design: Design, lo: float, hi: float, tol: float, anchor: str = "lower"
 ) -> tuple[float, tuple[float, float], str]:
+    """Bisect the common-P LMI on θ, trusting only numpy-verified P and proven infeasibility.
+
+    A step whose answer is inaccurate or unknown ends the search: the bracket is then
+    what was proven (certified at lo, infeasible at hi or not proven anything above lo).
+    """
     if not cvxpy_available():
         return math.nan, (math.nan, math.nan), NOT_INSTALLED
+
+    def at(theta: float) -> str:
+        return _lmi_verdict(_closed_loops(model, design, theta, anchor))
+
+    if lo > 0 and at(lo) != "certified":
+        lo = 0.0  # the hint from another method does not hold for the LMI: start from the nominal
+        if at(lo) != "certified":
+            return 0.0, (0.0, 0.0), "no verified common quadratic P even for the nominal (θ = 0)"
     if math.isinf(hi):
         hi = max(2 * lo, 1.0)
-        while _lmi_ok(_closed_loops(model, design, hi)) and hi < _THETA_MAX:
+        while True:
+            if hi >= _THETA_MAX:
+                return lo, (lo, math.inf), f"common quadratic P verified up to θ = {lo:g}, the largest searched"
+            verdict = at(hi)
+            if verdict != "certified":
+                break
             lo, hi = hi, 2 * hi
-    if lo > 0 and not _lmi_ok(_closed_loops(model, design, lo)):
-        lo = 0.0
-    lo, hi = _bisect(lambda t: _lmi_ok(_closed_loops(model, design, t)), lo, hi, tol)
-    return lo, (lo, hi), "common quadratic P found (and verified with numpy) at lo, none at hi"
+    else:
+        verdict = "infeasible" if _unstable(model, design, hi, anchor) else at(hi)
+        if verdict == "certified":
+            return hi, (hi, hi), f"common quadratic P verified at θ = {hi:g} (the upper end given)"
+    if verdict != "infeasible":
+        return lo, (lo, math.inf), (
+            f"common quadratic P verified with numpy at θ = {lo:.6g}; the search stopped at θ = {hi:.6g}, where "
+            f"the solver's answer is {verdict} (neither certified nor proven infeasible)")
+    proven_hi = hi  # the smallest θ with proven infeasibility (an unstable frozen vertex is a proof too)
+    while hi - lo > tol * hi:
+        mid = 0.5 * (lo + hi) if lo > 0 else 0.5 * hi
+        verdict = at(mid)
+        if verdict == "certified":
+            lo = mid
+        elif verdict == "infeasible":
+            hi = proven_hi = mid
+        else:
+            return lo, (lo, proven_hi), (
+                f"common quadratic P verified with numpy at θ = {lo:.6g}; the search stopped at θ = {mid:.6g}, "
+                f"where the solver's answer is {verdict} (neither certified nor proven infeasible); "
+                f"infeasibility is proven at θ = {proven_hi:.6g}")
+    return lo, (lo, hi), "common quadratic P found (and verified with numpy) at lo; the LMI is proven infeasible at hi"
 
 
 def _falsifier_margin(
-    model: Model, design: Design, lo: float, hi: float, tol: float, tries: int, seed: int
+    model: Model, design: Design, lo: float, hi: float, tol: float, tries: int, seed: int, anchor: str = "lower"
 ) -> tuple[float, tuple[float, float], str]:
     def found(theta: float) -> bool:
-        return falsify(_closed_loops(model, design, theta), design.P, n_tries=tries, seed=seed).found
+        return falsify(_closed_loops(model, design, theta, anchor), design.P, n_tries=tries, seed=seed).found
 
     if math.isinf(hi):
         return math.inf, (lo, math.inf), "no frozen instability to start from; no switching signal searched"
@@ -272,7 +346,7 @@ def _falsifier_margin(
 
 def margin_table(
     model: Model, design: Design, *, elements: str = "all", tol: float = MARGIN_TOL, falsifier_tries: int = 10,
-    seed: int = 0,
+    seed: int = 0, anchor: str = "lower",
 ) -> pd.DataFrame:
     """Every margin of :data:`MARGIN_METHODS`, each lower bound feeding the searches after it.
 
@@ -283,6 +357,8 @@ def margin_table(
     elements : {'all', 'A', 'B'}
     tol : float
     falsifier_tries, seed : int
+    anchor : {'lower', 'center'}
+        What θ scales the set about (see :func:`robustness_margin`).
 
     Returns
     -------
@@ -301,7 +377,7 @@ def margin_table(
         margin = robustness_margin(model, design, method, elements=elements, tol=tol,
                                    lower=best if method in ("lmi", "falsifier", "frozen") else 0.0,
                                    upper=upper if upper is not None and math.isfinite(upper) else None,
-                                   falsifier_tries=falsifier_tries, seed=seed)
+                                   falsifier_tries=falsifier_tries, seed=seed, anchor=anchor)
         rows.append(margin)
         if margin.kind == "lower" and math.isfinite(margin.theta):
             best = max(best, margin.theta)
@@ -379,6 +455,8 @@ def payload_margin(
         return polytope_certificate(closed(mass, n_times, n_masses), design.P).certified
 
     def lmi_ok(mass: float) -> bool:
+        # a P verified on the coarse and the fine sampling; anything else (infeasible,
+        # inaccurate, unknown) ends the bisection's lower side, which only claims what it verified
         result = lmi_certificate(closed(mass, lmi_times, lmi_masses))
         return bool(result.P is not None and result.certified
                     and verify_lyapunov(closed(mass, n_times, n_masses), result.P)[1] > 0)

@@ -90,8 +90,9 @@ class RateCertificate:
         The rate bound ν tested, in units of p per second (kg/s for the robot); ``inf`` for
         the common-P test.
     margin : float
-        numpy's verified decay rate of V on the samples, 1/s:
-        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / λmax(P_i)`` (``V̇ <= −margin·V``); ``-inf``
+        numpy's verified decay rate on the samples, 1/s:
+        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / (2 λmax(P_i))``: the state's decay rate α
+        (``V̇ <= −2αV``, the package's one convention); ``-inf``
         when some ``P(p_i)`` is not positive definite, NaN without P. Positive means verified.
         With `slopes` (an affine dependence), the decay rate on the whole interval of p
         instead: the end points' worst λmax, plus ``max(0, −convexity)·((p_max − p_min)/2)²``
@@ -131,11 +132,11 @@ class RateCertificate:
         """One sentence saying what the result means."""
         what = "a common P" if math.isinf(self.rate) else f"P(p) = P0 + p·P1 for |ṗ| <= {self.rate:.6g}"
         if self.status == NOT_INSTALLED:
-            return "cvxpy is not installed (pip install scara_robust[lmi])"
+            return "cvxpy is not installed (pip install '.[lmi]')"
         if self.certified:
             extra = "" if math.isnan(self.check_margin) else (
-                f"; on {self.n_checked} independent samples V decays at >= {self.check_margin:.4g} 1/s")
-            return (f"{what} found; numpy verifies V decays at >= {self.margin:.4g} 1/s on the "
+                f"; on {self.n_checked} independent samples the decay rate α >= {self.check_margin:.4g} 1/s")
+            return (f"{what} found; numpy verifies a decay rate α >= {self.margin:.4g} 1/s (V̇ <= −2αV) on the "
                     f"{self.n_samples} samples{extra}")
         if self.status == "infeasible":
             return f"no {what.removeprefix('a ')} exists on the {self.n_samples} samples (infeasible)"
@@ -180,8 +181,8 @@ def verify_rate_bounded(closed_loops: ArrayLike, p: ArrayLike, P0: ArrayLike, P1
     Returns
     -------
     float
-        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / λmax(P_i)``, 1/s, with ``P_i = P(p_i)``:
-        V decays at least at this rate on the samples. ``-inf`` when some P_i is not
+        ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / (2 λmax(P_i))``, 1/s, with ``P_i = P(p_i)``:
+        the state's decay rate α on the samples (``V̇ <= −2αV``). ``-inf`` when some P_i is not
         positive definite, or P0 or P1 is not symmetric.
     """
     A, p_arr = _samples("closed_loops", closed_loops, p)
@@ -207,7 +208,7 @@ def verify_rate_bounded(closed_loops: ArrayLike, p: ArrayLike, P0: ArrayLike, P1
     for sign in (1.0, -1.0):
         M = L + sign * nu * P1[None]
         worst = np.maximum(worst, np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, -1, -2)))[:, -1])
-    return float((-worst / eig_P[:, -1]).min())
+    return float((-worst / (2 * eig_P[:, -1])).min())
 
 
 def _bent_margin(A: Array, p: Array, P0: Array, P1: Array, nu: float, deficit: float) -> float:
@@ -228,7 +229,7 @@ def _bent_margin(A: Array, p: Array, P0: Array, P1: Array, nu: float, deficit: f
         M = L + sign * (0.0 if math.isinf(nu) else nu) * P1[None]
         worst = np.maximum(worst, np.linalg.eigvalsh(0.5 * (M + np.swapaxes(M, -1, -2)))[:, -1])
     # between the end points λmax(P(p)) is at most its largest end value (P is affine)
-    return float(-(worst.max() + bend) / eig_P[:, -1].max())
+    return float(-(worst.max() + bend) / (2 * eig_P[:, -1].max()))
 
 
 def _balancing(A: Array) -> Array:

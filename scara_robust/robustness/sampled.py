@@ -41,7 +41,7 @@ from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import PhysicalSamples, UncertainLTVModel
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, lmi_verdict
 from .synthesis import vertices_of
 
 __all__ = [
@@ -51,6 +51,9 @@ __all__ = [
     "SampledCertificate",
     "max_sample_time",
     "SampleTimeLimit",
+    "check_sample_time",
+    "SampleTimeCheck",
+    "interior_grid",
 ]
 
 Array = NDArray[np.float64]
@@ -162,8 +165,9 @@ def discrete_lyapunov_check(closed_loops: ArrayLike, P: ArrayLike, Ts: float) ->
     max_eig : float
         ``max_i λmax((A_iᵀPA_i − P)/Ts)``.
     rate : float
-        ``−max_eig / λmax(P)`` (1/s): V decreases per sample at least by the factor
-        ``1 − rate Ts``; ``-inf`` if P is not symmetric positive definite or the margin
+        ``−max_eig / (2 λmax(P))`` (1/s): the state's decay rate α, the package's one
+        convention; V decreases per sample at least by the factor ``1 − 2αTs``; ``-inf``
+        if P is not symmetric positive definite or the margin
         is within rounding of zero.
     """
     Ad = check_array("closed_loops", closed_loops, ndim=3)
@@ -181,7 +185,7 @@ def discrete_lyapunov_check(closed_loops: ArrayLike, P: ArrayLike, Ts: float) ->
     size = float(np.abs(PM).max()) * (1.0 + Ts * float(np.abs(M).max()))
     if eig_P[0] <= 0 or max_eig >= -VERIFY_RTOL * size:
         return max_eig, -np.inf
-    return max_eig, -max_eig / float(eig_P[-1])
+    return max_eig, -max_eig / (2 * float(eig_P[-1]))
 
 
 @dataclass(frozen=True)
@@ -199,7 +203,8 @@ class SampledCertificate:
         unstable, so no P can exist).
     P : ndarray, shape (n, n), or None
     rate : float
-        Verified decrease rate of V, 1/s (see :func:`discrete_lyapunov_check`), the
+        Verified decay rate α of the state, 1/s (``V_{k+1} <= (1 − 2αTs) V_k``; see
+        :func:`discrete_lyapunov_check`), the
         smallest over the plants and the check set; positive means certified.
     n_plants : int
     """
@@ -222,12 +227,20 @@ class SampledCertificate:
         return bool(self.rate > 0)
 
     @property
+    def verdict(self) -> str:
+        """What the test proves: ``'certified'``, ``'infeasible'`` (a frozen loop is unstable,
+        or the solver proved the LMI infeasible), ``'inaccurate'`` or ``'unknown'``."""
+        if not self.frozen_stable:
+            return "infeasible"
+        return lmi_verdict(self.status, self.certified)
+
+    @property
     def message(self) -> str:
         """One sentence."""
         if self.certified:
             return (
                 f"Ts = {self.Ts:.4g} s certified: common P verified on {self.n_plants} plants, "
-                f"V decreases at >= {self.rate:.4g} 1/s"
+                f"decay rate α >= {self.rate:.4g} 1/s (V_k+1 <= (1 - 2α Ts) V_k)"
             )
         if not self.frozen_stable:
             return (
@@ -235,7 +248,7 @@ class SampledCertificate:
                 f"(spectral radius {self.spectral_radius:.6g})"
             )
         if self.status == NOT_INSTALLED:
-            return "cvxpy is not installed (pip install scara_robust[lmi]); frozen loops are Schur stable"
+            return "cvxpy is not installed (pip install '.[lmi]'); frozen loops are Schur stable"
         return f"Ts = {self.Ts:.4g} s not certified: no verified common P ({self.status})"
 
 
@@ -364,7 +377,7 @@ def _bisect(ok: object, lo: float, hi: float, rtol: float) -> tuple[float, float
 
 def max_sample_time(
     model: SampledSet | tuple[ArrayLike, ArrayLike],
-    design: Design,
+    design: Design | DiscretePID,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     ts_min: float = 1e-5,
@@ -386,8 +399,9 @@ def max_sample_time(
     ----------
     model : UncertainLTVModel, PolytopicModel, PhysicalSamples or tuple (A, B)
         Plants in the PID form of `design`.
-    design : Design
-        A design in the PID form (``design.discretize`` is applied at each Ts).
+    design : Design or DiscretePID
+        A design in the PID form (``design.discretize`` is applied at each Ts), or a
+        discrete PID (its gains, integrator, derivative and N at each Ts).
     check : optional
         Plants on which every certificate must also verify (see :func:`sampled_certificate`).
     ts_min, ts_max : float
@@ -410,9 +424,9 @@ def max_sample_time(
     >>> plant = sr.pid_augment(inertia, [("B", 1, 0, 0.0, 1.0)])
     >>> lim = sr.max_sample_time(plant, sr.design(plant, 1, 2), rtol=1e-2)
     >>> print(lim.message)  # doctest: +SKIP
-    certified up to Ts = 0.281 s (V decreases at >= 0.0259 1/s); a frozen plant is unstable from Ts = 0.283 s
+    certified up to Ts = 0.281 s (decay rate α >= 0.013 1/s); a frozen plant is unstable from Ts = 0.283 s
     """
-    check_instance("design", design, Design, "a Design")
+    check_instance("design", design, (Design, DiscretePID), "a Design or a DiscretePID")
     ts_min = check_real("ts_min", ts_min, positive=True)
     ts_max = check_real("ts_max", ts_max, positive=True)
     if ts_max <= ts_min:
@@ -426,6 +440,9 @@ def max_sample_time(
         raise ArgumentValueError(unknown[0], "is not an option of Design.discretize")
 
     def pid_at(ts: float) -> DiscretePID:
+        if isinstance(design, DiscretePID):
+            return DiscretePID(ts, design.K_I, design.K_P, design.K_D, integrator=design.integrator,
+                               derivative=design.derivative, N=design.N)
         return design.discretize(ts, **opts)  # type: ignore[arg-type]
 
     def stable(ts: float) -> bool:
@@ -465,8 +482,153 @@ def max_sample_time(
         c_lo, c_hi = _bisect(certified, ts_min, top, rtol)
     cert = certs[c_lo]
     message = (
-        f"certified up to Ts = {c_lo:.4g} s (V decreases at >= {cert.rate:.4g} 1/s); "
+        f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
         + (f"a frozen plant is unstable from Ts = {hi:.4g} s" if math.isfinite(hi) else
            f"no frozen instability up to {ts_max:g} s")
     )
     return SampleTimeLimit(c_lo, (c_lo, c_hi), hi, unstable, cert, A.shape[0], message)
+
+
+def interior_grid(model: UncertainLTVModel, points: int = 5, max_plants: int = 4096) -> tuple[Array, Array]:
+    """Plants on a regular grid of the box, corners included: `points` values per element.
+
+    The ZOH map (A, B) ↦ (Φ, Γ) is not affine, so the sampled loops of a box's corners do
+    not bound those of its inside; a grid checks the inside too. The number of values per
+    element is lowered (to 2, the corners alone) until the grid has at most `max_plants`.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+    points : int
+        Values per element (>= 2).
+    max_plants : int
+
+    Returns
+    -------
+    A : ndarray, shape (k, n, n)
+    B : ndarray, shape (k, n, m)
+    """
+    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    n = model.n_elements
+    while points > 2 and points**n > max_plants:
+        points -= 1
+    axes = [np.linspace(lo, hi, points) for lo, hi in zip(model.lower_bounds(), model.upper_bounds())]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, n) if n else np.zeros((1, 0))
+    A, B = model.matrices_at(grid)
+    return np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+
+
+@dataclass(frozen=True)
+class SampleTimeCheck:
+    """Is a discrete PID safe to run at its sample time? The certificate at Ts, and the limits.
+
+    Attributes
+    ----------
+    certificate : SampledCertificate
+        The frozen and common-P tests at ``pid.Ts``.
+    limit : SampleTimeLimit or None
+        When Ts is not certified: the largest certified Ts and the smallest Ts with an
+        unstable frozen plant (:func:`max_sample_time`), to say what Ts would be safe.
+    set_name : str
+        What plants were checked (shown in messages and records).
+    """
+
+    certificate: SampledCertificate
+    limit: SampleTimeLimit | None
+    set_name: str
+
+    @property
+    def certified(self) -> bool:
+        """numpy verified a common P of the sampled loops at this Ts."""
+        return self.certificate.certified
+
+    @property
+    def message(self) -> str:
+        """One sentence: certified, or why not and which Ts would be."""
+        cert = self.certificate
+        if cert.certified:
+            return (f"Ts = {cert.Ts:g} s is certified on {self.set_name}: a common P verified with numpy on "
+                    f"{cert.n_plants} plants, decay rate α >= {cert.rate:.4g} 1/s (V_k+1 <= (1 - 2α Ts) V_k)")
+        why = (f"a frozen sampled loop is unstable (spectral radius {cert.spectral_radius:.4g})"
+               if not cert.frozen_stable else f"no verified common P ({cert.verdict}: {cert.status})")
+        text = f"Ts = {cert.Ts:g} s is not certified on {self.set_name}: {why}"
+        if self.limit is not None:
+            lim = self.limit
+            best = (f"the largest certified Ts is {lim.certified_ts:.4g} s" if math.isfinite(lim.certified_ts)
+                    else "no Ts is certified")
+            unstable = (f"a frozen plant is unstable from Ts = {lim.unstable_ts:.4g} s"
+                        if math.isfinite(lim.unstable_ts) else "no frozen instability was found")
+            text += f"; {best}, {unstable}"
+        return text
+
+    def record(self) -> dict[str, object]:
+        """The certificate as JSON-ready data (for the exported files).
+
+        Returns
+        -------
+        dict
+            ``certified``, ``verdict``, ``Ts`` (s), ``set``, ``n_plants``,
+            ``spectral_radius``, ``decay_rate`` (α, 1/s, ``V_k+1 <= (1 − 2αTs) V_k``),
+            ``certified_ts`` and ``unstable_ts`` (s, None when not computed or infinite),
+            ``message``.
+        """
+        cert, lim = self.certificate, self.limit
+
+        def num(x: float | None) -> float | None:
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        return {
+            "certified": cert.certified, "verdict": cert.verdict, "Ts": cert.Ts, "set": self.set_name,
+            "n_plants": cert.n_plants, "spectral_radius": num(cert.spectral_radius), "decay_rate": num(cert.rate),
+            "certified_ts": cert.Ts if cert.certified else num(None if lim is None else lim.certified_ts),
+            "unstable_ts": num(None if lim is None else lim.unstable_ts), "message": self.message,
+        }
+
+
+def check_sample_time(
+    model: SampledSet | tuple[ArrayLike, ArrayLike],
+    pid: DiscretePID,
+    *,
+    check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
+    set_name: str = "the given plants",
+    rtol: float = 1e-2,
+    solver: str = "CLARABEL",
+) -> SampleTimeCheck:
+    """The sampled-data certificate of `pid` at its own Ts and, if it fails, the safe limits.
+
+    Run it before deploying a controller: a Ts that is not certified comes back with the
+    largest certified Ts and the smallest Ts at which a frozen plant is unstable.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel, PolytopicModel, PhysicalSamples or tuple (A, B)
+        Plants in the PID form (see :func:`sampled_certificate`).
+    pid : DiscretePID
+    check : optional
+        Plants on which the P must also verify (e.g. :func:`interior_grid` of a box).
+    set_name : str
+        What the plants are, for messages.
+    rtol : float
+        Relative width of the limits' brackets.
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    SampleTimeCheck
+
+    Examples
+    --------
+    >>> import control as ct, scara_robust as sr
+    >>> inertia = ct.ss([[0, 1], [0, 0]], [[0], [1.0]], [[1, 0]], 0)   # q̈ = b u, b in [1, 2]
+    >>> plant = sr.pid_augment(inertia, [("B", 1, 0, 0.0, 1.0)])
+    >>> pid = sr.design(plant, 1, 2).discretize(0.5)
+    >>> sr.check_sample_time(plant, pid).certified  # doctest: +SKIP
+    False
+    """
+    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    cert = sampled_certificate(model, pid, check=check, solver=solver)
+    limit = None
+    if not cert.certified:
+        limit = max_sample_time(model, pid, check=check, ts_min=min(1e-5, pid.Ts / 10),
+                                ts_max=max(10 * pid.Ts, 1.0), rtol=rtol, solver=solver)
+    return SampleTimeCheck(cert, limit, set_name)

@@ -34,10 +34,10 @@ from ..lyapunov.gain import Design
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
 from .l2gain import _bounded_real_ok
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, lmi_verdict
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "error_output", "GAIN_BOUND", "L2_DECAY", "OBJECTIVES",
-           "vertices_of"]
+__all__ = ["Synthesis", "synthesize", "decay_rate", "decay_floor", "error_output", "GAIN_BOUND", "L2_DECAY",
+           "OBJECTIVES", "DECAY_FLOOR_RTOL", "MARGIN_DECAY_RTOL", "vertices_of"]
 
 Array = NDArray[np.float64]
 
@@ -57,6 +57,11 @@ OBJECTIVES = ("decay", "l2", "margin")
 
 #: Largest scaling θ searched by the ``'margin'`` objective.
 MARGIN_CAP = 1e3
+
+#: The ``'margin'`` objective's default decay rate, relative to the plants' largest spectral
+#: norm ‖A_i‖₂ (1/s): with no decay required the LMI returns gains at the edge of
+#: feasibility, whose decay (~1e-7 1/s) numpy cannot tell from zero.
+MARGIN_DECAY_RTOL = 1e-4
 
 
 def vertices_of(model: UncertainLTVModel | PolytopicModel) -> tuple[Array, Array]:
@@ -116,9 +121,10 @@ class Synthesis:
     Attributes
     ----------
     status : str
-        ``'certified'``, ``'infeasible'`` (no gain within the bound makes every vertex
-        decay), ``'not verified'`` (the solver's answer fails numpy's check), a solver
-        status (``'optimal_inaccurate'``, ...) or ``'not installed'``.
+        ``'certified'``, ``'marginal'`` (numpy verifies a decay, but below `decay_floor`),
+        ``'infeasible'`` (the solver proved that no gain within the bound makes every
+        vertex decay), ``'not verified'`` (the solver's answer fails numpy's check), a
+        solver status (``'optimal_inaccurate'``, ``'solver error: ...'``) or ``'not installed'``.
     K : ndarray, shape (m, n), or None
         Gain of ``u = −Kx``.
     P : ndarray, shape (n, n), or None
@@ -141,14 +147,23 @@ class Synthesis:
     objective : str
         ``'decay'``, ``'l2'`` or ``'margin'``.
     gamma : float
-        ``'l2'``: the bound on the worst-case L2 gain that numpy verifies with P on the
-        synthesis set (units of the output per unit of the disturbance: rad per N·m for the
-        robot), ``inf`` if it cannot; NaN for the other objectives.
+        ``'l2'``: the bound on the worst-case L2 gain of the returned K that numpy verifies
+        with P on the synthesis set (units of the output per unit of the disturbance: rad
+        per N·m for the robot), ``inf`` if it cannot; NaN for the other objectives. It is
+        an upper bound for this K, not the LMI's infimum: on the robot that infimum is
+        approached only as P grows without bound along ∫e, so an interior-point solver
+        stops short of it where its tolerances are met, at a point (and a K) that depends
+        on rounding; another machine returns another K with a verified γ a few per cent
+        away.
     check_gamma : float
         The same bound checked on the independent set (``inf`` if P does not verify it there).
     theta : float
         ``'margin'``: the largest scaling of the set certified (the decay and K are the ones
         found at θ); NaN for the other objectives.
+    search : str
+        Where and why a bisection (on α or θ) stopped; empty without one.
+    decay_floor : float
+        The smallest decay rate reported as certified (:func:`decay_floor`), 1/s.
     design : Design or None
         The gain as a :class:`~scara_robust.Design` on the model's nominal (ρ and η NaN),
         so every certificate, margin and simulation takes it.
@@ -171,6 +186,21 @@ class Synthesis:
     gamma: float = math.nan
     check_gamma: float = math.nan
     theta: float = math.nan
+    search: str = ""
+    decay_floor: float = math.nan
+
+    @property
+    def verdict(self) -> str:
+        """What the answer proves: ``'certified'``, ``'marginal'`` (verified, but the decay is
+        below :attr:`decay_floor`), ``'infeasible'`` (the solver proved it), ``'inaccurate'`` or
+        ``'unknown'`` (see :data:`~scara_robust.LMI_VERDICTS`)."""
+        if self.certified:
+            return "certified"
+        if self.status in ("marginal", "infeasible"):
+            return self.status
+        if self.status == "not verified":
+            return "inaccurate"
+        return lmi_verdict(self.status, False)
 
     @property
     def certified(self) -> bool:
@@ -184,18 +214,23 @@ class Synthesis:
         if self.certified:
             said = "" if self.solver_status == "optimal" else f" (the solver said {self.solver_status})"
             extra = said + ("" if math.isnan(self.check_decay) else (
-                f"; on {self.n_checked} independent samples V decays at >= {self.check_decay:.4g} 1/s"))
+                f"; on {self.n_checked} independent samples α >= {self.check_decay:.4g} 1/s"))
             if self.objective == "l2":
                 extra += f"; worst-case L2 gain <= {self.gamma:.4g}"
                 if not math.isnan(self.check_gamma):
                     extra += (f" (on the independent samples <= {self.check_gamma:.4g})"
                               if math.isfinite(self.check_gamma) else " (not verified by P on the independent samples)")
             if self.objective == "margin":
-                extra += f"; the set scaled by θ = {self.theta:.4g} is certified"
-            return (f"gain found with ‖K‖ = {self.gain_norm:.4g} <= {self.gain_bound:g}; numpy verifies that V "
-                    f"decays at >= {self.verified_decay:.4g} 1/s on the {self.n_vertices} synthesis points{extra}")
+                extra += f"; the set scaled by θ = {self.theta:.4g} is certified ({self.search})"
+            return (f"gain found with ‖K‖ = {self.gain_norm:.4g} <= {self.gain_bound:g}; numpy verifies the decay "
+                    f"rate α >= {self.verified_decay:.4g} 1/s (V̇ <= −2αV) on the {self.n_vertices} synthesis "
+                    f"points{extra}")
         if self.status == "infeasible":
             return f"no gain with ‖K‖ <= {self.gain_bound:g} and a common quadratic Lyapunov function exists"
+        if self.status == "marginal":
+            return (f"marginal, not certified: numpy verifies a decay of only {self.verified_decay:.3g} 1/s, below "
+                    f"the floor {self.decay_floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm), within the "
+                    "solver's tolerances of zero")
         if self.K is not None:
             return (f"the solver returned a gain ({self.status}) that numpy does not certify: decay "
                     f"{self.verified_decay:.4g} 1/s on the synthesis set, {self.check_decay:.4g} on the check set")
@@ -244,17 +279,77 @@ def _solve(
     return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float), g
 
 
-def _largest(ok: Callable[[float], bool], start: float, tol: float, cap: float) -> float:
-    """Largest x in [0, cap] with ``ok(x)`` (monotone), given ``ok(0)``: doubling, then bisection."""
+def _largest(verdict: Callable[[float], str], start: float, tol: float, cap: float) -> tuple[float, float, str]:
+    """Largest x in [0, cap] with ``verdict(x) == 'certified'`` (monotone), given it at 0: doubling, then bisection.
+
+    Only ``'certified'`` moves the lower end and only ``'infeasible'`` the upper end; any
+    other verdict (inaccurate, unknown, marginal) stops the search where it is.
+
+    Returns
+    -------
+    lo, hi : float
+        Certified at lo; hi the first x not certified (inf if none up to `cap`).
+    reason : str
+        Why the search stopped.
+    """
     lo, hi = 0.0, start
-    while hi < cap and ok(hi):
+    while True:
+        if hi >= cap:
+            return lo, math.inf, f"certified up to {lo:g}, the largest searched"
+        answer = verdict(hi)
+        if answer != "certified":
+            break
         lo, hi = hi, 2 * hi
-    if hi >= cap:
-        return lo
+    if answer != "infeasible":
+        return lo, hi, f"stopped: the answer at {hi:.6g} is {answer}"
     while hi - lo > tol * max(hi, 1e-9):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
-    return lo
+        answer = verdict(mid)
+        if answer == "certified":
+            lo = mid
+        elif answer == "infeasible":
+            hi = mid
+        else:
+            return lo, mid, f"stopped: the answer at {mid:.6g} is {answer} (infeasibility proven at {hi:.6g})"
+    return lo, hi, f"certified at {lo:.6g}, infeasible at {hi:.6g}"
+
+
+#: A verified decay rate below this fraction of the closed loops' largest spectral norm
+#: (1/s) is within the solver's tolerances of zero: reported as ``'marginal'``, not certified.
+DECAY_FLOOR_RTOL = 1e-8
+
+
+def decay_floor(closed_loops: ArrayLike) -> float:
+    """The smallest decay rate (1/s) reported as certified for these closed loops.
+
+    ``DECAY_FLOOR_RTOL · max_i ‖A_i‖₂``: the LMIs are solved to relative tolerances of
+    about 1e-8, so a decay rate smaller than that fraction of the loops' own rates says
+    nothing a solver's rounding could not change.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+
+    Returns
+    -------
+    float
+        1/s.
+    """
+    A = check_array("closed_loops", closed_loops, ndim=3)
+    return float(DECAY_FLOOR_RTOL * np.linalg.norm(A, 2, axis=(1, 2)).max())
+
+
+def _verdict(A: Array, B: Array, solution: tuple[str, Array | None, Array | None, float], alpha: float) -> str:
+    """One synthesis LMI's answer, checked with numpy: certified only if V decays at >= α and the floor."""
+    status, Q, Y, _ = solution
+    if Q is None or Y is None:
+        return lmi_verdict(status, False)
+    P = np.linalg.inv(Q)
+    loops = A - B @ (Y @ P)
+    rate = decay_rate(loops, 0.5 * (P + P.T))
+    if rate >= max(alpha * (1 - 1e-6), decay_floor(loops)):
+        return "certified"
+    return "marginal" if rate > 0 else lmi_verdict(status, False)
 
 
 def _verified_gamma(A_cl: Array, Bw: Array, C: Array, P: Array, gamma: float) -> float:
@@ -321,7 +416,9 @@ def synthesize(
         to `output` (default the tracking error e), with decay >= `decay` (default
         :data:`L2_DECAY`). ``'margin'``: the largest θ for which one gain certifies the
         model's set scaled by θ about its nominal (box or polytope only), with decay >=
-        `decay` (default 0).
+        `decay` (default :data:`MARGIN_DECAY_RTOL` times the plants' largest ‖A_i‖₂).
+        Every step of a bisection counts only what numpy verifies: an inaccurate or
+        unknown answer stops it, and :attr:`Synthesis.search` says where.
     decay : float, optional
         Required decay rate α of V, 1/s (>= 0).
     gain_bound : float
@@ -387,31 +484,36 @@ def synthesize(
             raise ArgumentValueError("check", f"must hold matrices of the sizes of `model`, found {A_chk.shape}")
     n_chk = 0 if A_chk is None else int(A_chk.shape[0])
 
-    def empty(status: str) -> Synthesis:
+    def empty(status: str, search: str = "") -> Synthesis:
         return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
-                         time.perf_counter() - start, None, objective=objective)
+                         time.perf_counter() - start, None, objective=objective, search=search)
 
     if not cvxpy_available():
         return empty(NOT_INSTALLED)
     theta = math.nan
     gamma = math.nan
+    searched = ""
     if objective == "l2":
         alpha = L2_DECAY if alpha is None else alpha
         status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2)
     elif objective == "margin":
         assert isinstance(model, (UncertainLTVModel, PolytopicModel))
-        alpha = floor = 0.0 if alpha is None else alpha
+        if alpha is None:  # a decay the numpy check can tell from zero (see MARGIN_DECAY_RTOL)
+            alpha = MARGIN_DECAY_RTOL * float(np.linalg.norm(A, 2, axis=(1, 2)).max())
+        floor = alpha
         found: dict[float, tuple[str, Array | None, Array | None, float]] = {}
 
-        def feasible(th: float) -> bool:
+        def feasible(th: float) -> str:
             A_t, B_t = vertices_of(model.scaled(th))
             found[th] = _solve(A_t, B_t, floor, kappa, solver)
-            return found[th][1] is not None
+            return _verdict(A_t, B_t, found[th], floor)
 
-        if not feasible(0.0):
+        first = feasible(0.0)
+        if first != "certified":
             status, Q, Y = found[0.0][0], None, None
+            searched = f"not even the nominal (θ = 0) is certified: {first}"
         else:
-            theta = _largest(feasible, 1.0, tol, MARGIN_CAP)
+            theta, theta_hi, searched = _largest(feasible, 1.0, tol, MARGIN_CAP)
             status, Q, Y, _ = found[theta]
             A, B = vertices_of(model.scaled(theta))
     elif alpha is not None:
@@ -419,23 +521,30 @@ def synthesize(
     else:
         by_alpha: dict[float, tuple[str, Array | None, Array | None, float]] = {}
 
-        def decays(a: float) -> bool:
+        def decays(a: float) -> str:
             by_alpha[a] = _solve(A, B, a, kappa, solver)
-            return by_alpha[a][1] is not None
+            return _verdict(A, B, by_alpha[a], a)
 
-        if not decays(0.0):
+        first = decays(0.0)
+        if first == "marginal":  # a gain, but its decay is within the tolerances of zero: say so below
+            alpha = 0.0
+            status, Q, Y, _ = by_alpha[0.0]
+            searched = "the largest decay is within the solver's tolerances of zero"
+        elif first != "certified":
             status, Q, Y = by_alpha[0.0][0], None, None
+            searched = f"no decaying gain: {first}"
         else:
-            alpha = _largest(decays, 1.0, tol, 1e4)
+            alpha, _, searched = _largest(decays, 1.0, tol, 1e4)
             status, Q, Y, _ = by_alpha[alpha]
     if Q is None or Y is None:
-        return empty("infeasible" if status == "infeasible" else status)
+        return empty("infeasible" if status == "infeasible" else status, searched)
     assert alpha is not None
     K = Y @ np.linalg.inv(Q)
     P = np.linalg.inv(Q)
     P = 0.5 * (P + P.T)
     verified = decay_rate(A - B @ K, P)
     checked = math.nan if A_chk is None or B_chk is None else decay_rate(A_chk - B_chk @ K, P)
+    floor_rate = decay_floor(A - B @ K)
     ok = verified > 0 and (math.isnan(checked) or checked > 0)
     verified_gamma = check_gamma = math.nan
     if l2 is not None:
@@ -444,10 +553,15 @@ def synthesize(
         if A_chk is not None and B_chk is not None:
             Bw_chk = B_chk if disturbance is None else np.broadcast_to(l2[0][0], (len(A_chk), *l2[0].shape[1:]))
             check_gamma = _verified_gamma(A_chk - B_chk @ K, Bw_chk, l2[1], P, gamma)
+    verdict = "not verified"
+    if ok:
+        verdict = "certified" if min(verified, checked if not math.isnan(checked) else math.inf) >= floor_rate \
+            else "marginal"
     design = _as_design(K, P, nominal if nominal is not None else model, A, B)
-    return Synthesis("certified" if ok else "not verified", K, P, alpha, verified, checked,
+    return Synthesis(verdict, K, P, alpha, verified, checked,
                      float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status,
-                     objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta)
+                     objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta,
+                     search=searched, decay_floor=floor_rate)
 
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:

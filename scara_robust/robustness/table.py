@@ -2,19 +2,21 @@
 
 :func:`certificate_table` runs, for one design K(ρ, η):
 
-=========================  =====================================================  ===========
-method                     question answered                                      margin
-=========================  =====================================================  ===========
-theorem1-all/-A/-B         the paper's Theorem 1 (elements: all, ΔA, ΔB)           −max λ(Z)
-vertex-box                 design P, exact over the interval box                  −max λ(PĀ_v + Ā_vᵀP)
-physical-polytope          design P, exact over the robot's own sampled (A, B)    same
-lmi-box                    any common quadratic P over the box (cvxpy)            decay rate of V, 1/s
-lmi-physical               any common quadratic P over the sampled robot          decay rate of V, 1/s
-falsifier-box              a switching h(t) in the box that makes ‖x‖ grow        −growth rate, 1/s
-falsifier-physical         the same over the sampled robot                        −growth rate, 1/s
-=========================  =====================================================  ===========
+=========================  =====================================================  ======================
+method                     question answered                                      its number (column)
+=========================  =====================================================  ======================
+theorem1-all/-A/-B         the paper's Theorem 1 (elements: all, ΔA, ΔB)           max λ(Z) (``max_eig``)
+vertex-box                 design P, exact over the interval box                  max λ(PĀ_v + Ā_vᵀP)
+physical-polytope          design P, exact over the robot's own sampled (A, B)    the same
+lmi-box                    any common quadratic P over the box (cvxpy)            ``decay_rate [1/s]``
+lmi-physical               any common quadratic P over the sampled robot          ``decay_rate [1/s]``
+falsifier-box              a switching h(t) in the box that makes ‖x‖ grow        ``growth_rate [1/s]``
+falsifier-physical         the same over the sampled robot                        ``growth_rate [1/s]``
+=========================  =====================================================  ======================
 
-A positive margin means certified (for the falsifier: no growth found). ``python -m
+``max_eig`` < 0 certifies (its unit is P's times 1/s); ``decay_rate`` is the state's
+verified decay rate α, ``V̇ <= −2αV`` (> 0 certifies); ``growth_rate`` is the largest growth
+rate of ‖x‖ the falsifier found (> 0 disproves). ``python -m
 scara_robust certify`` prints the table. For a :class:`~scara_robust.PolytopicModel` the
 box rows run over the polytope's vertices and are named ``vertex-polytope``,
 ``lmi-polytope`` and ``falsifier-polytope``; rows that do not apply (Theorem 1 for a
@@ -56,7 +58,8 @@ CERTIFICATE_METHODS = (
     "falsifier-box",
     "falsifier-physical",
 )
-_COLUMNS = ["method", "verdict", "certified", "margin", "seconds", "detail"]
+_MAX_EIG, _DECAY, _GROWTH = "max_eig", "decay_rate [1/s]", "growth_rate [1/s]"
+_COLUMNS = ["method", "verdict", "certified", _MAX_EIG, _DECAY, _GROWTH, "seconds", "detail"]
 
 
 def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
@@ -109,9 +112,9 @@ def certificate_table(
     pandas.DataFrame
         One row per entry of :data:`CERTIFICATE_METHODS` (with ``polytope`` for ``box``
         for a polytope), columns ``method``, ``verdict`` (text), ``certified`` (True,
-        False, or None for "no counterexample", "not installed" and "skipped"), ``margin``
-        (positive means certified or no growth; NaN when there is none), ``seconds`` and
-        ``detail``.
+        False, or None for "no counterexample", "not installed" and "skipped"),
+        ``max_eig``, ``decay_rate [1/s]``, ``growth_rate [1/s]`` (each filled on the rows it
+        belongs to, NaN elsewhere; see the module's table), ``seconds`` and ``detail``.
     """
     check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
     check_instance("design", design, Design, "a Design from scara_robust.design()")
@@ -122,7 +125,7 @@ def certificate_table(
     polytope = isinstance(model, PolytopicModel)
 
     def skipped(reason: str) -> Callable[[], dict[str, Any]]:
-        return lambda: {"verdict": "skipped", "certified": None, "margin": np.nan, "detail": reason}
+        return lambda: {"verdict": "skipped", "certified": None, "detail": reason}
 
     def theorem1(elements: str) -> dict[str, Any]:
         if polytope:
@@ -131,13 +134,13 @@ def certificate_table(
         cert = certify(model, design, elements)
         return {
             "certified": cert.certified,
-            "margin": -cert.max_eig,
+            _MAX_EIG: cert.max_eig,
             "detail": f"max eig Z = {cert.max_eig:.6g}",
         }
 
     def vertex_box() -> dict[str, Any]:
         cert = vertex_certificate(model, design)
-        row = {"certified": cert.certified, "margin": -cert.max_eig, "detail": cert.message}
+        row = {"certified": cert.certified, _MAX_EIG: cert.max_eig, "detail": cert.message}
         if not cert.certifiable:
             row["verdict"] = "no certificate can exist"
         return row
@@ -151,19 +154,21 @@ def certificate_table(
             f"{coarse.n_vertices} samples: max eig {coarse.max_eig:.6g}, {refined.n_vertices}: {refined.max_eig:.6g}"
             + ("" if agree else " (verdict changed under refinement)")
         )
-        return {"certified": coarse.certified and agree, "margin": -max(coarse.max_eig, refined.max_eig),
+        return {"certified": coarse.certified and agree, _MAX_EIG: max(coarse.max_eig, refined.max_eig),
                 "detail": detail}
 
     def lmi_row(vertices: np.ndarray, checks: list[np.ndarray]) -> dict[str, Any]:
         result = lmi_certificate(vertices, solver=lmi_solver)
         if result.status == NOT_INSTALLED:
-            return {"verdict": NOT_INSTALLED, "certified": None, "margin": np.nan, "detail": result.message}
+            return {"verdict": NOT_INSTALLED, "certified": None, "detail": result.message}
         if result.P is None or not checks:
-            return {"certified": result.certified, "margin": result.margin, "detail": result.message}
+            return {"verdict": result.verdict, "certified": result.certified, _DECAY: result.margin,
+                    "detail": result.message}
         margins = [verify_lyapunov(c, result.P)[1] for c in checks]
         margin = float(min(result.margin, *margins))
         detail = f"{result.message}; verified with numpy on {', '.join(str(len(c)) for c in checks)} samples"
-        return {"certified": margin > 0, "margin": margin, "detail": detail}
+        return {"verdict": "certified" if margin > 0 else "inaccurate", "certified": margin > 0, _DECAY: margin,
+                "detail": detail}
 
     def sampled(n_t: int, n_m: int) -> np.ndarray:
         s = physical_samples(params, reference, payload, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
@@ -174,7 +179,7 @@ def certificate_table(
         return {
             "verdict": "unstable trajectory found" if result.found else "no counterexample found",
             "certified": False if result.found else None,
-            "margin": -result.growth_rate,
+            _GROWTH: result.growth_rate,
             "detail": result.message,
         }
 

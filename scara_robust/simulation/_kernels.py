@@ -39,11 +39,6 @@ def mass_terms(rb: Array, off: int, c2: float, s2: float, w1: float, w2: float,
 
 
 @inline
-def terms(rb: Array, off: int, q2: float, w1: float, w2: float, mp: float) -> tuple[float, float, float, float, float]:
-    return mass_terms(rb, off, math.cos(q2), math.sin(q2), w1, w2, mp)
-
-
-@inline
 def payload(th: Array, t: float) -> float:
     if th[_PAYLOAD + 1] == 0.0:  # a constant payload: the same number without the sine
         return float(th[_PAYLOAD])

@@ -324,14 +324,14 @@ def compiled_run(loop: ClosedLoop, x0: Array, t_final: float, *, dt: float = 1e-
 
 def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *, dt: float = 1e-3,
                    rtol: float = 1e-8, atol: float = 1e-10, divergence_limit: float = 50.0,
-                   integrator: str = "bdf") -> list[CompiledRun]:
+                   peak_candidates: int = 5, peak_points: int = 41, integrator: str = "bdf") -> list[CompiledRun]:
     """Integrate many loops in one compiled call (same horizon, state size and sample time).
 
     Parameters
     ----------
     loops : list of ClosedLoop
     x0s : list of ndarray, shape (n_states,)
-    t_final, dt, rtol, atol, divergence_limit, integrator
+    t_final, dt, rtol, atol, divergence_limit, peak_candidates, peak_points, integrator
         As :func:`compiled_run`.
 
     Returns
@@ -362,7 +362,8 @@ def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *,
     ER = np.zeros((len(loops), 4, t_out.size))
     info = np.zeros((len(loops), 4))
     kernels["batch"](TH, X0, t_out, edges_all, n_edges, rtol, atol, divergence_limit, X, TC, ER, info, stiff)
-    return [_finish(lp, TH[r], t_out, X[r], TC[r], ER[r], info[r], divergence_limit, rtol, atol, 5, 41)
+    return [_finish(lp, TH[r], t_out, X[r], TC[r], ER[r], info[r], divergence_limit, rtol, atol,
+                    peak_candidates, peak_points)
             for r, lp in enumerate(loops)]
 
 

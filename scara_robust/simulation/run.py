@@ -10,6 +10,7 @@ Times in s, angles in rad, torques in N·m, masses in kg.
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -35,6 +36,9 @@ from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_m
 __all__ = ["SimulationResult", "simulate", "run_scenario", "run_scenarios", "ERROR_POLICIES"]
 
 Array = NDArray[np.float64]
+
+# Output spacing (s) and tolerances of a run: simulate's defaults, and run_scenario's.
+_DT, _RTOL, _ATOL = 1e-3, 1e-8, 1e-10
 
 
 @dataclass(frozen=True)
@@ -254,7 +258,7 @@ def _engine_name(method: str | None, sample_time: float | None) -> str:
         sampled = ", ".join(repr(n) for n, e in ENGINES.items() if e.sampled)
         raise ArgumentValueError("method", f"must be {sampled} for a sampled controller, found {name!r}")
     if name == CompiledEngine.name and not numba_available():
-        raise ArgumentValueError("method", "'compiled' needs numba: pip install scara_robust[compiled], "
+        raise ArgumentValueError("method", "'compiled' needs numba: pip install '.[compiled]', "
                                            "or use 'lsoda' (continuous) or 'rk4' (sampled)")
     return name
 
@@ -268,10 +272,10 @@ def simulate(
     reference: Reference | None = None,
     disturbance: SquareWave | None = None,
     t_final: float = PAPER_T_FINAL,
-    dt: float = 1e-3,
+    dt: float = _DT,
     x0: ArrayLike | None = None,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
+    rtol: float = _RTOL,
+    atol: float = _ATOL,
     divergence_limit: float = DIVERGENCE_LIMIT,
     method: str | None = None,
     sample_time: float | None = None,
@@ -431,8 +435,6 @@ def _prepare(
     return _Prepared(loop, x_init, engine, scenario.name, t_final, dt, rtol, atol, limit, t_transient, tolerance)
 
 
-
-
 def _from_compiled(prep: _Prepared, run: CompiledRun) -> SimulationResult:
     traj = Trajectory(run.t, run.x, run.success, run.diverged, run.message)
     return _result(prep.loop, traj, prep.scenario, ENGINES[prep.engine], prep.t_transient, prep.tolerance,
@@ -504,18 +506,19 @@ def run_scenario(
 def _prepare_scenario(
     controller: str,
     scenario: Scenario | str,
-    payload_on: bool = True,
-    t_final: float = PAPER_T_FINAL,
-    torque_limit: Any = None,
-    params: ScaraParams | None = None,
-    method: str | None = None,
-    reference: Reference | None = None,
-    payload: PayloadProfile | None = None,
-    disturbance: SquareWave | None = None,
-    K: ArrayLike | None = None,
-    t_transient: float = PAPER_TRANSIENT,
-    tracking_tolerance: float = TRACKING_TOLERANCE,
+    payload_on: bool,
+    t_final: float,
+    torque_limit: Any,
+    params: ScaraParams | None,
+    method: str | None,
+    reference: Reference | None,
+    payload: PayloadProfile | None,
+    disturbance: SquareWave | None,
+    K: ArrayLike | None,
+    t_transient: float,
+    tracking_tolerance: float,
 ) -> _Prepared:
+    """:func:`run_scenario` up to its engine (the defaults are run_scenario's)."""
     name = check_choice("controller", controller, tuple(CONTROLLERS))
     params = params or ScaraParams()
     reference = reference or paper_reference()
@@ -527,9 +530,11 @@ def _prepare_scenario(
         profile = payload if payload is not None else paper_payload(params)
     else:
         profile = ConstantPayload(0.0)
-    return _prepare(ctrl, scenario, params, profile, reference, disturbance, t_final, 1e-3, None, 1e-8, 1e-10,
+    return _prepare(ctrl, scenario, params, profile, reference, disturbance, t_final, _DT, None, _RTOL, _ATOL,
                     DIVERGENCE_LIMIT, method, CONTROLLERS[name].sample_time, t_transient, tracking_tolerance)
 
+
+_RUN_SCENARIO = inspect.signature(run_scenario)
 
 #: What :func:`run_scenarios` does with a request that raises.
 ERROR_POLICIES = ("raise", "return")
@@ -562,7 +567,9 @@ def run_scenarios(
     prepared: dict[int, _Prepared] = {}
     for i, request in enumerate(requests):
         try:
-            prepared[i] = _prepare_scenario(**request)
+            bound = _RUN_SCENARIO.bind(**request)  # run_scenario's defaults, and its errors
+            bound.apply_defaults()
+            prepared[i] = _prepare_scenario(**bound.arguments)
         except Exception as err:
             if policy == "raise":
                 raise
@@ -578,7 +585,8 @@ def run_scenarios(
         try:
             runs = compiled_batch([prepared[i].loop for i in members], [prepared[i].x0 for i in members],
                                   first.t_final, dt=first.dt, rtol=first.rtol, atol=first.atol,
-                                  divergence_limit=first.limit)
+                                  divergence_limit=first.limit, peak_candidates=PEAK_CANDIDATES,
+                                  peak_points=PEAK_POINTS)
         except Exception:  # find which request fails, one by one
             for i in members:
                 out[i] = _guarded(prepared[i], policy)

@@ -6,8 +6,8 @@ cluster (extra ``dask``), and rewrites the results file atomically after the fir
 and then at checkpoints a few seconds apart, so a killed campaign keeps what it had
 stored, an interrupted one everything it finished, and ``resume=True`` runs only the
 rest. A failed run (diverged, solver error) becomes a row with its error; it never stops
-the campaign. Each run goes through :func:`scara_robust.run_scenario`, like every other
-run of the package.
+the campaign. Each chunk's runs go through :func:`scara_robust.run_scenarios`, so each run
+is the :func:`scara_robust.run_scenario` of its inputs, like every other run of the package.
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ def resolve_engine(engine: str) -> str:
     if engine == "auto":
         return "compiled" if numba_available() else "scipy"
     if engine == "compiled" and not numba_available():
-        raise ArgumentValueError("engine", "'compiled' needs numba: pip install scara_robust[compiled], or use 'scipy'")
+        raise ArgumentValueError("engine", "'compiled' needs numba: pip install '.[compiled]', or use 'scipy'")
     return engine
 
 
@@ -384,7 +384,7 @@ def _execute_dask(
         from dask.distributed import Client, LocalCluster
         from dask.distributed import as_completed as dask_completed
     except ImportError as err:
-        raise ArgumentValueError("scheduler", "'dask' needs the `dask` extra: pip install scara_robust[dask]") from err
+        raise ArgumentValueError("scheduler", "'dask' needs the `dask` extra: pip install '.[dask]'") from err
     # dask.distributed is not typed: its calls are untyped for mypy
     cluster = (
         None
