@@ -139,7 +139,7 @@ def test_export_command_writes_the_default_discretization(design, tmp_path, caps
                 "tracking_time", "anti_windup"):
         assert record[key] == expected[key], key
     assert record["rho"] == 3.0 and "wrote" in capsys.readouterr().out
-    assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.002", "--torque-limit", "40,30", "--prefix",
+    assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.0005", "--torque-limit", "40,30", "--prefix",
                  "arm", "--output", str(tmp_path)]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["arm.c", "arm.h", "scara_pid.json"]
     assert "static const double LIMIT[2] = {40.0, 30.0};" in (tmp_path / "arm.c").read_text()

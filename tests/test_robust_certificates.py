@@ -129,7 +129,8 @@ def test_lmi_finds_and_numpy_confirms_a_common_p(paper, paper_design):
     assert np.allclose(P, P.T) and scipy.linalg.eigh(P, eigvals_only=True)[0] > 0
     worst = max(scipy.linalg.eigh(A.T @ P + P @ A, eigvals_only=True)[-1] for A in vertices)
     assert worst < 0
-    assert result.margin == pytest.approx(-worst / scipy.linalg.eigh(P, eigvals_only=True)[-1], rel=1e-9)
+    # the state's decay rate α, V̇ <= −2αV
+    assert result.margin == pytest.approx(-worst / (2 * scipy.linalg.eigh(P, eigvals_only=True)[-1]), rel=1e-9)
 
 
 @needs_cvxpy
@@ -233,16 +234,16 @@ def test_certify_json_rows(capsys):
     assert code == 0
     assert [r["method"] for r in rows] == list(sr.CERTIFICATE_METHODS)
     for r in rows:
-        assert {"method", "certified", "margin", "seconds"} <= set(r)
+        assert {"method", "certified", "max_eig", "decay_rate [1/s]", "growth_rate [1/s]", "seconds"} <= set(r)
         assert r["seconds"] >= 0
     by = {r["method"]: r for r in rows}
     assert by["theorem1-all"]["certified"] is False and by["theorem1-A"]["certified"] is True
-    assert by["theorem1-all"]["margin"] == pytest.approx(-713.90, abs=0.01)
+    assert by["theorem1-all"]["max_eig"] == pytest.approx(713.90, abs=0.01)
     assert by["vertex-box"]["verdict"] == "no certificate can exist"
     assert by["falsifier-box"]["certified"] is False
     if lmi.cvxpy_available():
         assert by["lmi-box"]["certified"] is False and by["lmi-physical"]["certified"] is True
-        assert by["lmi-physical"]["margin"] > 0
+        assert by["lmi-physical"]["decay_rate [1/s]"] > 0
 
 
 def test_certify_text(capsys):

@@ -188,29 +188,27 @@ def test_lmi_verdicts(status, verified, verdict):
 
 
 @pytest.mark.lmi
-def test_lmi_margin_stops_at_a_solver_failure_and_claims_only_what_it_proved(tmp_path, monkeypatch):
-    """A solver error inside the bisection is neither feasible nor infeasible: the search stops there."""
+def test_lmi_margin_never_counts_a_solver_failure_as_infeasibility(tmp_path, monkeypatch):
+    """Solver errors after the first two solves: the bracket's lower end is still a verified
+    certificate, and the upper end is reported as unknown, never as infeasible."""
     model = _motor(tmp_path)
     d = sr.design(model, 1, 2)
-    honest = sr.robustness_margin(model, d, "lmi", tol=1e-2)
     real = margins_module.lmi_certificate
     calls = {"n": 0}
 
     def flaky(loops, **kwargs):
         calls["n"] += 1
-        if calls["n"] == 4:  # the fourth solve fails, as Clarabel sometimes does near the boundary
+        if calls["n"] > 2:
             return sr.LMICertificate("solver error: Solver 'CLARABEL' failed", "CLARABEL", None, math.nan, math.nan,
                                      len(loops))
         return real(loops, **kwargs)
 
     monkeypatch.setattr(margins_module, "lmi_certificate", flaky)
-    stopped = sr.robustness_margin(model, d, "lmi", tol=1e-2)
-    assert "the search stopped at" in stopped.message and "unknown" in stopped.message
-    assert stopped.theta <= honest.theta * (1 + 1e-2)
-    # the lower end is a verified certificate
+    m = sr.robustness_margin(model, d, "lmi", tol=1e-2)
+    assert "the LMI is unknown (neither certified nor proven infeasible)" in m.message
+    assert "infeasibility is proven nowhere searched" in m.message
     monkeypatch.setattr(margins_module, "lmi_certificate", real)
-    loops = margins_module._closed_loops(model, d, stopped.theta)
-    assert sr.lmi_certificate(loops).certified
+    assert sr.lmi_certificate(margins_module._closed_loops(model, d, m.theta)).certified
 
 
 @pytest.mark.lmi
@@ -220,8 +218,8 @@ def test_lmi_margin_reports_proven_infeasibility(tmp_path):
     m = sr.robustness_margin(model, d, "lmi", tol=1e-2)
     lo, hi = m.bracket
     assert sr.lmi_certificate(margins_module._closed_loops(model, d, lo)).verdict == "certified"
-    if math.isfinite(hi) and "proven infeasible" in m.message:
-        assert sr.lmi_certificate(margins_module._closed_loops(model, d, hi)).verdict == "infeasible"
+    verdict = sr.lmi_certificate(margins_module._closed_loops(model, d, hi)).verdict
+    assert verdict != "certified" and f"the LMI is {verdict}" in m.message
 
 
 @pytest.mark.lmi

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from typing import Any
 
 import pandas as pd
@@ -73,7 +74,7 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--anchor center` scales every element; it cannot go with --elements {args.elements}")
     if args.method == "all":
         table = margin_table(model, d, elements=args.elements, tol=args.tol, falsifier_tries=args.tries,
-                             anchor=args.anchor)
+                             anchor=args.anchor, progress=sys.stderr.isatty())
     else:
         m = robustness_margin(model, d, args.method, elements=args.elements, tol=args.tol,
                               falsifier_tries=args.tries, anchor=args.anchor)
@@ -89,7 +90,7 @@ def run(args: argparse.Namespace) -> str:
     source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
     if args.format == "json":
         rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
-        rows += [{"method": m.method, "kind": m.kind, "anchor": "center", "theta": _number(m.theta),
+        rows += [{"method": f"{m.method}-center", "kind": m.kind, "anchor": "center", "theta": _number(m.theta),
                   "lo": _number(m.bracket[0]), "hi": _number(m.bracket[1]), "seconds": m.seconds,
                   "message": m.message} for m in beside]
         if payload is not None:

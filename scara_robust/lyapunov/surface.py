@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._resources import check_memory
 from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
@@ -298,6 +299,8 @@ def design_surface(
     if measure == "margin" and model.n_elements == 0:
         raise ArgumentValueError("model", "has no uncertain elements: there is no margin to compute")
     shape = (rho_grid.size, eta_grid.size)
+    check_memory("rhos", surface_memory(shape[0] * shape[1], model.n_states),
+                 f"a grid of {shape[0] * shape[1]:,} points with `etas`")
     if shape[0] * shape[1] > MAX_SURFACE_POINTS:
         need = surface_memory(shape[0] * shape[1], model.n_states) / 1e9
         raise ArgumentValueError(

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._resources import check_memory, corners_bytes
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
@@ -344,6 +345,9 @@ class UncertainLTVModel:
         ndarray, shape (2**N, N)
         """
         n = self.n_elements
+        check_memory("model", corners_bytes(n, self.n_states),
+                     f"the 2^{n} = {2.0**n:.3g} corners of its box (exact vertex tests); use Theorem 1, "
+                     "the LMI on samples or the falsifier instead")
         bits = (np.arange(2**n)[:, None] >> np.arange(n)[None, :]) & 1
         lower, upper = self.lower_bounds(), self.upper_bounds()
         return np.asarray(lower + bits * (upper - lower), dtype=float)

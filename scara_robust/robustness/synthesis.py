@@ -282,17 +282,18 @@ def _solve(
 def _largest(verdict: Callable[[float], str], start: float, tol: float, cap: float) -> tuple[float, float, str]:
     """Largest x in [0, cap] with ``verdict(x) == 'certified'`` (monotone), given it at 0: doubling, then bisection.
 
-    Only ``'certified'`` moves the lower end and only ``'infeasible'`` the upper end; any
-    other verdict (inaccurate, unknown, marginal) stops the search where it is.
+    Only ``'certified'`` moves the lower end. Any other verdict moves the upper end of the
+    search, and the reason names it: only ``'infeasible'`` is a proof that x is out of reach.
 
     Returns
     -------
     lo, hi : float
         Certified at lo; hi the first x not certified (inf if none up to `cap`).
     reason : str
-        Why the search stopped.
+        Where the search ended, and what the answer at hi was.
     """
     lo, hi = 0.0, start
+    answer = ""
     while True:
         if hi >= cap:
             return lo, math.inf, f"certified up to {lo:g}, the largest searched"
@@ -300,18 +301,15 @@ def _largest(verdict: Callable[[float], str], start: float, tol: float, cap: flo
         if answer != "certified":
             break
         lo, hi = hi, 2 * hi
-    if answer != "infeasible":
-        return lo, hi, f"stopped: the answer at {hi:.6g} is {answer}"
     while hi - lo > tol * max(hi, 1e-9):
         mid = 0.5 * (lo + hi)
-        answer = verdict(mid)
-        if answer == "certified":
+        step = verdict(mid)
+        if step == "certified":
             lo = mid
-        elif answer == "infeasible":
-            hi = mid
         else:
-            return lo, mid, f"stopped: the answer at {mid:.6g} is {answer} (infeasibility proven at {hi:.6g})"
-    return lo, hi, f"certified at {lo:.6g}, infeasible at {hi:.6g}"
+            hi, answer = mid, step
+    proof = "proven infeasible" if answer == "infeasible" else f"{answer}, neither certified nor proven infeasible"
+    return lo, hi, f"certified at {lo:.6g}; at {hi:.6g} the LMI is {proof}"
 
 
 #: A verified decay rate below this fraction of the closed loops' largest spectral norm

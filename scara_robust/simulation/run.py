@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._resources import check_memory, simulation_bytes
 from .._validation import check_array, check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..model.initial import SCENARIOS, Scenario
@@ -406,6 +407,8 @@ def _prepare(
     check_instance("scenario", scenario, Scenario, "a name or a Scenario")
     t_final = check_real("t_final", t_final, positive=True)
     dt = check_real("dt", dt, positive=True)
+    check_memory("t_final", simulation_bytes(t_final, dt, 6 + controller.nstates),
+                 f"{t_final / dt + 1:.3g} output samples ({t_final:g} s every {dt:g} s)")
     rtol = check_real("rtol", rtol, positive=True)
     atol = check_real("atol", atol, positive=True)
     limit = check_real("divergence_limit", divergence_limit, positive=True)

@@ -24,6 +24,7 @@ from typing import Any
 import pandas as pd
 from tqdm import tqdm
 
+from ..._resources import check_memory, simulation_bytes, table_bytes
 from ..._validation import check_choice, check_instance, check_int, check_real
 from ...exceptions import ArgumentValueError
 from ...io import table_format, write_atomic
@@ -275,6 +276,10 @@ def run_campaign(
     checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
     for name, value, low in checks:
         check_int(name, value, low)
+    n_rows = runs * len(spec.controllers)
+    check_memory("runs", table_bytes(n_rows, len(RESULT_COLUMNS)), f"a table of {n_rows:,} runs")
+    check_memory("spec", workers * simulation_bytes(spec.t_final, 1e-3, 8),
+                 f"{workers} run(s) at once of t_final = {spec.t_final:g} s each")
     checkpoint = check_real("checkpoint", checkpoint, nonnegative=True)
     engine = resolve_engine(engine)
     path = os.fspath(output)
@@ -321,6 +326,11 @@ def run_campaign(
         if on_chunk is not None:
             on_chunk(int(stored["scenario"].nunique()))
 
+    if engine == "compiled" and todo and scheduler == "local":
+        # the kernels load (or compile: about 30 s on a machine without numba's cache) before the first chunk
+        bar.set_description("campaign (compiling the simulation kernels, once)")
+        compile_seconds()
+        bar.set_description("campaign")
     try:
         for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size), engine):
             pending.extend(rows)
