@@ -99,6 +99,15 @@ def check_symmetric(name: str, value: Any, rtol: float = 1e-8) -> NDArray[np.flo
     return np.asarray(0.5 * (arr + arr.T), dtype=float)
 
 
+def check_per_item(name: str, value: Any, m: int, item: str = "torque") -> NDArray[np.float64]:
+    """`value` as one float per item, shape (m,): a scalar (or one value) for all, or m values."""
+    arr = check_array(name, value)
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, m)):
+        found = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
+        raise ArgumentValueError(name, f"must be one value or one per {item} ({m}), found {found}")
+    return np.broadcast_to(arr, (m,)).astype(float)
+
+
 def check_choice(name: str, value: Any, choices: Sequence[str]) -> str:
     """Return `value` if it is one of `choices`, else raise listing them."""
     if not isinstance(value, str) or value not in choices:

@@ -104,6 +104,20 @@ API_CASES = [
     ("replay-frame", lambda: sr.replay_scenario(pd.DataFrame({"scenario": [0], "controller": ["pid"]}), 0),
      ValueError, r"`results` lacks the inputs needed to replay"),
     ("run-arguments-missing", lambda: sr.run_arguments({"scenario": 0}), ValueError, r"`inputs` lacks"),
+    # sizes, refused up front with the memory they would need
+    ("simulate-t-final-huge", lambda: sr.run_scenario("pid", "small", t_final=1e7), ValueError,
+     r"`t_final` asks for 1e\+10 output samples .* of memory"),
+    ("box-corners-huge", lambda: sr.UncertainLTVModel(np.zeros((8, 8)), np.ones((8, 1)), [
+        sr.UncertainElement("A", k // 8, k % 8, -1e-3, 0.0) for k in range(60)]).box_vertices(), ValueError,
+     r"`model` asks for the 2\^60 = 1.15e\+18 corners of its box"),
+    # deployment and answers
+    ("discretize-torque-limit-count", lambda: DESIGN.discretize(1e-3, torque_limit=[50, 50, 50]), ValueError,
+     r"`torque_limit` must be one value or one per torque \(2\), found 3 values"),
+    ("check-sample-time-pid", lambda: sr.check_sample_time(PAPER, "pid"), TypeError, r"`pid`"),
+    ("margin-anchor", lambda: sr.robustness_margin(PAPER, DESIGN, "vertex", anchor="middle"), ValueError,
+     r"`anchor` must be one of"),
+    ("margin-anchor-elements", lambda: sr.robustness_margin(PAPER, DESIGN, "vertex", anchor="center", elements="A"),
+     ValueError, r"`elements` must be 'all' with anchor 'center'"),
 ]
 
 
@@ -114,6 +128,8 @@ def test_api_refuses_bad_input(call, error, match):
 
 
 def _cli_cases(tmp):
+    long_spec = tmp / "long.toml"
+    long_spec.write_text('controllers = ["pid"]\nt_final = 1e7\nrho = 3.0\neta = 90.0\nruns = 1\nseed = 1\n')
     bad_toml = tmp / "bad.toml"
     bad_toml.write_text("[robot\nm1 = 1\n")
     unknown = tmp / "unknown.toml"
@@ -229,6 +245,32 @@ def _cli_cases(tmp):
         ("replay-input-option", [*replay, "--index", "0", "--scenario", "small"],
          "--scenario cannot go with it"),
         ("simulate-method", ["simulate", "--method", "euler"], "argument --method: invalid choice"),
+        # sizes: every one refused up front, naming the option and the memory it would need
+        ("simulate-t-final-huge", ["simulate", "--t-final", "1e7"], "`--t-final` asks for 1e+10 output samples"),
+        ("compare-t-final-huge", ["compare", "--t-final", "1e7"], "`--t-final` asks for 1e+10 output samples"),
+        ("campaign-runs-huge", ["campaign", str(EXAMPLES / "campaign.toml"), "--runs", "100000000000", "--output",
+                                str(tmp / "r.csv")], "`--runs` asks for a table of 200,000,000,000 runs"),
+        ("campaign-t-final-huge", ["campaign", str(long_spec), "--output", str(tmp / "r.csv")],
+         "`spec` asks for 1 run(s) at once of t_final = 1e+07 s each"),
+        ("replay-t-final-huge", [*replay, "--index", "0", "--t-final", "1e7"], "`--t-final` asks for"),
+        # answers that are not safe to act on are refused
+        ("export-uncertified-ts", [*export, "--ts", "0.1", "--output", str(tmp)],
+         "the largest certified Ts is"),
+        ("export-design-and-rho", ["export", "--design", str(wide), "--rho", "3", "--ts", "0.001", "--output",
+                                   str(tmp)], "`--design` gives the gain; it cannot go with --rho/--eta"),
+        ("export-no-gain", ["export", "--ts", "0.001", "--output", str(tmp)], "give the gain"),
+        ("export-torque-limit-count", [*export, "--ts", "0.001", "--torque-limit", "50,50,50", "--output", str(tmp)],
+         "`--torque-limit` must be one value or one per torque (2), found 3 values"),
+        ("export-tracking-time-count", [*export, "--ts", "0.001", "--torque-limit", "50", "--tracking-time", "1,2,3",
+                                        "--output", str(tmp)], "`--tracking-time` must be one value or one per"),
+        ("simulate-torque-limit-count", ["simulate", "--torque-limit", "50,50,50"], "`--torque-limit` must be one"),
+        ("plot-jpg", ["simulate", "--plot", str(tmp / "s.jpg")], "the format follows the extension"),
+        ("surface-mark-outside", ["surface", "--rho", "1:5:3", "--eta", "1:200:3", "--plot", str(tmp / "s.png"),
+                                  "--mark", "50,90"], "`--mark` rho = 50 is outside the --rho grid [1, 5]"),
+        ("typo-before-missing", ["design", "--rho", "3", "--etta", "90"],
+         "design: unrecognized arguments: --etta 90; did you mean --eta?"),
+        ("margin-anchor-elements", ["margin", "--rho", "3", "--eta", "90", "--anchor", "center", "--elements", "A"],
+         "`--anchor center` scales every element"),
     ]
 
 
@@ -255,7 +297,10 @@ CLI_NAMES = [
     "export-limit-zero", "export-unwritable", "export-missing-folder", "export-prefix", "replay-missing",
     "replay-not-a-table", "replay-index",
     "replay-negative-index", "replay-controller", "replay-no-index", "replay-index-alone", "replay-input-option",
-    "simulate-method",
+    "simulate-method", "simulate-t-final-huge", "compare-t-final-huge", "campaign-runs-huge", "campaign-t-final-huge",
+    "replay-t-final-huge", "export-uncertified-ts", "export-design-and-rho", "export-no-gain",
+    "export-torque-limit-count", "export-tracking-time-count", "simulate-torque-limit-count", "plot-jpg",
+    "surface-mark-outside", "typo-before-missing", "margin-anchor-elements",
 ]
 
 

@@ -107,7 +107,7 @@ def test_simulate_limits_each_joint(capsys, tmp_path):
 
 @pytest.mark.parametrize(
     ("limit", "message"),
-    [("50,50,50", "`--torque-limit` must be one value or one per joint (2), found 3 values"),
+    [("50,50,50", "`--torque-limit` must be one value or one per torque (2), found 3 values"),
      ("50,0", "`--torque-limit` must be > 0 N·m, found [50.0, 0.0]")],
     ids=["three-values", "zero"],
 )

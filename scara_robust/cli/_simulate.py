@@ -96,10 +96,6 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-#: Joints of the SCARA, the one robot ``simulate`` runs.
-_JOINTS = 2
-
-
 def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
     lines = [
         f"{res.controller} on scenario {res.scenario}, payload {payload}, {res.t[-1]:g} s ({res.method})",
@@ -126,10 +122,6 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--t-final` must be > 0 s, found {args.t_final}")
     if args.torque_limit is not None:
         limit = args.torque_limit
-        if len(limit) not in (1, _JOINTS):
-            raise CommandLineError(
-                f"`--torque-limit` must be one value or one per joint ({_JOINTS}), found {len(limit)} values"
-            )
         if min(limit) <= 0:
             raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {limit[0] if len(limit) == 1 else limit}")
     if args.tolerance <= 0:

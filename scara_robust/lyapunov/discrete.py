@@ -42,7 +42,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_real
+from .._validation import check_array, check_choice, check_per_item, check_real
 from ..exceptions import ArgumentValueError
 
 __all__ = ["DiscretePID", "INTEGRATOR_METHODS", "DERIVATIVE_MODES", "default_tracking_time"]
@@ -78,15 +78,6 @@ def default_tracking_time(K_I: ArrayLike, K_D: ArrayLike, Ts: float) -> Array:
     with np.errstate(divide="ignore", invalid="ignore"):
         tt = np.where(ki > 0, np.sqrt(kd / np.where(ki > 0, ki, 1.0)), 1.0)
     return np.asarray(np.maximum(np.where(tt > 0, tt, 1.0), Ts), dtype=float)
-
-
-def _per_torque(name: str, value: ArrayLike, m: int) -> Array:
-    """`value` as one float per torque, shape (m,): a scalar (or one value) for all, or m values."""
-    arr = check_array(name, value)
-    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, m)):
-        found = f"{arr.size} values" if arr.ndim == 1 else f"shape {arr.shape}"
-        raise ArgumentValueError(name, f"must be one value or one per torque ({m}), found {found}")
-    return np.broadcast_to(arr, (m,)).astype(float)
 
 
 def _rows(M: Array) -> tuple[tuple[float, ...], ...]:
@@ -161,14 +152,14 @@ class DiscretePID:
         check_choice("derivative", self.derivative, DERIVATIVE_MODES)
         self.N = check_real("N", self.N, positive=True)
         if self.torque_limit is not None:
-            limit = _per_torque("torque_limit", self.torque_limit, m)
+            limit = check_per_item("torque_limit", self.torque_limit, m)
             if np.any(limit <= 0):
                 raise ArgumentValueError("torque_limit", f"must be > 0 N·m, found {limit.tolist()}")
             self.torque_limit = limit
         if self.tracking_time is None:
             self.tracking_time = default_tracking_time(self.K_I, self.K_D, self.Ts)
         else:
-            tt = _per_torque("tracking_time", self.tracking_time, m)
+            tt = check_per_item("tracking_time", self.tracking_time, m)
             if np.any(tt <= 0):
                 raise ArgumentValueError("tracking_time", f"must be > 0 s, found {tt.tolist()}")
             if np.any(tt < self.Ts):

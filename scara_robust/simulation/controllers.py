@@ -21,7 +21,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_real
+from .._validation import check_array, check_choice, check_per_item, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import design
@@ -98,7 +98,7 @@ def check_torque_limit(torque_limit: Any) -> Array | None:
     """
     if torque_limit is None:
         return None
-    limit = np.broadcast_to(check_array("torque_limit", torque_limit), (2,)).astype(float)
+    limit = check_per_item("torque_limit", torque_limit, 2)
     if np.any(limit <= 0):
         raise ArgumentValueError("torque_limit", f"must be > 0 N·m, found {limit.tolist()}")
     return limit
