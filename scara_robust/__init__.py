@@ -54,7 +54,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
-    FROZEN_SCAN_RATIO               -- resolution of the frozen upper bound's scan
+    FROZEN_SCAN_RATIO, FROZEN_RTOL  -- resolution of the frozen upper bound's scan, and of its bisection
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
     decay_floor, DECAY_FLOOR_RTOL, MARGIN_DECAY_RTOL -- below the floor a verified decay is marginal

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from typing import Any
 
 import numpy as np
@@ -107,6 +108,13 @@ def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
     return "\n".join(lines)
 
 
+def _announce_compilation(method: str | None) -> None:
+    """On a terminal, say why the first compiled run of a process waits."""
+    if method == "compiled" and sys.stderr.isatty():
+        sys.stderr.write("compiling the simulation kernels (once; about 30 s where numba has no cache yet)\n")
+        sys.stderr.flush()
+
+
 def run(args: argparse.Namespace) -> str:
     """Simulate; the summary, CSV or JSON to print.
 
@@ -147,6 +155,7 @@ def run(args: argparse.Namespace) -> str:
             K = loaded.K
         elif pid_like:
             K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
+        _announce_compilation(args.method)
         res = run_scenario(
             args.controller,
             setup.initial or SCENARIOS["large"],

@@ -51,7 +51,8 @@ def add_parser(sub: Any) -> None:
         "plants); 'decay': fastest certified decay; 'margin': largest scaling of the box one gain certifies",
     )
     p.add_argument("--decay", type=finite_float, default=None,
-                   help=f"decay rate required of V, 1/s (>= 0; default: maximized, {L2_DECAY:g} for the l2 objective)")
+                   help=f"decay rate α required of the state, 1/s, with dV/dt <= -2αV (>= 0; default: maximized, "
+                   f"{L2_DECAY:g} for the l2 objective)")
     p.add_argument("--gain-bound", type=finite_float, default=GAIN_BOUND,
                    help=f"bound on ||K||_2 (default {GAIN_BOUND:g})")
     p.add_argument("--format", choices=("text", "json"), default="text")
@@ -68,9 +69,12 @@ def _text(result: Synthesis, what: str, margin: str) -> str:
     if result.design.n_joints is not None:
         for name, mat in zip(("K_I", "K_P", "K_D"), result.design.pid_matrices()):
             lines.append(f"{name} = " + np.array2string(mat, precision=4, suppress_small=True, max_line_width=120))
-    lines.append(f"decay rate: {result.decay:.4g} 1/s required, {result.verified_decay:.4g} 1/s verified by numpy")
+    lines.append(f"decay rate α (dV/dt <= -2αV): {result.decay:.4g} 1/s required, {result.verified_decay:.4g} 1/s "
+                 "verified by numpy")
     if not math.isnan(result.check_decay):
-        lines.append(f"independent check ({result.n_checked} samples): decay {result.check_decay:.4g} 1/s")
+        lines.append(f"independent check ({result.n_checked} samples): α >= {result.check_decay:.4g} 1/s")
+    if result.search:
+        lines.append(f"search: {result.search}")
     if result.objective == "l2":
         lines.append(f"worst-case L2 gain (disturbance torque -> error) <= {result.gamma:.4g} rad/(N·m)")
     if result.objective == "margin":

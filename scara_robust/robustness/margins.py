@@ -20,7 +20,8 @@ method          kind   how
                        upper end; an inaccurate answer stops the search, and the message says where
 ``frozen``      upper  the smallest θ found where a frozen vertex is unstable: beyond it no
                        certificate of any kind exists (a geometric scan, ratio
-                       :data:`FROZEN_SCAN_RATIO`, then bisection; its message states the resolution)
+                       :data:`FROZEN_SCAN_RATIO`, then bisection to :data:`FROZEN_RTOL`; its message states
+                       the scan's resolution)
 ``falsifier``   upper  the smallest θ found with a destabilizing switching signal (bisection;
                        the falsifier is a search, so this bound is valid, not tight)
 ==============  =====  ==========================================================================
@@ -63,6 +64,7 @@ __all__ = [
     "payload_margin",
     "PAYLOAD_METHODS",
     "FROZEN_SCAN_RATIO",
+    "FROZEN_RTOL",
 ]
 
 Array = NDArray[np.float64]
@@ -173,17 +175,18 @@ def _vertex(model: Model, design: Design, elements: str, anchor: str) -> tuple[f
 #: Ratio between successive θ of the frozen scan: an interval of instability narrower than
 #: this (relative) between two scanned θ can be missed, and the message says so.
 FROZEN_SCAN_RATIO = 1.02
+#: Relative width to which the frozen bound is bisected, whatever `tol` (eigenvalues are
+#: cheap), so the bound does not depend on where the scan started.
+FROZEN_RTOL = 1e-9
 
 
-def _frozen(
-    model: Model, design: Design, lo: float, tol: float, anchor: str = "lower"
-) -> tuple[float, tuple[float, float], str]:
+def _frozen(model: Model, design: Design, lo: float, anchor: str = "lower") -> tuple[float, tuple[float, float], str]:
     """Scan θ geometrically from `lo` (a certified θ, or 0) until a frozen vertex is unstable, then bisect."""
     start = max(lo, 1e-6)
     theta, prev = start, lo
     while theta <= _THETA_MAX:
         if _unstable(model, design, theta, anchor):
-            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, tol)
+            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, FROZEN_RTOL)
             return hi_, (lo_, hi_), (
                 f"a frozen vertex is unstable at θ = hi; scanned from θ = {start:.4g} in steps of "
                 f"x{FROZEN_SCAN_RATIO:g}, so a window of instability narrower than "
@@ -218,7 +221,8 @@ def robustness_margin(
         For ``theorem1`` and ``vertex`` on an interval model: which elements vary (the
         others held at ``θ·lower``).
     tol : float
-        Relative tolerance of the bisections (> 0); the exact methods ignore it.
+        Relative tolerance of the LMI and falsifier bisections (> 0); the exact methods
+        ignore it, and the frozen bound is bisected to :data:`FROZEN_RTOL`.
     lower, upper : float
         A θ known to be certified (``lmi``, ``falsifier`` start there) and one known to be
         unstable (``lmi``, ``falsifier``; default: the ``frozen`` bound).
@@ -261,9 +265,9 @@ def robustness_margin(
         theta, message = (_theorem1 if method == "theorem1" else _vertex)(model, design, elements, anchor)
         bracket = (theta, theta)
     elif method == "frozen":
-        theta, bracket, message = _frozen(model, design, lower, tol, anchor)
+        theta, bracket, message = _frozen(model, design, lower, anchor)
     else:
-        hi = (_frozen(model, design, lower, tol, anchor)[0] if upper is None
+        hi = (_frozen(model, design, lower, anchor)[0] if upper is None
               else check_real("upper", upper, positive=True))
         if method == "lmi":
             theta, bracket, message = _lmi_margin(model, design, lower, hi, tol, anchor)
