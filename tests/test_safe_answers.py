@@ -313,3 +313,18 @@ def test_certificate_table_names_its_columns_by_what_they_are():
     by = table.set_index("method")
     assert by.loc["theorem1-all", "max_eig"] == pytest.approx(713.90, abs=0.01)
     assert math.isnan(by.loc["theorem1-all", "decay_rate [1/s]"])
+
+
+@pytest.mark.lmi
+def test_motor_sample_time_limits_agree_with_an_independent_derivation(tmp_path):
+    """An independent ZOH computation (own code, the same discrete PID equations) puts the first
+    frozen instability of the motor at Ts = 2.000267e-4 s: the k_t/J = 5000 corner, a real
+    eigenvalue through z = −1 (K_D·(k_t/J)·Ts ≈ 2); spectral radius 8.998 at Ts = 1 ms."""
+    model = _motor(tmp_path)
+    d = sr.design(model, 1, 2)
+    limit = sr.max_sample_time(model, d, check=sr.interior_grid(model), rtol=1e-4)
+    lo, hi = limit.unstable_bracket
+    assert lo <= 2.000267e-4 <= hi and hi - lo <= 1e-4 * hi
+    assert limit.certified_ts <= lo
+    loops = sr.sampled_closed_loops(*sr.vertices_of(model), d.discretize(1e-3))
+    assert np.abs(np.linalg.eigvals(loops)).max() == pytest.approx(8.9976, abs=1e-3)

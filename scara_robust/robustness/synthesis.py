@@ -279,11 +279,14 @@ def _solve(
     return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float), g
 
 
-def _largest(verdict: Callable[[float], str], start: float, tol: float, cap: float) -> tuple[float, float, str]:
+def _largest(
+    verdict: Callable[[float], str], start: float, tol: float, cap: float, floor: float
+) -> tuple[float, float, str]:
     """Largest x in [0, cap] with ``verdict(x) == 'certified'`` (monotone), given it at 0: doubling, then bisection.
 
     Only ``'certified'`` moves the lower end. Any other verdict moves the upper end of the
     search, and the reason names it: only ``'infeasible'`` is a proof that x is out of reach.
+    The search ends when the bracket is `tol` relative, or its upper end below `floor`.
 
     Returns
     -------
@@ -301,7 +304,7 @@ def _largest(verdict: Callable[[float], str], start: float, tol: float, cap: flo
         if answer != "certified":
             break
         lo, hi = hi, 2 * hi
-    while hi - lo > tol * max(hi, 1e-9):
+    while hi - lo > tol * hi and hi > floor:
         mid = 0.5 * (lo + hi)
         step = verdict(mid)
         if step == "certified":
@@ -511,7 +514,7 @@ def synthesize(
             status, Q, Y = found[0.0][0], None, None
             searched = f"not even the nominal (θ = 0) is certified: {first}"
         else:
-            theta, theta_hi, searched = _largest(feasible, 1.0, tol, MARGIN_CAP)
+            theta, theta_hi, searched = _largest(feasible, 1.0, tol, MARGIN_CAP, 1e-6)
             status, Q, Y, _ = found[theta]
             A, B = vertices_of(model.scaled(theta))
     elif alpha is not None:
@@ -524,15 +527,12 @@ def synthesize(
             return _verdict(A, B, by_alpha[a], a)
 
         first = decays(0.0)
-        if first == "marginal":  # a gain, but its decay is within the tolerances of zero: say so below
-            alpha = 0.0
-            status, Q, Y, _ = by_alpha[0.0]
-            searched = "the largest decay is within the solver's tolerances of zero"
-        elif first != "certified":
+        if first not in ("certified", "marginal"):
             status, Q, Y = by_alpha[0.0][0], None, None
             searched = f"no decaying gain: {first}"
-        else:
-            alpha, _, searched = _largest(decays, 1.0, tol, 1e4)
+        else:  # with α = 0 the solver's gain sits at the edge; search upwards for a decay numpy can see
+            scale = float(np.linalg.norm(A, 2, axis=(1, 2)).max())
+            alpha, _, searched = _largest(decays, 1.0, tol, 1e4, DECAY_FLOOR_RTOL * scale)
             status, Q, Y, _ = by_alpha[alpha]
     if Q is None or Y is None:
         return empty("infeasible" if status == "infeasible" else status, searched)
