@@ -57,7 +57,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     FROZEN_SCAN_RATIO, FROZEN_RTOL  -- resolution of the frozen upper bound's scan, and of its bisection
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
-    decay_floor, DECAY_FLOOR_RTOL, MARGIN_DECAY_RTOL -- below the floor a verified decay is marginal
+    decay_floor, DECAY_FLOOR_RTOL, MARGIN_DECAY_RTOL -- below the floor a verified decay is marginal (every LMI)
     OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid

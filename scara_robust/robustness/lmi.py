@@ -27,8 +27,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice
 
-__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "NOT_INSTALLED", "cvxpy_available", "lmi_certificate",
-           "lmi_verdict", "verify_lyapunov"]
+__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "NOT_INSTALLED", "DECAY_FLOOR_RTOL", "cvxpy_available",
+           "decay_floor", "lmi_certificate", "lmi_verdict", "verify_lyapunov"]
 
 Array = NDArray[np.float64]
 
@@ -39,11 +39,38 @@ NOT_INSTALLED = "not installed"
 
 #: What an LMI answer proves, once numpy has checked it: ``'certified'`` (numpy verified the
 #: matrix the solver returned), ``'infeasible'`` (the solver returned a certificate of
-#: infeasibility), ``'inaccurate'`` (the solver returned an answer, "optimal" or
+#: infeasibility), ``'marginal'`` (verified, but with a decay rate below
+#: :func:`decay_floor`, within the solver's tolerances of zero), ``'inaccurate'`` (the
+#: solver returned an answer, "optimal" or
 #: "inaccurate", that numpy rejects, or an inaccurate infeasibility) or ``'unknown'`` (no
 #: answer: solver error, iteration limit, cvxpy not installed). Only the first two are
 #: facts; a search (bisection) stops at the last two and says so.
-LMI_VERDICTS = ("certified", "infeasible", "inaccurate", "unknown")
+LMI_VERDICTS = ("certified", "marginal", "infeasible", "inaccurate", "unknown")
+
+
+#: A verified decay rate below this fraction of the closed loops' largest spectral norm
+#: (1/s) is within the solver's tolerances of zero: reported as ``'marginal'``, not certified.
+DECAY_FLOOR_RTOL = 1e-8
+
+
+def decay_floor(closed_loops: ArrayLike) -> float:
+    """The smallest decay rate (1/s) reported as certified for these closed loops.
+
+    ``DECAY_FLOOR_RTOL · max_i ‖A_i‖₂``: the LMIs are solved to relative tolerances of
+    about 1e-8, so a decay rate smaller than that fraction of the loops' own rates says
+    nothing a solver's rounding could not change.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+
+    Returns
+    -------
+    float
+        1/s.
+    """
+    A = check_array("closed_loops", closed_loops, ndim=3)
+    return float(DECAY_FLOOR_RTOL * np.linalg.norm(A, 2, axis=(1, 2)).max())
 
 
 def lmi_verdict(status: str, verified: bool) -> str:
@@ -107,6 +134,8 @@ class LMICertificate:
         Verified decay rate α of the state, 1/s (``V̇ <= −2αV``): ``−max_vertex_eig /
         (2 λmax(P))`` when P is positive definite, else NaN. Positive means certified.
     n_vertices : int
+    floor : float
+        The smallest decay rate reported as certified (:func:`decay_floor`), 1/s.
     """
 
     status: str
@@ -115,15 +144,18 @@ class LMICertificate:
     max_vertex_eig: float
     margin: float
     n_vertices: int
+    floor: float = 0.0
 
     @property
     def certified(self) -> bool:
-        """True only when numpy confirms P ≻ 0 and a negative ``max_vertex_eig``."""
-        return bool(self.margin > 0)
+        """True only when numpy confirms P ≻ 0 and a decay rate above the floor."""
+        return bool(self.margin > 0 and self.margin >= self.floor)
 
     @property
     def verdict(self) -> str:
         """What the answer proves: one of :data:`LMI_VERDICTS`."""
+        if not self.certified and self.margin > 0:
+            return "marginal"
         return lmi_verdict(self.status, self.certified)
 
     @property
@@ -135,6 +167,9 @@ class LMICertificate:
             note = f" (the solver said {self.status}; numpy's check passed)" if self.status != "optimal" else ""
             return (f"common quadratic Lyapunov P found and verified; decay rate α >= {self.margin:.4g} 1/s "
                     f"(V̇ <= −2αV){note}")
+        if self.verdict == "marginal":
+            return (f"marginal, not certified: numpy verifies a decay rate of only {self.margin:.3g} 1/s, below the "
+                    f"floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
         if self.verdict == "infeasible":
             return f"no common quadratic Lyapunov P exists ({self.solver} proved the LMI infeasible)"
         if self.P is None:
@@ -228,4 +263,4 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
         return LMICertificate(status, solver, None, np.nan, np.nan, A_v.shape[0])
     P_val = np.array(P.value, dtype=float)
     max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
-    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), A_v.shape[0])
+    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), A_v.shape[0], decay_floor(A_v))

@@ -52,7 +52,7 @@ from ..lyapunov.gain import Design
 from ..model.robot import ScaraParams, SinusoidalPayload
 from ..model.signals import Reference
 from ..model.uncertain import physical_samples
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
 
 __all__ = [
     "FEASIBILITY_TOL",
@@ -120,12 +120,13 @@ class RateCertificate:
     n_checked: int
     solver_status: str
     seconds: float
+    floor: float = 0.0
 
     @property
     def certified(self) -> bool:
         """numpy verified the conditions on the samples and, if given, on the check set."""
         checked = math.isnan(self.check_margin) or self.check_margin > 0
-        return bool(self.status == "certified" and self.margin > 0 and checked)
+        return bool(self.status == "certified" and self.margin > 0 and self.margin >= self.floor and checked)
 
     @property
     def message(self) -> str:
@@ -140,6 +141,10 @@ class RateCertificate:
                     f"{self.n_samples} samples{extra}")
         if self.status == "infeasible":
             return f"no {what.removeprefix('a ')} exists on the {self.n_samples} samples (infeasible)"
+        if self.status == "marginal":
+            return (f"{what}: marginal, not certified: numpy verifies a decay rate of only "
+                    f"{min(self.margin, self.check_margin if not math.isnan(self.check_margin) else math.inf):.3g} "
+                    f"1/s, below the floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
         if self.P0 is not None:
             return (f"the solver returned {what} ({self.solver_status}) that is not certified: numpy margin "
                     f"{self.margin:.4g} 1/s on the samples, {self.check_margin:.4g} on the check set")
@@ -393,15 +398,18 @@ def rate_bounded_certificate(
     margin = verify_rate_bounded(A, p_arr, P0, P1, nu)
     checked = math.nan if A_chk is None or p_chk is None else verify_rate_bounded(A_chk, p_chk, P0, P1, nu)
     convexity = math.nan
-    ok = margin > 0 and (math.isnan(checked) or checked > 0)
     if slope_arr is not None:
         C = np.swapaxes(slope_arr, -1, -2) @ P1 + P1 @ slope_arr
         convexity = float(np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))[:, 0].min())
         margin = _bent_margin(A, p_arr, P0, P1, nu, max(0.0, -convexity))
-        ok = margin > 0 and (math.isnan(checked) or checked > 0)
-    status = solver_status if solver_status != "optimal" else ("certified" if ok else "not verified")
+    floor = decay_floor(A)
+    verified = margin > 0 and (math.isnan(checked) or checked > 0)
+    above = margin >= floor and (math.isnan(checked) or checked >= floor)
+    status = solver_status
+    if solver_status == "optimal":
+        status = ("certified" if above else "marginal") if verified else "not verified"
     return RateCertificate(status, P0, P1, nu, margin, checked, convexity, A.shape[0], n_chk, solver_status,
-                           time.perf_counter() - start)
+                           time.perf_counter() - start, floor)
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import PhysicalSamples, UncertainLTVModel
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, lmi_verdict
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 from .synthesis import vertices_of
 
 __all__ = [
@@ -207,6 +207,9 @@ class SampledCertificate:
         :func:`discrete_lyapunov_check`), the
         smallest over the plants and the check set; positive means certified.
     n_plants : int
+    floor : float
+        The smallest decay rate reported as certified, 1/s: :data:`~scara_robust.DECAY_FLOOR_RTOL`
+        times the largest ``‖(A_d,i − I)/Ts‖₂``.
     """
 
     Ts: float
@@ -215,6 +218,7 @@ class SampledCertificate:
     P: Array | None
     rate: float
     n_plants: int
+    floor: float = 0.0
 
     @property
     def frozen_stable(self) -> bool:
@@ -223,8 +227,8 @@ class SampledCertificate:
 
     @property
     def certified(self) -> bool:
-        """True only when numpy verified the common P."""
-        return bool(self.rate > 0)
+        """True only when numpy verified the common P, with a decay rate above the floor."""
+        return bool(self.rate > 0 and self.rate >= self.floor)
 
     @property
     def verdict(self) -> str:
@@ -232,6 +236,8 @@ class SampledCertificate:
         or the solver proved the LMI infeasible), ``'inaccurate'`` or ``'unknown'``."""
         if not self.frozen_stable:
             return "infeasible"
+        if not self.certified and self.rate > 0:
+            return "marginal"
         return lmi_verdict(self.status, self.certified)
 
     @property
@@ -249,6 +255,9 @@ class SampledCertificate:
             )
         if self.status == NOT_INSTALLED:
             return "cvxpy is not installed (pip install '.[lmi]'); frozen loops are Schur stable"
+        if self.verdict == "marginal":
+            return (f"Ts = {self.Ts:.4g} s not certified: marginal, the verified decay rate {self.rate:.3g} 1/s is "
+                    f"below the floor {self.floor:.3g} 1/s")
         return f"Ts = {self.Ts:.4g} s not certified: no verified common P ({self.status})"
 
 
@@ -330,7 +339,8 @@ def sampled_certificate(
         extra = sampled_closed_loops(Ac, Bc, pid)
         radius = max(radius, float(np.abs(np.linalg.eigvals(extra)).max()))
         rate = min(rate, discrete_lyapunov_check(extra, P, pid.Ts)[1])
-    return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0])
+    floor = decay_floor((Ad - np.eye(Ad.shape[1])) / pid.Ts)
+    return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0], floor)
 
 
 @dataclass(frozen=True)

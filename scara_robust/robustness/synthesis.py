@@ -34,10 +34,10 @@ from ..lyapunov.gain import Design
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
 from .l2gain import _bounded_real_ok
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, lmi_verdict
+from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "decay_floor", "error_output", "GAIN_BOUND", "L2_DECAY",
-           "OBJECTIVES", "DECAY_FLOOR_RTOL", "MARGIN_DECAY_RTOL", "vertices_of"]
+__all__ = ["Synthesis", "synthesize", "decay_rate", "error_output", "GAIN_BOUND", "L2_DECAY",
+           "OBJECTIVES", "MARGIN_DECAY_RTOL", "vertices_of"]
 
 Array = NDArray[np.float64]
 
@@ -313,31 +313,6 @@ def _largest(
             hi, answer = mid, step
     proof = "proven infeasible" if answer == "infeasible" else f"{answer}, neither certified nor proven infeasible"
     return lo, hi, f"certified at {lo:.6g}; at {hi:.6g} the LMI is {proof}"
-
-
-#: A verified decay rate below this fraction of the closed loops' largest spectral norm
-#: (1/s) is within the solver's tolerances of zero: reported as ``'marginal'``, not certified.
-DECAY_FLOOR_RTOL = 1e-8
-
-
-def decay_floor(closed_loops: ArrayLike) -> float:
-    """The smallest decay rate (1/s) reported as certified for these closed loops.
-
-    ``DECAY_FLOOR_RTOL · max_i ‖A_i‖₂``: the LMIs are solved to relative tolerances of
-    about 1e-8, so a decay rate smaller than that fraction of the loops' own rates says
-    nothing a solver's rounding could not change.
-
-    Parameters
-    ----------
-    closed_loops : array_like, shape (V, n, n)
-
-    Returns
-    -------
-    float
-        1/s.
-    """
-    A = check_array("closed_loops", closed_loops, ndim=3)
-    return float(DECAY_FLOOR_RTOL * np.linalg.norm(A, 2, axis=(1, 2)).max())
 
 
 def _verdict(A: Array, B: Array, solution: tuple[str, Array | None, Array | None, float], alpha: float) -> str:

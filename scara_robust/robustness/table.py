@@ -167,8 +167,9 @@ def certificate_table(
         margins = [verify_lyapunov(c, result.P)[1] for c in checks]
         margin = float(min(result.margin, *margins))
         detail = f"{result.message}; verified with numpy on {', '.join(str(len(c)) for c in checks)} samples"
-        return {"verdict": "certified" if margin > 0 else "inaccurate", "certified": margin > 0, _DECAY: margin,
-                "detail": detail}
+        ok = margin > 0 and margin >= result.floor
+        verdict = "certified" if ok else ("marginal" if margin > 0 else "inaccurate")
+        return {"verdict": verdict, "certified": ok, _DECAY: margin, "detail": detail}
 
     def sampled(n_t: int, n_m: int) -> np.ndarray:
         s = physical_samples(params, reference, payload, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
