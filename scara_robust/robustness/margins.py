@@ -181,8 +181,15 @@ FROZEN_RTOL = 1e-9
 
 
 def _frozen(model: Model, design: Design, lo: float, anchor: str = "lower") -> tuple[float, tuple[float, float], str]:
-    """Scan θ geometrically from `lo` (a certified θ, or 0) until a frozen vertex is unstable, then bisect."""
-    start = max(lo, 1e-6)
+    """Scan θ geometrically from `lo` (a certified θ, or 0) until a frozen vertex is unstable, then bisect.
+
+    Below the design P's exact vertex margin every frozen vertex is stable (P proves it), so
+    the scan starts there when that is further than `lo`.
+    """
+    proven = _vertex(model, design, "all", anchor)[0]
+    if math.isinf(proven):
+        return math.inf, (math.inf, math.inf), "the design's P certifies every θ, so no frozen vertex is unstable"
+    start = max(lo, proven, 1e-6)
     theta, prev = start, lo
     while theta <= _THETA_MAX:
         if _unstable(model, design, theta, anchor):
