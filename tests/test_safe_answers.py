@@ -328,3 +328,27 @@ def test_motor_sample_time_limits_agree_with_an_independent_derivation(tmp_path)
     assert limit.certified_ts <= lo
     loops = sr.sampled_closed_loops(*sr.vertices_of(model), d.discretize(1e-3))
     assert np.abs(np.linalg.eigvals(loops)).max() == pytest.approx(8.9976, abs=1e-3)
+
+
+@pytest.mark.lmi
+def test_synthesis_margin_counts_only_verified_steps(monkeypatch):
+    """A solver that answers "optimal" with a gain numpy rejects never raises θ: the θ returned
+    is re-verified here with numpy, and the search names the inaccurate step."""
+    from scara_robust.robustness import synthesis as synthesis_module
+
+    model = sr.PolytopicModel(np.array([[[0.0, 1.0], [-1.0, -0.5]], [[0.0, 1.0], [-2.0, -0.2]]]),
+                              np.array([[[0.0], [1.0]], [[0.0], [0.6]]]))
+    real = synthesis_module._solve
+    calls = {"n": 0}
+
+    def lying(A, B, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] >= 3:  # "optimal", but Y = 0 leaves the open loop, which numpy rejects
+            return "optimal", np.eye(2), np.zeros((1, 2)), math.nan
+        return real(A, B, *args, **kwargs)
+
+    monkeypatch.setattr(synthesis_module, "_solve", lying)
+    result = sr.synthesize(model, objective="margin", tol=1e-2)
+    assert result.certified and "inaccurate" in result.search
+    A, B = sr.vertices_of(model.scaled(result.theta))
+    assert sr.decay_rate(A - B @ result.K, result.P) >= result.decay_floor > 0
