@@ -40,6 +40,9 @@ REDUCED = {
     "campaign": ["--runs", "2"],
     "margin": ["--tol", "0.3", "--tries", "2"],
 }
+#: Flags added for the same reason (the payload margin has its own tests), and the largest NUM of a range.
+REDUCED_FLAGS = {"margin": ["--no-payload"]}
+MAX_RANGE_NUM = 12
 
 
 def argv_of(line: str) -> list[str]:
@@ -52,6 +55,11 @@ def argv_of(line: str) -> list[str]:
             argv[argv.index(option) + 1] = value
         else:
             argv += [option, value]
+    argv += [flag for flag in REDUCED_FLAGS.get(argv[0], []) if flag not in argv]
+    for i, word in enumerate(argv):
+        parts = word.split(":")
+        if len(parts) == 3 and parts[2].isdigit() and int(parts[2]) > MAX_RANGE_NUM:
+            argv[i] = f"{parts[0]}:{parts[1]}:{MAX_RANGE_NUM}"
     return argv
 
 

@@ -282,7 +282,8 @@ def test_frozen_margin_about_the_centre_and_its_stated_resolution():
 
 
 def test_margin_command_prints_the_anchor_and_the_centre_bracket(motor_file, capsys):
-    assert main(["margin", "--model", str(motor_file), "--rho", "1", "--eta", "2", "--tol", "0.05", "--tries", "1"]) == 0
+    argv = ["margin", "--model", str(motor_file), "--rho", "1", "--eta", "2", "--tol", "0.05", "--tries", "1"]
+    assert main(argv) == 0
     out = capsys.readouterr().out
     assert "theta (anchor lower)" in out and "scaled about the set's centre instead (--anchor center)" in out
     assert main(["margin", "--rho", "3", "--eta", "90", "--anchor", "center", "--elements", "A"]) == 2
