@@ -42,12 +42,6 @@ def motor_file(tmp_path):
     return path
 
 
-def _motor(tmp_path):
-    path = tmp_path / "motor.toml"
-    path.write_text(MOTOR)
-    return sr.load_model(path)
-
-
 # ---------------------------------------------------------------- export refuses what is not certified
 
 
@@ -188,10 +182,10 @@ def test_lmi_verdicts(status, verified, verdict):
 
 
 @pytest.mark.lmi
-def test_lmi_margin_never_counts_a_solver_failure_as_infeasibility(tmp_path, monkeypatch):
+def test_lmi_margin_never_counts_a_solver_failure_as_infeasibility(motor_file, monkeypatch):
     """Solver errors after the first two solves: the bracket's lower end is still a verified
     certificate, and the upper end is reported as unknown, never as infeasible."""
-    model = _motor(tmp_path)
+    model = sr.load_model(motor_file)
     d = sr.design(model, 1, 2)
     real = margins_module.lmi_certificate
     calls = {"n": 0}
@@ -212,8 +206,8 @@ def test_lmi_margin_never_counts_a_solver_failure_as_infeasibility(tmp_path, mon
 
 
 @pytest.mark.lmi
-def test_lmi_margin_reports_proven_infeasibility(tmp_path):
-    model = _motor(tmp_path)
+def test_lmi_margin_reports_proven_infeasibility(motor_file):
+    model = sr.load_model(motor_file)
     d = sr.design(model, 1, 2)
     m = sr.robustness_margin(model, d, "lmi", tol=1e-2)
     lo, hi = m.bracket
@@ -316,11 +310,11 @@ def test_certificate_table_names_its_columns_by_what_they_are():
 
 
 @pytest.mark.lmi
-def test_motor_sample_time_limits_agree_with_an_independent_derivation(tmp_path):
+def test_motor_sample_time_limits_agree_with_an_independent_derivation(motor_file):
     """An independent ZOH computation (own code, the same discrete PID equations) puts the first
     frozen instability of the motor at Ts = 2.000267e-4 s: the k_t/J = 5000 corner, a real
     eigenvalue through z = −1 (K_D·(k_t/J)·Ts ≈ 2); spectral radius 8.998 at Ts = 1 ms."""
-    model = _motor(tmp_path)
+    model = sr.load_model(motor_file)
     d = sr.design(model, 1, 2)
     limit = sr.max_sample_time(model, d, check=sr.interior_grid(model), rtol=1e-4)
     lo, hi = limit.unstable_bracket

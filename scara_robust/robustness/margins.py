@@ -16,8 +16,8 @@ method          kind   how
 ``vertex``      lower  exact: the design's P at every vertex, each affine in θ, the least end
 ``lmi``         lower  bisection on θ with the common-P LMI (extra ``lmi``); the feasible θ are an
                        interval when the scaled boxes are nested (every [l_j, u_j] holds 0). Only a
-                       numpy-verified P moves the lower end and only a proven infeasibility the
-                       upper end; an inaccurate answer stops the search, and the message says where
+                       numpy-verified P moves the lower end; any other answer moves the upper end,
+                       and the message says whether the answer there was a proven infeasibility
 ``frozen``      upper  the smallest θ found where a frozen vertex is unstable: beyond it no
                        certificate of any kind exists (a geometric scan, ratio
                        :data:`FROZEN_SCAN_RATIO`, then bisection to :data:`FROZEN_RTOL`; its message states
@@ -284,11 +284,6 @@ def robustness_margin(
                   time.perf_counter() - start, message)
 
 
-def _lmi_verdict(loops: Array) -> str:
-    """The common-P LMI on `loops`: one of :data:`~scara_robust.LMI_VERDICTS` (numpy-checked)."""
-    return lmi_certificate(loops).verdict
-
-
 def _lmi_margin(
     model: Model, design: Design, lo: float, hi: float, tol: float, anchor: str = "lower"
 ) -> tuple[float, tuple[float, float], str]:
@@ -303,7 +298,7 @@ def _lmi_margin(
     answers: dict[float, str] = {}
 
     def at(theta: float) -> str:
-        answers[theta] = _lmi_verdict(_closed_loops(model, design, theta, anchor))
+        answers[theta] = lmi_certificate(_closed_loops(model, design, theta, anchor)).verdict
         return answers[theta]
 
     if lo > 0 and at(lo) != "certified":

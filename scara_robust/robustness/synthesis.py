@@ -393,8 +393,9 @@ def synthesize(
         :data:`L2_DECAY`). ``'margin'``: the largest θ for which one gain certifies the
         model's set scaled by θ about its nominal (box or polytope only), with decay >=
         `decay` (default :data:`MARGIN_DECAY_RTOL` times the plants' largest ‖A_i‖₂).
-        Every step of a bisection counts only what numpy verifies: an inaccurate or
-        unknown answer stops it, and :attr:`Synthesis.search` says where.
+        Every step of a bisection counts only what numpy verifies: any other answer
+        lowers the upper end without being called infeasible, and
+        :attr:`Synthesis.search` says what the answer there was.
     decay : float, optional
         Required decay rate α of V, 1/s (>= 0).
     gain_bound : float
