@@ -58,6 +58,7 @@ from ._validation import describe, field_number, field_table
 from .exceptions import ArgumentError, ArgumentValueError, InputFileError
 from .model.augment import integral_augment, pid_augment
 from .model.initial import Scenario
+from .model.plant import Parameter, Signal, UncertainPlant
 from .model.polytopic import PolytopicModel
 from .model.robot import (
     PARAM_UNITS,
@@ -77,6 +78,7 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "load_model",
+    "load_plant",
     "MODEL_FORMS",
     "ScenarioFile",
     "ROBOT_UNITS",
@@ -104,6 +106,8 @@ _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
 #: ``form`` of a model file: the matrices as they are, or augmented (see :func:`load_model`).
 MODEL_FORMS = ("state", "pid", "integral")
 _MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices")
+_PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description")
+_PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "description")
 _ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
 #: Results tables by file extension.
 TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet"}
@@ -452,8 +456,11 @@ def _load_elements(
     return elements
 
 
-def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicModel:
-    """Read a plant file: an interval model (A, B and elements) or a polytope (vertices).
+def load_model(path: str | os.PathLike[str]) -> UncertainPlant | UncertainLTVModel | PolytopicModel:
+    """Read a plant file: physical parameters, an interval model (A, B and elements) or a polytope.
+
+    A file with ``[parameters]`` is a plant with named physical parameters
+    (:func:`load_plant`); the two formats below describe the uncertainty set directly.
 
     The format (TOML or JSON; ``examples/plant-dc-motor.toml`` and
     ``examples/plant-polytope.toml`` document it): ``name``; either ``A``, ``B`` (lists
@@ -471,7 +478,7 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
 
     Returns
     -------
-    UncertainLTVModel or PolytopicModel
+    UncertainPlant, UncertainLTVModel or PolytopicModel
 
     Raises
     ------
@@ -484,6 +491,8 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
     data = read_mapping(text_path)
+    if "parameters" in data:
+        return _plant_from_mapping(where, text_path, data)
     for key in data:
         if key not in _MODEL_KEYS:
             raise InputFileError(f"{where} unknown field `{key}`; valid: {', '.join(_MODEL_KEYS)}")
@@ -520,6 +529,131 @@ def load_model(path: str | os.PathLike[str]) -> UncertainLTVModel | PolytopicMod
         return integral_augment(ct.ss(A, B, C, 0), elements, name=name)
     except ArgumentError as err:
         raise InputFileError(f"{where} {err}") from err
+
+
+def _signals(where: str, key: str, raw: Any) -> tuple[Signal, ...]:
+    if raw is None:
+        return ()
+    if not isinstance(raw, list) or not all(isinstance(r, Mapping) for r in raw):
+        raise InputFileError(f"{where} field `{key}` must be a list of tables with `name` and `unit`, found "
+                             f"{describe(raw)}")
+    out = []
+    for k, table in enumerate(raw):
+        for field in ("name", "unit"):
+            if not isinstance(table.get(field), str) or not table[field].strip():
+                raise InputFileError(f"{where} field `{key}[{k}].{field}` must be a non-empty string, found "
+                                     f"{describe(table.get(field))}")
+        unknown = set(table) - {"name", "unit"}
+        if unknown:
+            raise InputFileError(f"{where} unknown field `{key}[{k}].{sorted(unknown)[0]}`; valid: name, unit")
+        out.append(Signal(table["name"], table["unit"]))
+    return tuple(out)
+
+
+def _parameter(where: str, name: str, raw: Any) -> Parameter:
+    field = f"parameters.{name}"
+    if not isinstance(raw, Mapping):
+        raise InputFileError(f"{where} field `{field}` must be a table (unit, and range or value), found "
+                             f"{describe(raw)}")
+    for key in raw:
+        if key not in _PARAMETER_KEYS:
+            raise InputFileError(f"{where} unknown field `{field}.{key}`; valid: {', '.join(_PARAMETER_KEYS)}")
+    if "unit" not in raw:
+        raise InputFileError(f"{where} missing field `{field}.unit` (the parameter's unit, e.g. 'kg·m²'; '1' when "
+                             "dimensionless)")
+    if ("range" in raw) == ("value" in raw):
+        raise InputFileError(f"{where} field `{field}` needs exactly one of `range` = [lower, upper] (a varying "
+                             "parameter) and `value` (a fixed one)")
+    if "value" in raw:
+        value = field_number(where, f"{field}.value", raw["value"], raw["unit"] if isinstance(raw["unit"], str) else "")
+        if "rate" in raw:
+            raise InputFileError(f"{where} field `{field}.rate` bounds the change of a parameter with a `range`; "
+                                 f"{name} has a fixed `value`")
+        bounds: Any = (value, value)
+    else:
+        bounds = raw["range"]
+        if not isinstance(bounds, list) or len(bounds) != 2:
+            raise InputFileError(f"{where} field `{field}.range` must be [lower, upper], found {describe(bounds)}")
+        bounds = tuple(field_number(where, f"{field}.range[{k}]", v, str(raw["unit"])) for k, v in enumerate(bounds))
+    samples = raw.get("samples", 5)
+    if isinstance(samples, bool) or not isinstance(samples, int):
+        raise InputFileError(f"{where} field `{field}.samples` must be an integer, found {describe(samples)}")
+    try:
+        return Parameter(name, raw["unit"], bounds, nominal=raw.get("nominal"), rate=raw.get("rate"),
+                         samples=samples, description=str(raw.get("description", "")))
+    except ArgumentError as err:
+        raise InputFileError(f"{where} field `parameters.{err.argument}` {err.problem}") from err
+
+
+def load_plant(path: str | os.PathLike[str]) -> UncertainPlant:
+    """Read a plant file with named physical parameters (TOML or JSON).
+
+    The format (``examples/plant-dc-motor.toml`` documents it): ``name``; ``form``
+    (``"pid"``, ``"integral"`` or ``"state"``, see :class:`~scara_robust.UncertainPlant`);
+    ``[parameters.NAME]`` tables with ``unit`` and either ``range = [lower, upper]``
+    (optional ``nominal``, ``rate`` in unit/s, ``samples``) or ``value``; ``A`` and ``B``
+    as lists of rows whose entries are numbers or arithmetic in the parameters
+    (``"-b/J"``), parsed by whitelist and never executed; ``C`` for the integral form;
+    ``[[inputs]]`` and ``[[outputs]]`` with ``name`` and ``unit``; ``prefix`` for exported
+    code.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    UncertainPlant
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        One line naming the file and the field: a range with lower > upper, a missing
+        unit, an unknown name in an entry, a call or an import, a rate on a fixed
+        parameter, a plant undefined or singular where its form needs it, ...
+    """
+    text_path = os.fspath(path)
+    where = f"{text_path!r}:"
+    data = read_mapping(text_path)
+    return _plant_from_mapping(where, text_path, data)
+
+
+def _plant_from_mapping(where: str, text_path: str, data: Mapping[str, Any]) -> UncertainPlant:
+    for key in data:
+        if key not in _PLANT_KEYS:
+            raise InputFileError(f"{where} unknown field `{key}`; valid: {', '.join(_PLANT_KEYS)}")
+    name = data.get("name", os.path.splitext(os.path.basename(text_path))[0])
+    if not isinstance(name, str):
+        raise InputFileError(f"{where} field `name` must be a string, found {describe(name)}")
+    form = data.get("form", "pid")
+    if form not in MODEL_FORMS:
+        raise InputFileError(f"{where} field `form` must be one of {', '.join(MODEL_FORMS)}, found {describe(form)}")
+    raw = data["parameters"]
+    if not isinstance(raw, Mapping) or not raw:
+        raise InputFileError(f"{where} field `parameters` must hold one table per parameter, found {describe(raw)}")
+    parameters = [_parameter(where, key, value) for key, value in raw.items()]
+    for key in ("A", "B"):
+        if key not in data:
+            raise InputFileError(f"{where} missing field `{key}` (a list of rows of numbers or expressions)")
+    if "C" in data and form != "integral":
+        raise InputFileError(f"{where} field `C` is used by form = 'integral' only")
+    if form == "integral" and "C" not in data:
+        raise InputFileError(f"{where} missing field `C` (the outputs to integrate, form = 'integral')")
+    prefix = data.get("prefix", "plant_pid")
+    if not isinstance(prefix, str) or not prefix.isidentifier():
+        raise InputFileError(f"{where} field `prefix` must be a C identifier, found {describe(prefix)}")
+    inputs = _signals(where, "inputs", data.get("inputs"))
+    outputs = _signals(where, "outputs", data.get("outputs"))
+    C = _matrix(where, "C", data["C"], (None, None)) if "C" in data else None
+    try:
+        plant = UncertainPlant.from_expressions(parameters, data["A"], data["B"], form=form, C=C, name=name,
+                                                inputs=inputs, outputs=outputs, prefix=prefix)
+        plant.interval_model()  # every entry defined on the whole box
+    except ArgumentError as err:
+        raise InputFileError(f"{where} field `{err.argument}` {err.problem}") from err
+    return plant
 
 
 #: ``format`` field of a design file.

@@ -215,7 +215,7 @@ def _cli_cases(tmp):
         ("synthesize-output-ext", ["synthesize", "--output", str(tmp / "k.txt")], "a design file is .json"),
         ("synthesize-margin-physical", ["synthesize", "--objective", "margin"], "goes with --set box"),
         ("synthesize-physical-model", ["synthesize", "--set", "physical", "--model",
-                                       str(EXAMPLES / "plant-dc-motor.toml")], "with --model use --set box"),
+                                       str(EXAMPLES / "plant-dc-motor-elements.toml")], "with --model use --set box"),
         ("design-file-shape", ["simulate", "--design", str(wide)], "field `K` must have shape (2, 6)"),
         ("design-file-format", ["compare", "--design", str(foreign)], "field `format` must be"),
         ("design-file-controller", ["simulate", "--controller", "smc", "--design",

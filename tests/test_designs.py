@@ -70,12 +70,12 @@ def test_design_labels_must_not_hide_a_controller():
 @pytest.mark.lmi
 def test_synthesize_writes_a_design_file_that_simulate_reads(tmp_path, capsys):
     out = tmp_path / "box.json"
-    assert main(["synthesize", "--model", "examples/plant-dc-motor.toml", "--output", str(out)]) == 0
+    assert main(["synthesize", "--model", "examples/plant-dc-motor-elements.toml", "--output", str(out)]) == 0
     text = capsys.readouterr().out
     assert "status: certified" in text and f"design file: {out}" in text and "margin" in text
     loaded = sr.load_design(out)
     assert loaded.info["set"] == "box" and loaded.info["certified"] is True
-    model = sr.load_model("examples/plant-dc-motor.toml")
+    model = sr.load_model("examples/plant-dc-motor-elements.toml")
     closed = sr.box_closed_loops(model, loaded.K)
     lhs = np.swapaxes(closed, -1, -2) @ loaded.P + loaded.P @ closed
     assert np.linalg.eigvalsh(lhs).max() < 0  # V̇ < 0 at every corner of the box

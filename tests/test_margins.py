@@ -149,7 +149,7 @@ def test_margin_cli_refuses_a_model_file_without_elements(tmp_path, capsys):
 
 
 def test_margin_cli_json(capsys):
-    model = "examples/plant-dc-motor.toml"
+    model = "examples/plant-dc-motor-elements.toml"
     from pathlib import Path
 
     path = Path(__file__).resolve().parents[1] / model

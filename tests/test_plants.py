@@ -152,7 +152,7 @@ def test_polytope_from_systems_and_theorem1_refusal():
 
 
 def test_certificate_table_on_a_three_state_model_skips_the_robots_rows():
-    motor = sr.load_model(EXAMPLES / "plant-dc-motor.toml")
+    motor = sr.load_model(EXAMPLES / "plant-dc-motor-elements.toml")
     table = sr.certificate_table(motor, sr.design(motor, 1, 2), falsifier_tries=2).set_index("method")
     assert table.loc["theorem1-all", "certified"] and table.loc["vertex-box", "certified"]
     for method in ("physical-polytope", "lmi-physical", "falsifier-physical"):
@@ -180,7 +180,7 @@ def test_certify_design_and_surface_take_model_files(capsys, name):
 
 
 def _bad_files(tmp):
-    good = (EXAMPLES / "plant-dc-motor.toml").read_text()
+    good = (EXAMPLES / "plant-dc-motor-elements.toml").read_text()
     cases = {
         "missing-B": (good.replace("B = [[0.0],\n     [83.333]]", ""), "missing field `B`"),
         "shape": (good.replace("B = [[0.0],\n     [83.333]]", "B = [[0.0, 1.0, 2.0]]"),
@@ -212,6 +212,6 @@ def test_bad_model_files_get_one_line_naming_file_and_field(tmp_path, capsys, ca
 
 
 def test_model_file_excludes_the_robots_options(capsys):
-    argv = ["design", "--model", str(EXAMPLES / "plant-dc-motor.toml"), "--rho", "1", "--eta", "2", "--bounds", "paper"]
+    argv = ["design", "--model", str(EXAMPLES / "plant-dc-motor-elements.toml"), "--rho", "1", "--eta", "2", "--bounds", "paper"]
     assert main(argv) == 2
     assert "--bounds describe the SCARA" in capsys.readouterr().err

@@ -9,8 +9,9 @@ from typing import Any
 import numpy as np
 
 from ..lyapunov.gain import design
+from ..model.plant import as_model, as_plant
 from ..robustness.table import certificate_table
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_plant, resolve_setup
 
 __all__ = ["add_parser", "run"]
 
@@ -55,17 +56,10 @@ def run(args: argparse.Namespace) -> str:
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     setup = resolve_setup(args)
-    model = resolve_model(args, setup)
+    plant = resolve_plant(args, setup)
+    model = as_model("model", plant)
     d = design(model, args.rho, args.eta)
-    table = certificate_table(
-        model,
-        d,
-        params=setup.params,
-        reference=setup.reference,
-        payload=setup.payload,
-        falsifier_tries=args.tries,
-        seed=args.seed,
-    )
+    table = certificate_table(model, d, plant=as_plant("model", plant), falsifier_tries=args.tries, seed=args.seed)
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         return json.dumps(records, indent=2)

@@ -19,10 +19,12 @@ import numpy as np
 from ..exceptions import ArgumentError, InputFileError
 from ..io import DesignFile, load_design, load_model, load_robot, load_scenario, write_atomic
 from ..model.initial import SCENARIOS, Scenario
+from ..model.plant import UncertainPlant, as_model
 from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
+from ..model.scara import SCARA_BOUNDS, scara_uncertain_plant
 from ..model.signals import Reference, SquareWave
-from ..model.uncertain import UncertainLTVModel, derived_model, paper_model
+from ..model.uncertain import UncertainLTVModel
 
 __all__ = [
     "BOUNDS",
@@ -41,6 +43,7 @@ __all__ = [
     "parse_range",
     "resolve_bounds",
     "resolve_model",
+    "resolve_plant",
     "resolve_setup",
     "RANGE_HELP",
     "save_figure",
@@ -53,7 +56,7 @@ __all__ = [
 _Loaded = TypeVar("_Loaded")
 
 #: Interval models selectable with ``--bounds``.
-BOUNDS: dict[str, Callable[[], UncertainLTVModel]] = {"paper": paper_model, "derived": derived_model}
+BOUNDS = SCARA_BOUNDS
 
 #: Library parameter -> the option (or positional) that sets it on the command line.
 OPTION_NAMES: dict[str, str] = {
@@ -478,7 +481,12 @@ def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
 
 
 def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel | PolytopicModel:
-    """The model of ``--model``, or the SCARA's interval model of ``--bounds`` for this setup.
+    """The uncertainty set of :func:`resolve_plant`: a plant's interval hull, or the file's set."""
+    return as_model("model", resolve_plant(args, setup))
+
+
+def resolve_plant(args: argparse.Namespace, setup: Setup) -> UncertainPlant | UncertainLTVModel | PolytopicModel:
+    """The plant of ``--model``, or the SCARA as a plant with the interval view of ``--bounds``.
 
     Parameters
     ----------
@@ -487,7 +495,9 @@ def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel |
 
     Returns
     -------
-    UncertainLTVModel or PolytopicModel
+    UncertainPlant, UncertainLTVModel or PolytopicModel
+        A file with physical parameters, or the SCARA, gives a plant; a file of elements
+        or vertices gives the set itself.
 
     Raises
     ------
@@ -508,8 +518,8 @@ def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel |
             raise CommandLineError(
                 "`--bounds paper` holds only for the paper's robot (Tables 1-2); with --robot use --bounds derived"
             )
-        return paper_model()
-    return derived_model(setup.params, setup.reference, setup.payload)
+        return scara_uncertain_plant(bounds="paper")
+    return scara_uncertain_plant(setup.params, setup.reference, setup.payload, bounds="derived")
 
 
 def add_design_option(p: argparse.ArgumentParser) -> None:

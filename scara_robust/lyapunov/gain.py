@@ -14,10 +14,9 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_instance, check_real
+from .._validation import check_array, check_real
 from ..exceptions import ArgumentValueError
-from ..model.polytopic import PolytopicModel
-from ..model.uncertain import UncertainLTVModel
+from ..model.plant import ModelLike, as_model
 from .discrete import DiscretePID
 
 __all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
@@ -225,7 +224,7 @@ def check_stabilizable(A: Array, B: Array, name: str = "model") -> None:
 CARE_RTOL = 1e-8
 
 
-def riccati_solution(model: UncertainLTVModel | PolytopicModel, rho: float) -> Array:
+def riccati_solution(model: ModelLike, rho: float) -> Array:
     """Solve step 2's Riccati equation ``PA + AᵀP - 2ρPBBᵀP = -2I`` for P.
 
     Parameters
@@ -248,6 +247,7 @@ def riccati_solution(model: UncertainLTVModel | PolytopicModel, rho: float) -> A
         :data:`CARE_RTOL` (the equation is ill-conditioned at this ρ).
     """
     rho = check_real("rho", rho, positive=True)
+    model = as_model("model", model)
     n, m = model.n_states, model.n_inputs
     check_stabilizable(model.A, model.B)
     try:
@@ -268,7 +268,7 @@ def riccati_solution(model: UncertainLTVModel | PolytopicModel, rho: float) -> A
     return np.asarray(P, dtype=float)
 
 
-def design(model: UncertainLTVModel | PolytopicModel, rho: float, eta: float) -> Design:
+def design(model: ModelLike, rho: float, eta: float) -> Design:
     """Design the PID gain from (ρ, η): procedure steps 2-3.
 
     Parameters
@@ -301,7 +301,7 @@ def design(model: UncertainLTVModel | PolytopicModel, rho: float, eta: float) ->
     >>> round(float(d.K[0, 0]), 1), d.hurwitz
     (-155.5, True)
     """
-    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
+    model = as_model("model", model)
     rho = check_real("rho", rho, positive=True)
     eta = check_real("eta", eta, minimum=1.0)
     P = riccati_solution(model, rho)

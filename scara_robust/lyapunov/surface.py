@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._resources import check_memory
 from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
+from ..model.plant import as_box
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from .gain import design, riccati_solution
 from .theorem1 import affine_margin, certify, rank2_positive_part
@@ -286,8 +287,7 @@ def design_surface(
     >>> s.max_eig.shape
     (2, 2)
     """
-    if not isinstance(model, UncertainLTVModel):
-        raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
+    model = as_box("model", model)
     rho_grid = _grid("rhos", rhos, 0.0, strict=True)
     eta_grid = _grid("etas", etas, 1.0, strict=False)
     check_choice("elements", elements, ELEMENT_SETS)

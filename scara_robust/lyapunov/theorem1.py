@@ -21,9 +21,9 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_choice, check_instance, check_real
-from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ..model.polytopic import PolytopicModel
-from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
+from ..exceptions import ArgumentValueError
+from ..model.plant import ModelLike, as_box
+from ..model.uncertain import ANCHORS, ELEMENT_SETS
 from .gain import Design
 
 __all__ = [
@@ -137,7 +137,7 @@ def affine_margin(base: ArrayLike, direction: ArrayLike) -> Array:
 
 
 def theorem1_scaling(
-    model: UncertainLTVModel, design: Design, elements: str = "all", anchor: str = "lower"
+    model: ModelLike, design: Design, elements: str = "all", anchor: str = "lower"
 ) -> tuple[Array, Array]:
     """Z of Theorem 1 for the box scaled by θ, as ``Z(θ) = base + θ·direction``.
 
@@ -160,7 +160,7 @@ def theorem1_scaling(
     -------
     base, direction : ndarray, shape (n, n)
     """
-    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    model = as_box("model", model)
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("anchor", anchor, ANCHORS)
     if anchor == "center" and elements != "all":
@@ -287,7 +287,7 @@ class Certificate:
         return UltimateBound(phi, float(radius), float(radius * np.sqrt(eig_p[-1] / eig_p[0])))
 
 
-def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> Certificate:
+def certify(model: ModelLike, design: Design, elements: str = "all") -> Certificate:
     """Theorem 1 for a design: Z, its largest eigenvalue and the verdict.
 
     Parameters
@@ -316,13 +316,8 @@ def certify(model: UncertainLTVModel, design: Design, elements: str = "all") -> 
     >>> cert.certified
     True
     """
-    if isinstance(model, PolytopicModel):
-        raise ArgumentTypeError(
-            "model",
-            "is a PolytopicModel, and Theorem 1 needs interval elements: use vertex_certificate, lmi_certificate, "
-            "falsify or certificate_table, or certify(model.box_hull(), design) for the box around the polytope",
-        )
-    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    model = as_box("model", model, "use vertex_certificate, lmi_certificate, falsify or certificate_table, or "
+                                   "certify(model.box_hull(), design) for the box around the polytope")
     check_instance("design", design, Design, "a Design")
     check_choice("elements", elements, ELEMENT_SETS)
     if design.K.shape != (model.n_inputs, model.n_states):

@@ -6,15 +6,21 @@ validation helpers.
 
 from .augment import *  # noqa: F403
 from .augment import __all__ as _augment
+from .expressions import __all__ as _expressions
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
+from .plant import *  # noqa: F403
+from .plant import __all__ as _plant
 from .polytopic import *  # noqa: F403
 from .polytopic import __all__ as _polytopic
 from .robot import *  # noqa: F403
 from .robot import __all__ as _robot
+from .scara import *  # noqa: F403
+from .scara import __all__ as _scara
 from .signals import *  # noqa: F403
 from .signals import __all__ as _signals
 from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
-__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment]
+__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara]
+del _expressions  # the parser is reached through UncertainPlant.from_expressions

@@ -129,6 +129,49 @@ class PolytopicModel:
         """V."""
         return int(self.vertices_A.shape[0])
 
+    # --- the interface every uncertainty set shares with UncertainLTVModel ----------------
+
+    @property
+    def kind(self) -> str:
+        """``'polytope'`` (an :class:`UncertainLTVModel` says ``'box'``)."""
+        return "polytope"
+
+    @property
+    def is_fixed(self) -> bool:
+        """True when every vertex is the same plant."""
+        return bool(np.ptp(self.vertices_A, axis=0).max() == 0 and np.ptp(self.vertices_B, axis=0).max() == 0)
+
+    def interval_hull(self) -> UncertainLTVModel:
+        """The interval box holding the polytope (:meth:`box_hull`), for Theorem 1."""
+        return self.box_hull()
+
+    def subset(self, elements: str = "all") -> PolytopicModel:
+        """The polytope itself: it has no elements to choose (`elements` must be ``'all'``)."""
+        if elements != "all":
+            raise ArgumentValueError("elements", f"must be 'all' for a PolytopicModel, found {elements!r}")
+        return self
+
+    def vertex_matrices(self) -> tuple[Array, Array]:
+        """``(A_i, B_i)`` at the vertices, shapes (V, n, n) and (V, n, m)."""
+        return np.asarray(self.vertices_A), np.asarray(self.vertices_B)
+
+    def vertex_points(self) -> None:
+        """Vertices are identified by their index alone."""
+        return None
+
+    def vertex_closed_loops(self, K: ArrayLike) -> Array:
+        """``A_i − B_i K`` at every vertex, shape (V, n, n) (as :meth:`closed_loops`)."""
+        return self.closed_loops(K)
+
+    def affine_vertex_loops(self, K: ArrayLike, elements: str = "all", anchor: str = "lower") -> tuple[Array, Array]:
+        """``(C, D)`` with the scaled polytope's vertex closed loops ``(A₀ − B₀K) + C + θ·D_i``."""
+        self.subset(elements)
+        check_choice("anchor", anchor, ANCHORS)
+        loops = self.closed_loops(K)
+        nominal = self.A - self.B @ np.asarray(K, dtype=float)
+        centre = loops.mean(axis=0) if anchor == "center" else nominal
+        return centre - nominal, np.asarray(loops - centre, dtype=float)
+
     def closed_loops(self, K: ArrayLike) -> Array:
         """``A_i − B_i K`` at every vertex, shape (V, n, n).
 

@@ -169,9 +169,6 @@ class UncertainLTVModel:
     n_joints : int, optional
         For a model in the paper's PID form ``x = [∫e, e, ė]`` (Eq. 4), the number of
         joints p (n = 3p): the design's gain then splits into PID matrices. None otherwise.
-    scara : bool
-        True for the SCARA's own error model (:func:`paper_model`, :func:`derived_model`),
-        whose physical samples the certificate table also tests.
 
     Notes
     -----
@@ -191,7 +188,6 @@ class UncertainLTVModel:
     elements: tuple[UncertainElement, ...] = ()
     name: str = "model"
     n_joints: int | None = None
-    scara: bool = False
 
     def __post_init__(self) -> None:
         A = check_array("A", self.A, ndim=2)
@@ -303,7 +299,6 @@ class UncertainLTVModel:
         kept = tuple(el for el in self.elements if el.matrix == elements)
         return UncertainLTVModel(
             nominal["A"], nominal["B"], kept, name=f"{self.name} [{elements} only]", n_joints=self.n_joints,
-            scara=self.scara,
         )
 
     def scaled(self, theta: float, anchor: str = "lower") -> UncertainLTVModel:
@@ -333,7 +328,70 @@ class UncertainLTVModel:
                        0.5 * (el.lower + el.upper) + 0.5 * theta * (el.upper - el.lower)) for el in self.elements]
         els = tuple(UncertainElement(el.matrix, el.row, el.col, lo, hi) for el, (lo, hi) in zip(self.elements, ranges))
         return UncertainLTVModel(self.A, self.B, els, name=f"{self.name} x {theta:g} ({anchor})",
-                                 n_joints=self.n_joints, scara=self.scara)
+                                 n_joints=self.n_joints)
+
+    # --- the interface every uncertainty set shares with PolytopicModel -------------------
+
+    @property
+    def kind(self) -> str:
+        """``'box'``: an interval box (a :class:`PolytopicModel` says ``'polytope'``)."""
+        return "box"
+
+    @property
+    def is_fixed(self) -> bool:
+        """True when nothing varies (no elements)."""
+        return self.n_elements == 0
+
+    def interval_hull(self) -> UncertainLTVModel:
+        """The interval box holding the set: the model itself."""
+        return self
+
+    def vertex_matrices(self) -> tuple[Array, Array]:
+        """``(A_v, B_v)`` at the 2^N corners of the box, shapes (2^N, n, n) and (2^N, n, m)."""
+        A, B = self.matrices_at(self.box_vertices())
+        return np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+
+    def vertex_points(self) -> Array:
+        """What identifies each vertex: the element values, shape (2^N, N)."""
+        return self.box_vertices()
+
+    def vertex_closed_loops(self, K: ArrayLike) -> Array:
+        """``A + ΔA_v − (B + ΔB_v)K`` at every corner, shape (2^N, n, n)."""
+        H = self.box_vertices()
+        K = check_array("K", K, shape=(self.n_inputs, self.n_states))
+        E = self.perturbation_matrices(K)
+        base = self.A - self.B @ K
+        return np.asarray(base[None] + np.einsum("vj,jik->vik", H, E), dtype=float)
+
+    def affine_vertex_loops(self, K: ArrayLike, elements: str = "all", anchor: str = "lower") -> tuple[Array, Array]:
+        """``(C, D)`` with the scaled set's vertex closed loops ``(A − BK) + C + θ·D_v``.
+
+        Parameters
+        ----------
+        K : array_like, shape (m, n)
+        elements : {'all', 'A', 'B'}
+            The elements that scale (the others held at their lower bounds).
+        anchor : {'lower', 'center'}
+
+        Returns
+        -------
+        C : ndarray, shape (n, n)
+        D : ndarray, shape (2^N', n, n)
+        """
+        check_choice("elements", elements, ELEMENT_SETS)
+        check_choice("anchor", anchor, ANCHORS)
+        sub = self.subset(elements)
+        held = np.array([elements not in ("all", el.matrix) for el in self.elements], dtype=bool)
+        E_all = self.perturbation_matrices(K)
+        E_sub = sub.perturbation_matrices(K)
+        shift = np.einsum("j,jik->ik", self.lower_bounds() * held, E_all)
+        D = shift + np.einsum("vj,jik->vik", sub.box_vertices(), E_sub)
+        C = np.zeros((self.n_states, self.n_states))
+        if anchor == "center":  # vertex v at θ: c + θ(h_v − c), with h_v its corner and c the centre
+            centre = 0.5 * (sub.lower_bounds() + sub.upper_bounds())
+            C = np.einsum("j,jik->ik", centre, E_sub)
+            D = D - C
+        return C, np.asarray(D, dtype=float)
 
     def box_vertices(self) -> Array:
         """All 2^N corners of the interval box: row v holds the element values of vertex v.
@@ -503,7 +561,7 @@ def paper_model() -> UncertainLTVModel:
     elements = [
         UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j])) for i in range(2) for j in range(3)
     ] + [UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k])) for i in range(2) for k in range(2)]
-    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)", n_joints=2, scara=True)
+    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)", n_joints=2)
 
 
 @dataclass(frozen=True)
@@ -646,5 +704,5 @@ def derived_model(
         unchanged = high - low <= rtol * scale
         nominal[label][unchanged] = stack[0][unchanged]
     return UncertainLTVModel(
-        nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)", n_joints=2, scara=True
+        nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)", n_joints=2
     )

@@ -11,6 +11,8 @@ from .lmi import *  # noqa: F403
 from .lmi import __all__ as _lmi
 from .margins import *  # noqa: F403
 from .margins import __all__ as _margins
+from .parameters import *  # noqa: F403
+from .parameters import __all__ as _parameters
 from .pdl import *  # noqa: F403
 from .pdl import __all__ as _pdl
 from .polytope import *  # noqa: F403
@@ -22,4 +24,4 @@ from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters]

@@ -47,13 +47,14 @@ from .._validation import check_choice, check_instance, check_int, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
+from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.signals import Reference
 from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel, physical_samples
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
-from .polytope import box_closed_loops, box_vertices, polytope_certificate
+from .polytope import polytope_certificate
 
 __all__ = [
     "Margin",
@@ -115,9 +116,7 @@ class Margin:
 
 
 def _closed_loops(model: Model, design: Design, theta: float, anchor: str = "lower") -> Array:
-    if isinstance(model, PolytopicModel):
-        return model.scaled(theta, anchor).closed_loops(design.K)
-    return box_closed_loops(model.scaled(theta, anchor), design.K)
+    return model.scaled(theta, anchor).vertex_closed_loops(design.K)
 
 
 def _unstable(model: Model, design: Design, theta: float, anchor: str = "lower") -> bool:
@@ -138,7 +137,7 @@ def _bisect(ok: Callable[[float], bool], lo: float, hi: float, tol: float) -> tu
 
 
 def _theorem1(model: Model, design: Design, elements: str, anchor: str) -> tuple[float, str]:
-    if isinstance(model, PolytopicModel):
+    if model.kind != "box":
         raise ArgumentValueError("method", "'theorem1' needs interval elements; use model.box_hull() or 'vertex'")
     theta = float(affine_margin(*theorem1_scaling(model, design, elements, anchor)))
     return theta, "exact: generalized eigenvalue of Z(θ) = Z₀ + θZ₁"
@@ -147,24 +146,8 @@ def _theorem1(model: Model, design: Design, elements: str, anchor: str) -> tuple
 def _vertex(model: Model, design: Design, elements: str, anchor: str) -> tuple[float, str]:
     """The design's P at every vertex: each vertex's closed loop is ``Ā + C + θ·D_v``, affine in θ."""
     P = design.P
-    if isinstance(model, PolytopicModel):
-        loops = model.closed_loops(design.K)
-        centre = loops.mean(axis=0) if anchor == "center" else model.A - model.B @ design.K
-        C, D = centre - design.A_cl, loops - centre
-        where = f"{model.n_vertices} vertices of the polytope"
-    else:
-        sub = model.subset(elements)
-        held = np.array([elements not in ("all", el.matrix) for el in model.elements], dtype=bool)
-        E_all = model.perturbation_matrices(design.K)
-        E_sub = sub.perturbation_matrices(design.K)
-        shift = np.einsum("j,jik->ik", model.lower_bounds() * held, E_all)
-        D = shift + np.einsum("vj,jik->vik", box_vertices(sub), E_sub)
-        C = np.zeros_like(design.A_cl)
-        if anchor == "center":  # vertex v at θ: c + θ(h_v − c), with h_v its corner and c the centre
-            centre = 0.5 * (sub.lower_bounds() + sub.upper_bounds())
-            C = np.einsum("j,jik->ik", centre, E_sub)
-            D = D - C
-        where = f"{len(D)} vertices of the box"
+    C, D = model.affine_vertex_loops(design.K, elements, anchor)
+    where = f"{len(D)} vertices of the {model.kind}"
     PA = P @ (design.A_cl + C)
     base = PA + PA.T
     S = P @ D + np.swapaxes(D, -1, -2) @ P
@@ -252,7 +235,7 @@ def robustness_margin(
         For an unknown method, ``tol <= 0``, a model without uncertain elements, or
         ``theorem1`` on a polytope.
     """
-    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
+    model = as_model("model", model)
     check_instance("design", design, Design, "a Design")
     check_choice("method", method, tuple(MARGIN_METHODS))
     check_choice("elements", elements, ELEMENT_SETS)
@@ -262,10 +245,9 @@ def robustness_margin(
     tol = check_real("tol", tol, positive=True)
     lower = check_real("lower", lower, nonnegative=True)
     falsifier_tries = check_int("falsifier_tries", falsifier_tries, 1)
-    if isinstance(model, UncertainLTVModel) and model.n_elements == 0:
+    if model.is_fixed:
         raise ArgumentValueError("model", "has no uncertain elements: there is nothing to scale")
-    if isinstance(model, PolytopicModel) and elements != "all":
-        raise ArgumentValueError("elements", f"must be 'all' for a PolytopicModel, found {elements!r}")
+    model.subset(elements)  # a polytope takes 'all' only
     kind = MARGIN_METHODS[method]
     start = time.perf_counter()
     if method in ("theorem1", "vertex"):
@@ -377,7 +359,7 @@ def margin_table(
     rows: list[Margin] = []
     best = 0.0
     for method in tqdm(MARGIN_METHODS, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
-        if method == "theorem1" and isinstance(model, PolytopicModel):
+        if method == "theorem1" and model.kind != "box":
             continue
         upper = next((r.theta for r in rows if r.method == "frozen"), None)
         margin = robustness_margin(model, design, method, elements=elements, tol=tol,

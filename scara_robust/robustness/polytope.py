@@ -22,10 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_int, check_symmetric
-from ..exceptions import ArgumentValueError
+from .._validation import check_array, check_choice, check_int, check_symmetric
 from ..lyapunov.gain import Design
-from ..model.polytopic import PolytopicModel
+from ..model.plant import ModelLike, as_box, as_model
 from ..model.robot import PayloadProfile, ScaraParams
 from ..model.signals import Reference
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
@@ -123,7 +122,7 @@ def box_vertices(model: UncertainLTVModel) -> Array:
     ValueError
         If N exceeds :data:`MAX_BOX_ELEMENTS`.
     """
-    if not isinstance(model, UncertainLTVModel):
+    if getattr(model, "kind", None) != "box":
         raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
     n = model.n_elements
     if n > MAX_BOX_ELEMENTS:
@@ -147,11 +146,8 @@ def box_closed_loops(model: UncertainLTVModel, K: ArrayLike) -> Array:
     -------
     ndarray, shape (2**N, n, n)
     """
-    H = box_vertices(model)
-    K = check_array("K", K, shape=(model.n_inputs, model.n_states))
-    E = model.perturbation_matrices(K)
-    base = model.A - model.B @ K
-    return np.asarray(base[None] + np.einsum("vj,jik->vik", H, E), dtype=float)
+    box_vertices(model)  # the type and size checks
+    return model.vertex_closed_loops(K)
 
 
 def polytope_certificate(
@@ -205,7 +201,7 @@ def polytope_certificate(
 
 
 def vertex_certificate(
-    model: UncertainLTVModel | PolytopicModel, design: Design, elements: str = "all"
+    model: ModelLike, design: Design, elements: str = "all"
 ) -> PolytopeCertificate:
     """Exact test of the design's P over the interval box (all 2^N vertices) or a polytope's vertices.
 
@@ -234,13 +230,10 @@ def vertex_certificate(
     if not isinstance(design, Design):
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     check_choice("elements", elements, ELEMENT_SETS)
-    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
-    if isinstance(model, PolytopicModel):
-        if elements != "all":
-            raise ArgumentValueError("elements", f"must be 'all' for a PolytopicModel, found {elements!r}")
-        return polytope_certificate(model.closed_loops(design.K), design.P, set_name="polytope")
-    sub = model.subset(elements)
-    return polytope_certificate(box_closed_loops(sub, design.K), design.P, box_vertices(sub), set_name="box")
+    sub = as_model("model", model).subset(elements)
+    if sub.kind == "box":
+        box_vertices(as_box("model", sub))  # the size check
+    return polytope_certificate(sub.vertex_closed_loops(design.K), design.P, sub.vertex_points(), set_name=sub.kind)
 
 
 def physical_certificate(

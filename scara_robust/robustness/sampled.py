@@ -39,6 +39,7 @@ from .._validation import check_array, check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design
+from ..model.plant import as_box
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import PhysicalSamples, UncertainLTVModel
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
@@ -518,7 +519,7 @@ def interior_grid(model: UncertainLTVModel, points: int = 5, max_plants: int = 4
     A : ndarray, shape (k, n, n)
     B : ndarray, shape (k, n, m)
     """
-    check_instance("model", model, UncertainLTVModel, "an UncertainLTVModel")
+    model = as_box("model", model)
     n = model.n_elements
     while points > 2 and points**n > max_plants:
         points -= 1

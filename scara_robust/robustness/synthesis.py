@@ -28,11 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_real
+from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
-from ..model.polytopic import PolytopicModel
-from ..model.uncertain import UncertainLTVModel
+from ..model.plant import ModelLike, as_model, is_model
 from .l2gain import _bounded_real_ok
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 
@@ -64,7 +63,7 @@ MARGIN_CAP = 1e3
 MARGIN_DECAY_RTOL = 1e-4
 
 
-def vertices_of(model: UncertainLTVModel | PolytopicModel) -> tuple[Array, Array]:
+def vertices_of(model: ModelLike) -> tuple[Array, Array]:
     """The ``(A_i, B_i)`` whose convex hull is the model's uncertainty set.
 
     Parameters
@@ -77,11 +76,7 @@ def vertices_of(model: UncertainLTVModel | PolytopicModel) -> tuple[Array, Array
     A : ndarray, shape (V, n, n)
     B : ndarray, shape (V, n, m)
     """
-    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
-    if isinstance(model, PolytopicModel):
-        return np.asarray(model.vertices_A), np.asarray(model.vertices_B)
-    A, B = model.matrices_at(model.box_vertices())
-    return np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    return as_model("model", model).vertex_matrices()
 
 
 def decay_rate(closed_loops: ArrayLike, P: ArrayLike) -> float:
@@ -366,7 +361,7 @@ def error_output(n_states: int, n_inputs: int) -> Array:
 
 
 def synthesize(
-    model: UncertainLTVModel | PolytopicModel | tuple[ArrayLike, ArrayLike],
+    model: ModelLike | tuple[ArrayLike, ArrayLike],
     *,
     objective: str = "decay",
     decay: float | None = None,
@@ -374,7 +369,7 @@ def synthesize(
     output: ArrayLike | None = None,
     disturbance: ArrayLike | None = None,
     check: tuple[ArrayLike, ArrayLike] | None = None,
-    nominal: UncertainLTVModel | PolytopicModel | None = None,
+    nominal: ModelLike | None = None,
     tol: float = 1e-2,
     solver: str = "CLARABEL",
 ) -> Synthesis:
@@ -426,8 +421,9 @@ def synthesize(
     """
     start = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)
-    if isinstance(model, (UncertainLTVModel, PolytopicModel)):
-        A, B = vertices_of(model)
+    if is_model(model):
+        model = as_model("model", model)
+        A, B = model.vertex_matrices()
     else:
         if objective == "margin":
             raise ArgumentValueError("model", "must be an UncertainLTVModel or a PolytopicModel for objective "
@@ -474,14 +470,14 @@ def synthesize(
         alpha = L2_DECAY if alpha is None else alpha
         status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2)
     elif objective == "margin":
-        assert isinstance(model, (UncertainLTVModel, PolytopicModel))
         if alpha is None:  # a decay the numpy check can tell from zero (see MARGIN_DECAY_RTOL)
             alpha = MARGIN_DECAY_RTOL * float(np.linalg.norm(A, 2, axis=(1, 2)).max())
         floor = alpha
         found: dict[float, tuple[str, Array | None, Array | None, float]] = {}
+        uncertain = as_model("model", model)
 
         def feasible(th: float) -> str:
-            A_t, B_t = vertices_of(model.scaled(th))
+            A_t, B_t = uncertain.scaled(th).vertex_matrices()
             found[th] = _solve(A_t, B_t, floor, kappa, solver)
             return _verdict(A_t, B_t, found[th], floor)
 
@@ -492,7 +488,7 @@ def synthesize(
         else:
             theta, theta_hi, searched = _largest(feasible, 1.0, tol, MARGIN_CAP, 1e-6)
             status, Q, Y, _ = found[theta]
-            A, B = vertices_of(model.scaled(theta))
+            A, B = uncertain.scaled(theta).vertex_matrices()
     elif alpha is not None:
         status, Q, Y, _ = _solve(A, B, alpha, kappa, solver)
     else:
@@ -539,7 +535,8 @@ def synthesize(
 
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:
-    if isinstance(model, (UncertainLTVModel, PolytopicModel)):
+    if is_model(model):
+        model = as_model("model", model)
         A0, B0 = model.A, model.B
         joints = getattr(model, "n_joints", None)
     else:

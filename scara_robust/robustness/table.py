@@ -27,7 +27,7 @@ polytope, the physical rows for any model but the SCARA's own) are kept with ver
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -36,13 +36,10 @@ import pandas as pd
 from .._validation import check_choice, check_instance, check_int
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
-from ..model.polytopic import PolytopicModel
-from ..model.robot import PayloadProfile, ScaraParams
-from ..model.signals import Reference
-from ..model.uncertain import UncertainLTVModel, physical_samples
+from ..model.plant import ModelLike, UncertainPlant, as_model, as_plant
 from .falsifier import falsify
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, lmi_certificate, verify_lyapunov
-from .polytope import box_closed_loops, physical_certificate, vertex_certificate
+from .polytope import polytope_certificate, vertex_certificate
 
 __all__ = ["CERTIFICATE_METHODS", "certificate_table"]
 
@@ -70,16 +67,12 @@ def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
 
 
 def certificate_table(
-    model: UncertainLTVModel | PolytopicModel,
+    model: ModelLike,
     design: Design,
     *,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    payload: PayloadProfile | None = None,
-    n_times: int = 721,
-    n_masses: int = 21,
-    lmi_times: int = 37,
-    lmi_masses: int = 5,
+    plant: UncertainPlant | None = None,
+    points: Mapping[str, int] | None = None,
+    lmi_points: Mapping[str, int] | None = None,
     lmi_solver: str = "CLARABEL",
     falsifier_tries: int = 30,
     seed: int = 0,
@@ -88,19 +81,22 @@ def certificate_table(
 
     Parameters
     ----------
-    model : UncertainLTVModel or PolytopicModel
-        The interval box (published or derived bounds, or your plant's), or a polytope.
+    model : UncertainPlant, UncertainLTVModel or PolytopicModel
+        The uncertainty set: a plant (its interval hull, and its samples for the
+        ``physical`` rows), an interval box or a polytope.
     design : Design
         The design K(ρ, η) and its P.
-    params, reference, payload
-        Robot, reference and payload of the physical set (defaults: the paper's).
-    n_times, n_masses : int
-        Sampling of the physical set over one reference period × the payload range. The
-        physical rows are repeated at ``(2 n_times − 1, 2 n_masses − 1)`` samples and are
-        certified only if both verdicts agree.
-    lmi_times, lmi_masses : int
-        Coarser sampling on which the physical LMI is solved; its P is then verified
-        with numpy on both dense samplings above.
+    plant : UncertainPlant, optional
+        Whose frozen plants on the parameter grid make the ``physical`` rows (default:
+        `model` when it is a plant; the rows are skipped without one).
+    points : mapping of str to int, optional
+        Grid of the physical rows, points per parameter (default: each parameter's
+        ``samples``; for the SCARA 721 reference times × 21 masses). The rows are repeated
+        on the grid refined once (``2k − 1`` points) and are certified only if both
+        verdicts agree.
+    lmi_points : mapping of str to int, optional
+        Coarser grid on which the physical LMI is solved (default: each parameter's
+        ``coarse``); its P is then verified with numpy on both grids above.
     lmi_solver : {'CLARABEL', 'SCS'}
     falsifier_tries : int
         Trajectories per falsifier row.
@@ -116,13 +112,18 @@ def certificate_table(
         ``max_eig``, ``decay_rate [1/s]``, ``growth_rate [1/s]`` (each filled on the rows it
         belongs to, NaN elsewhere; see the module's table), ``seconds`` and ``detail``.
     """
-    check_instance("model", model, (UncertainLTVModel, PolytopicModel), "an UncertainLTVModel or a PolytopicModel")
+    plant = plant if plant is not None else as_plant("model", model)
+    model = as_model("model", model)
     check_instance("design", design, Design, "a Design from scara_robust.design()")
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
-    lmi_times, lmi_masses = check_int("lmi_times", lmi_times, 2), check_int("lmi_masses", lmi_masses, 1)
-    fine_times, fine_masses = 2 * int(n_times) - 1, 2 * int(n_masses) - 1
+    if plant is not None:
+        grid = {**{p.name: p.samples for p in plant.parameters}, **dict(points or {})}
+        fine = {k: 2 * v - 1 for k, v in grid.items()}
+        coarse = {**plant.coarse_points(), **dict(lmi_points or {})}
+        for key, value in coarse.items():
+            check_int(f"lmi_points[{key!r}]", value, 1)
 
-    polytope = isinstance(model, PolytopicModel)
+    polytope = model.kind == "polytope"
 
     def skipped(reason: str) -> Callable[[], dict[str, Any]]:
         return lambda: {"verdict": "skipped", "certified": None, "detail": reason}
@@ -130,7 +131,6 @@ def certificate_table(
     def theorem1(elements: str) -> dict[str, Any]:
         if polytope:
             return skipped("Theorem 1 needs interval elements; a polytope's box hull is model.box_hull()")()
-        assert isinstance(model, UncertainLTVModel)
         cert = certify(model, design, elements)
         return {
             "certified": cert.certified,
@@ -145,16 +145,25 @@ def certificate_table(
             row["verdict"] = "no certificate can exist"
         return row
 
+    def sampled(at: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+        assert plant is not None
+        s = plant.samples(at)
+        return s.closed_loops(design.K), s.values, s.names
+
     def physical() -> dict[str, Any]:
-        coarse = physical_certificate(design, params, reference, payload, n_times=n_times, n_masses=n_masses)
-        refined = physical_certificate(design, params, reference, payload, n_times=fine_times, n_masses=fine_masses)
-        agree = coarse.certified == refined.certified
+        (loops, values, names), (loops_f, values_f, _) = sampled(grid), sampled(fine)
+        coarse_cert = polytope_certificate(loops, design.P, values, set_name="physical")
+        refined = polytope_certificate(loops_f, design.P, values_f, set_name="physical")
+        agree = coarse_cert.certified == refined.certified
+        assert plant is not None
+        worst = ", ".join(f"{name} = {v:.4g} {plant.parameter(name).unit}"
+                          for name, v in zip(names, np.atleast_1d(coarse_cert.worst_point)))
         detail = (
-            f"{coarse.message}; worst at t = {coarse.worst_point[0]:.4g} s, m_p = {coarse.worst_point[1]:.4g} kg; "
-            f"{coarse.n_vertices} samples: max eig {coarse.max_eig:.6g}, {refined.n_vertices}: {refined.max_eig:.6g}"
-            + ("" if agree else " (verdict changed under refinement)")
+            f"{coarse_cert.message}; worst at {worst}; "
+            f"{coarse_cert.n_vertices} samples: max eig {coarse_cert.max_eig:.6g}, {refined.n_vertices}: "
+            f"{refined.max_eig:.6g}" + ("" if agree else " (verdict changed under refinement)")
         )
-        return {"certified": coarse.certified and agree, _MAX_EIG: max(coarse.max_eig, refined.max_eig),
+        return {"certified": coarse_cert.certified and agree, _MAX_EIG: max(coarse_cert.max_eig, refined.max_eig),
                 "detail": detail}
 
     def lmi_row(vertices: np.ndarray, checks: list[np.ndarray]) -> dict[str, Any]:
@@ -171,10 +180,6 @@ def certificate_table(
         verdict = "certified" if ok else ("marginal" if margin > 0 else "inaccurate")
         return {"verdict": verdict, "certified": ok, _DECAY: margin, "detail": detail}
 
-    def sampled(n_t: int, n_m: int) -> np.ndarray:
-        s = physical_samples(params, reference, payload, times=np.linspace(0.0, 2 * np.pi, n_t), n_masses=n_m)
-        return s.A - s.B @ design.K
-
     def falsifier_row(vertices: np.ndarray) -> dict[str, Any]:
         result = falsify(vertices, design.P, n_tries=falsifier_tries, seed=seed)
         return {
@@ -184,7 +189,7 @@ def certificate_table(
             "detail": result.message,
         }
 
-    box = model.closed_loops(design.K) if isinstance(model, PolytopicModel) else box_closed_loops(model, design.K)
+    box = model.vertex_closed_loops(design.K)
     rows = {
         "theorem1-all": lambda: theorem1("all"),
         "theorem1-A": lambda: theorem1("A"),
@@ -192,14 +197,12 @@ def certificate_table(
         "vertex-box": vertex_box,
         "physical-polytope": physical,
         "lmi-box": lambda: lmi_row(box, []),
-        "lmi-physical": lambda: lmi_row(
-            sampled(lmi_times, lmi_masses), [sampled(n_times, n_masses), sampled(fine_times, fine_masses)]
-        ),
+        "lmi-physical": lambda: lmi_row(sampled(coarse)[0], [sampled(grid)[0], sampled(fine)[0]]),
         "falsifier-box": lambda: falsifier_row(box),
-        "falsifier-physical": lambda: falsifier_row(sampled(lmi_times, lmi_masses)),
+        "falsifier-physical": lambda: falsifier_row(sampled(coarse)[0]),
     }
-    if not getattr(model, "scara", False):
-        reason = "applies to the SCARA's own error model only (the robot's sampled (A, B) along the reference)"
+    if plant is None:
+        reason = "needs a plant with physical parameters (its frozen plants on the parameter grid)"
         for method in ("physical-polytope", "lmi-physical", "falsifier-physical"):
             rows[method] = skipped(reason)
     records = []

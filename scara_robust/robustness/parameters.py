@@ -1,0 +1,326 @@
+"""Margins in the plant's own units: how far each physical parameter may range, and how fast.
+
+A plant's parameter box scaled by ``s`` about the nominal,
+``[p₀ − s(p₀ − lower), p₀ + s(upper − p₀)]`` (:meth:`scara_robust.UncertainPlant.scaled`),
+is nested in s (the nominal stays inside), and so is its interval hull. So each certificate
+holds on an interval of s, found by doubling then bisection, and reported as the certified
+range of every parameter in its unit:
+
+==============  =====  ===================================================================
+method          kind   what is certified at s
+==============  =====  ===================================================================
+``theorem1``    lower  the paper's Theorem 1 with the design's P on the hull of the box
+``vertex``      lower  the design's P at every corner of the hull (exact for the hull)
+``lmi``         lower  a common P at every corner of the hull (extra ``lmi``), numpy-verified
+``frozen``      upper  a frozen plant of the family (a grid point of the box) is unstable at s:
+                       no certificate of any kind exists beyond
+==============  =====  ===================================================================
+
+The lower bounds hold for parameters varying arbitrarily fast within the range. For a
+bounded rate, :func:`parameter_rate` bisects the largest ``|ṗ|`` (unit/s) that a
+parameter-dependent Lyapunov function certifies (:func:`scara_robust.max_certified_rate`),
+and :func:`parameter_switching_growth` gives the evidence from the other side: the growth
+of the loop under a periodic ramp of the parameter at a given rate.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+import scipy.linalg
+from numpy.typing import NDArray
+
+from .._validation import check_choice, check_instance, check_int, check_real
+from ..exceptions import ArgumentError, ArgumentValueError
+from ..lyapunov.gain import Design
+from ..lyapunov.theorem1 import certify
+from ..model.plant import UncertainPlant
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
+from .pdl import RateMargin, max_certified_rate
+from .polytope import polytope_certificate
+
+__all__ = [
+    "PARAMETER_METHODS",
+    "parameter_margin",
+    "parameter_rate",
+    "parameter_switching_growth",
+]
+
+Array = NDArray[np.float64]
+#: Methods of :func:`parameter_margin` and the kind of bound each gives.
+PARAMETER_METHODS: dict[str, str] = {"theorem1": "lower", "vertex": "lower", "lmi": "lower", "frozen": "upper"}
+_SCALE_MAX = 1e6
+_FROZEN_RATIO = 1.02
+_FROZEN_RTOL = 1e-9
+
+
+class _Undefined(Exception):
+    """The scaled box leaves where the plant is defined."""
+
+
+def _hull(plant: UncertainPlant, s: float) -> object:
+    try:
+        return plant.interval_model(s)
+    except ArgumentError as err:
+        raise _Undefined(str(err)) from err
+
+
+def _ok(plant: UncertainPlant, design: Design, method: str) -> Callable[[float], bool]:
+    def theorem1(s: float) -> bool:
+        return bool(certify(_hull(plant, s), design).certified)  # type: ignore[arg-type]
+
+    def vertex(s: float) -> bool:
+        hull = _hull(plant, s)
+        return bool(polytope_certificate(hull.vertex_closed_loops(design.K), design.P).certified)  # type: ignore[attr-defined]
+
+    def lmi(s: float) -> bool:
+        hull = _hull(plant, s)
+        return bool(lmi_certificate(hull.vertex_closed_loops(design.K)).certified)  # type: ignore[attr-defined]
+
+    def stable(s: float) -> bool:
+        try:
+            loops = plant.samples(theta=s).closed_loops(design.K)
+        except ArgumentError as err:
+            raise _Undefined(str(err)) from err
+        return bool(np.linalg.eigvals(loops).real.max() < 0)
+
+    return {"theorem1": theorem1, "vertex": vertex, "lmi": lmi, "frozen": stable}[method]
+
+
+def _bisect(ok: Callable[[float], bool], lo: float, hi: float, rtol: float) -> tuple[float, float]:
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        try:
+            good = ok(mid)
+        except _Undefined:
+            good = False
+        if good:
+            lo = mid
+        else:
+            hi = mid
+    return lo, hi
+
+
+def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[float, float, str]:
+    """Largest s with ok(s): (lo, hi, note); hi = inf when none failed up to the cap."""
+    try:
+        if not ok(0.0):
+            return 0.0, 0.0, "not even at the nominal point"
+    except _Undefined as err:
+        return 0.0, 0.0, f"undefined at the nominal point: {err}"
+    lo, s = 0.0, 1.0
+    while s <= _SCALE_MAX:
+        try:
+            good = ok(s)
+        except _Undefined as err:
+            lo, hi = _bisect(ok, lo, s, tol)
+            return lo, hi, f"the plant is undefined beyond: {err}"
+        if not good:
+            lo, hi = _bisect(ok, lo, s, tol)
+            return lo, hi, ""
+        lo, s = s, s * ratio
+    return lo, math.inf, f"holds up to the scale {_SCALE_MAX:g} searched"
+
+
+def parameter_margin(
+    plant: UncertainPlant,
+    design: Design,
+    methods: Sequence[str] = tuple(PARAMETER_METHODS),
+    *,
+    tol: float = 1e-3,
+) -> pd.DataFrame:
+    """The largest scaling of the parameter box each method certifies, as ranges in the parameters' units.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    design : Design
+        A design for the plant's design form (K of shape (m, n)).
+    methods : sequence of str
+        From :data:`PARAMETER_METHODS`.
+    tol : float
+        Relative width of the bisections on the scale (the frozen bound is bisected to
+        1e-9 whatever `tol`: eigenvalues are cheap).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per method: ``method``, ``kind`` ('lower' or 'upper'), ``scale`` (s; 1 is the
+        plant's own box), ``bracket`` (the s where the answer changes), then for each varying
+        parameter ``NAME low [UNIT]`` and ``NAME high [UNIT]`` (its range at s), ``seconds``
+        and ``message``.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> motor = sr.load_plant("examples/plant-dc-motor.toml")
+    >>> table = sr.parameter_margin(motor, sr.design(motor, 1, 2), ["frozen"])
+    >>> round(float(table["J high [kg·m²]"].iloc[0]), 4)
+    0.174
+    """
+    check_instance("plant", plant, UncertainPlant, "an UncertainPlant (sr.load_plant, sr.UncertainPlant...)")
+    check_instance("design", design, Design, "a Design")
+    n = plant.n_design_states
+    if design.K.shape != (plant.n_inputs, n):
+        raise ArgumentValueError("design", f"must have K of shape ({plant.n_inputs}, {n}) for the plant, found "
+                                           f"{design.K.shape}")
+    for method in methods:
+        check_choice("methods", method, tuple(PARAMETER_METHODS))
+    tol = check_real("tol", tol, positive=True)
+    varying = plant.varying
+    if not varying:
+        raise ArgumentValueError("plant", "has no parameter with a range: there is nothing to scale")
+    rows = []
+    for method in methods:
+        start = time.perf_counter()
+        kind = PARAMETER_METHODS[method]
+        if method == "lmi" and not cvxpy_available():
+            rows.append((method, kind, math.nan, "", *([math.nan] * 2 * len(varying)), 0.0, NOT_INSTALLED))
+            continue
+        ok = _ok(plant, design, method)
+        lo, hi, note = _search(ok, _FROZEN_RTOL if method == "frozen" else tol,
+                               _FROZEN_RATIO if method == "frozen" else 2.0)
+        scale = lo if kind == "lower" else hi
+        if method == "frozen":
+            message = (f"a frozen plant of the grid is unstable at the scale hi (grid {plant.grid_values().shape[0]} "
+                       f"points; scan ratio x{_FROZEN_RATIO:g})") if math.isfinite(hi) else "no unstable frozen plant"
+        else:
+            message = "certified up to lo, not at hi"
+        if note:
+            message = f"{message}; {note}"
+        ranges = []
+        for p in varying:
+            a, b = p.scaled_range(scale) if math.isfinite(scale) else (math.nan, math.nan)
+            ranges += [a, b]
+        rows.append((method, kind, scale, f"[{lo:.6g}, {hi:.6g}]", *ranges, time.perf_counter() - start, message))
+    columns = ["method", "kind", "scale", "bracket"]
+    for p in varying:
+        columns += [f"{p.name} low [{p.unit}]", f"{p.name} high [{p.unit}]"]
+    return pd.DataFrame(rows, columns=[*columns, "seconds", "message"])
+
+
+def _rate_parameter(plant: UncertainPlant, name: str | None) -> str:
+    names = [p.name for p in plant.varying]
+    if not names:
+        raise ArgumentValueError("plant", "has no parameter with a range: no rate to bound")
+    if name is None:
+        rated = [p.name for p in plant.varying if p.rate is not None]
+        return rated[0] if rated else names[-1]
+    check_choice("name", name, tuple(names))
+    return name
+
+
+def parameter_rate(
+    plant: UncertainPlant,
+    design: Design,
+    name: str | None = None,
+    *,
+    rate_max: float | None = None,
+    tol: float = 1e-2,
+    solver: str = "CLARABEL",
+) -> RateMargin:
+    """The largest rate ``|ṗ|`` (unit/s) of parameter `name` that an affine ``P(p)`` certifies.
+
+    The frozen closed loops on the parameter's coarse grid (the other parameters on
+    theirs, varying arbitrarily) enter :func:`scara_robust.max_certified_rate`; every
+    answer is verified with numpy on the default grid refined once.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    design : Design
+    name : str, optional
+        The rate-bounded parameter (default: the first with a ``rate``, else the last
+        varying one).
+    rate_max : float, optional
+        Largest rate tried, unit/s (default 1e6 times the parameter's range).
+    tol : float
+        Relative width of the final bracket.
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    RateMargin
+        ``rate`` in the parameter's unit per second; ``inf`` when a common P certifies
+        any rate.
+    """
+    check_instance("plant", plant, UncertainPlant, "an UncertainPlant")
+    check_instance("design", design, Design, "a Design")
+    key = _rate_parameter(plant, name)
+    width = plant.parameter(key).range[1] - plant.parameter(key).range[0]
+    cap = 1e6 * width if rate_max is None else check_real("rate_max", rate_max, positive=True)
+    coarse = plant.samples(plant.coarse_points())
+    fine = plant.samples(plant.fine_points())
+    return max_certified_rate(coarse.closed_loops(design.K), coarse.column(key),
+                              check=(fine.closed_loops(design.K), fine.column(key)), rate_max=cap, tol=tol,
+                              solver=solver)
+
+
+def parameter_switching_growth(
+    plant: UncertainPlant,
+    K: Array,
+    name: str,
+    rate: float,
+    *,
+    hold_high: float = 0.0,
+    hold_low: float = 0.0,
+    at: dict[str, float] | None = None,
+    n_ramp: int = 100,
+) -> float:
+    """Floquet growth rate (1/s) of the loop under a periodic ramp of one parameter at `rate`.
+
+    One period holds the parameter at its upper end for `hold_high`, ramps it down to the
+    lower end at ``−rate``, holds it for `hold_low` and ramps back up; the other parameters
+    stay at `at` (default: nominal). Each ramp is `n_ramp` steps held at their midpoints.
+    A positive growth rate means ‖x‖ grows without bound, so no certificate exists for
+    that rate: the upper side of :func:`parameter_rate`.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    K : array_like, shape (m, n)
+        Gain of ``u = −Kx`` on the design form.
+    name : str
+        The parameter ramped.
+    rate : float
+        |ṗ| on the ramps, unit/s (> 0).
+    hold_high, hold_low : float
+        Dwell at each end, s (>= 0).
+    at : dict, optional
+        Values of the other parameters.
+    n_ramp : int
+        Steps per ramp (>= 1).
+
+    Returns
+    -------
+    float
+        The growth rate, 1/s.
+    """
+    check_instance("plant", plant, UncertainPlant, "an UncertainPlant")
+    key = _rate_parameter(plant, name)
+    rate = check_real("rate", rate, positive=True)
+    hold_high = check_real("hold_high", hold_high, nonnegative=True)
+    hold_low = check_real("hold_low", hold_low, nonnegative=True)
+    n_ramp = check_int("n_ramp", n_ramp, 1)
+    lo, hi = plant.parameter(key).range
+    point = {**plant.nominal, **(at or {})}
+    values = np.linspace(lo, hi, 2 * n_ramp + 1)
+    grid = np.array([[v if n == key else point[n] for n in plant.names] for v in values])
+    A, B = plant.plant_matrices(grid)
+    A_aug, B_aug = plant.design_form(A, B)
+    closed = A_aug - B_aug @ np.asarray(K, dtype=float)
+    size = closed.shape[1]
+    step = scipy.linalg.expm(closed[1::2] * ((hi - lo) / n_ramp / rate))
+    down = np.eye(size)
+    for E in step[::-1]:
+        down = E @ down
+    up = np.eye(size)
+    for E in step:
+        up = E @ up
+    period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
+    duration = hold_high + hold_low + 2 * (hi - lo) / rate
+    return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)
