@@ -35,6 +35,10 @@ Model (:mod:`scara_robust.model`)
     state_space, as_element         -- a continuous-time control.StateSpace / an element from its fields
     PolytopicModel                  -- (A(t), B(t)) in the convex hull of vertices; box_hull() for Theorem 1
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
+    UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
+    ParameterSamples, PLANT_FORMS, HULL_RTOL -- its frozen plants on a grid; its design forms; the sampled hull's rtol
+    ModelLike, is_model, as_model, as_plant, as_box -- what every analysis takes, and its uncertainty set
+    scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
@@ -65,6 +69,9 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
     payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
+    parameter_margin, PARAMETER_METHODS -- the certified range of every parameter, in its unit (``margin --model``)
+    parameter_rate, rate_bracket, RateBracket -- how fast a parameter may vary, unit/s: certificate below, growth above
+    parameter_switching_growth      -- growth under a periodic ramp of a parameter at a given rate
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P
     discrete_lyapunov_check         -- numpy's check of A_iᵀPA_i − P ≺ 0
     max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
@@ -86,7 +93,7 @@ Simulation (:mod:`scara_robust.simulation`)
     run_status, STATUSES, TRACKING_TOLERANCE -- does a run track: tracking, not-tracking, diverged, failed, too-short
 Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
-    load_model, MODEL_FORMS         -- your plant's file: an interval model or a polytope
+    load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
     write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
     write_design, load_design, design_record, DesignFile, DESIGN_FORMAT -- design files (``synthesize --output``)
 Export (:mod:`scara_robust.export`)

@@ -10,10 +10,12 @@ from typing import Any
 
 import pandas as pd
 
-from ..lyapunov.gain import design
+from ..lyapunov.gain import Design, design
+from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, payload_margin, robustness_margin
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+from ..robustness.parameters import parameter_margin, rate_bracket
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_plant, resolve_setup
 
 __all__ = ["add_parser", "run"]
 
@@ -42,7 +44,13 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--tol", type=finite_float, default=MARGIN_TOL, help=f"relative tolerance of the bisections "
                    f"(default {MARGIN_TOL:g})")
     p.add_argument("--tries", type=int, default=10, help="falsifier trajectories per try (default 10)")
-    p.add_argument("--no-payload", action="store_true", help="skip the robot's payload margin (kg)")
+    p.add_argument("--no-payload", action="store_true",
+                   help="skip the physical margin: the robot's payload (kg), or a plant file's parameters in their "
+                   "units")
+    p.add_argument("--rate", action="store_true",
+                   help="also: how fast may the parameter vary (a plant file: its rate-bounded parameter, unit/s; the "
+                   "robot: the payload, kg/s); a parameter-dependent Lyapunov certificate below, a growing periodic "
+                   "variation above (extra lmi)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
@@ -68,8 +76,13 @@ def run(args: argparse.Namespace) -> str:
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     setup = resolve_setup(args)
-    model = resolve_model(args, setup)
+    plant = resolve_plant(args, setup)
+    model = as_model("model", plant)
     d = design(model, args.rho, args.eta)
+    physical = as_plant("model", plant) if args.model is not None else None
+    if args.rate and as_plant("model", plant) is None:
+        raise CommandLineError("`--rate` needs a plant with physical parameters (a plant file with [parameters], or "
+                               "the robot); this file describes the set by elements or vertices")
     if args.anchor == "center" and args.elements != "all":
         raise CommandLineError(f"`--anchor center` scales every element; it cannot go with --elements {args.elements}")
     if args.method == "all":
@@ -84,9 +97,15 @@ def run(args: argparse.Namespace) -> str:
     beside = []
     if args.anchor == "lower" and args.elements == "all" and args.method == "all":
         beside = [robustness_margin(model, d, method, tol=args.tol, anchor="center") for method in ("vertex", "frozen")]
-    payload = None
-    if getattr(model, "scara", False) and not args.no_payload:
+    payload = units = None
+    if args.model is None and not args.no_payload:
         payload = payload_margin(d, setup.params, setup.reference, tol=max(args.tol, 1e-3))
+    if physical is not None and not args.no_payload:
+        units = parameter_margin(physical, d, tol=max(args.tol, 1e-3))
+    rate = rate_text = None
+    rated = as_plant("model", plant)
+    if args.rate and rated is not None:
+        rate, rate_text = _rate(rated, d)
     source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
     if args.format == "json":
         rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
@@ -95,6 +114,11 @@ def run(args: argparse.Namespace) -> str:
                   "message": m.message} for m in beside]
         if payload is not None:
             rows += [{k: _number(v) for k, v in row.items()} for row in payload.to_dict(orient="records")]
+        if units is not None:
+            rows += [{"table": "parameters", **{k: _number(v) for k, v in row.items()}}
+                     for row in units.to_dict(orient="records")]
+        if rate is not None:
+            rows.append({"table": "rate", **{k: _number(v) for k, v in rate.items()}})
         return json.dumps(rows, indent=2)
     meaning = ("every element range scaled about the design plant (lower corner), [theta*lower, theta*upper]"
                if args.anchor == "lower" else "every element range scaled about the box's centre, "
@@ -110,4 +134,25 @@ def run(args: argparse.Namespace) -> str:
     if payload is not None:
         lines += ["", "payload margin of the robot's own sampled set (peak mass of m_p = (M/2)(1 + sin t)):",
                   pd.DataFrame(payload).drop(columns="message").to_string(index=False, float_format="%.6g")]
+    if units is not None:
+        lines += ["", "margin in the plant's units: every parameter range scaled about its nominal by `scale` "
+                      "(1 = the file's ranges), the range each method certifies:",
+                  units.drop(columns="message").to_string(index=False, float_format="%.6g"),
+                  *[f"  {row.method}: {row.message}" for row in units.itertuples()]]
+    if rate_text is not None:
+        lines += ["", rate_text]
     return "\n".join(lines)
+
+
+def _rate(plant: UncertainPlant, d: Design) -> tuple[dict[str, Any], str]:
+    """The rate answer of ``--rate``: its record and its text."""
+    result = rate_bracket(plant, d)
+    p = plant.parameter(result.parameter)
+    unit = f"{p.unit}/s"
+    record = {"parameter": p.name, f"certified rate [{unit}]": result.certified,
+              f"growing at [{unit}]": result.unstable, "seconds": result.seconds, "message": result.message}
+    text = (f"rate of {p.name} over [{p.range[0]:.6g}, {p.range[1]:.6g}] {p.unit}: certified for |d{p.name}/dt| <= "
+            f"{result.certified:.6g} {unit}" + (f"; a periodic variation at {result.unstable:.6g} {unit} grows"
+                                                  if math.isfinite(result.unstable) else "")
+            + f"\n  {result.message}")
+    return record, text

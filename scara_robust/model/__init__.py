@@ -6,7 +6,6 @@ validation helpers.
 
 from .augment import *  # noqa: F403
 from .augment import __all__ as _augment
-from .expressions import __all__ as _expressions
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
 from .plant import *  # noqa: F403
@@ -23,4 +22,3 @@ from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
 __all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara]
-del _expressions  # the parser is reached through UncertainPlant.from_expressions

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._resources import check_memory
 from .._validation import check_array, check_choice, check_int, check_real, describe
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from .expressions import Expression
+from ._expressions import Expression
 from .polytopic import PolytopicModel
 from .uncertain import UncertainElement, UncertainLTVModel, state_space
 
@@ -338,7 +338,7 @@ class UncertainPlant:
     ) -> UncertainPlant:
         """A plant whose entries are numbers or arithmetic in the parameters (``"-b/J"``).
 
-        Each string is parsed by whitelist (:func:`scara_robust.model.expressions.parse_expression`);
+        Each string is parsed by whitelist (the whitelist parser of :mod:`scara_robust.model._expressions`);
         nothing is executed.
 
         Parameters
@@ -360,7 +360,7 @@ class UncertainPlant:
             Naming the entry (``A[1][1]``): an unknown name, a construct outside the
             whitelist, a ragged matrix, or an entry undefined on the parameter box.
         """
-        from .expressions import parse_expression
+        from ._expressions import parse_expression
 
         names = {p.name for p in parameters}
 
@@ -827,7 +827,18 @@ ModelLike = UncertainPlant | UncertainLTVModel | PolytopicModel
 
 
 def is_model(value: object) -> bool:
-    """True for an :class:`UncertainPlant`, an :class:`UncertainLTVModel` or a :class:`PolytopicModel`."""
+    """Whether `value` is an uncertainty description every analysis takes.
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    bool
+        True for an :class:`UncertainPlant`, an :class:`UncertainLTVModel` or a
+        :class:`PolytopicModel`.
+    """
     return isinstance(value, (UncertainPlant, UncertainLTVModel, PolytopicModel))
 
 
@@ -858,7 +869,18 @@ def as_model(name: str, value: object) -> UncertainLTVModel | PolytopicModel:
 
 
 def as_plant(name: str, value: object) -> UncertainPlant | None:
-    """`value` if it is an :class:`UncertainPlant` (the physical analyses need one), else None."""
+    """`value` if it is an :class:`UncertainPlant` (the physical analyses need one), else None.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (kept for symmetry with :func:`as_model`).
+    value : object
+
+    Returns
+    -------
+    UncertainPlant or None
+    """
     return value if isinstance(value, UncertainPlant) else None
 
 
@@ -873,6 +895,10 @@ def as_box(name: str, value: object,
     value : UncertainPlant or UncertainLTVModel
     hint : str
         What to do instead, said when `value` is a polytope.
+
+    Returns
+    -------
+    UncertainLTVModel
 
     Raises
     ------

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -48,6 +49,8 @@ __all__ = [
     "parameter_margin",
     "parameter_rate",
     "parameter_switching_growth",
+    "rate_bracket",
+    "RateBracket",
 ]
 
 Array = NDArray[np.float64]
@@ -324,3 +327,90 @@ def parameter_switching_growth(
     period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
     duration = hold_high + hold_low + 2 * (hi - lo) / rate
     return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)
+
+
+@dataclass(frozen=True)
+class RateBracket:
+    """How fast a parameter may vary: a certified rate below, a growing variation above.
+
+    Attributes
+    ----------
+    parameter : str
+    certified : float
+        Largest certified ``|ṗ|``, unit/s (``inf``: a common P certifies any rate; nan:
+        not even a frozen parameter is certified).
+    unstable : float
+        Smallest rate found at which a periodic ramp between the range's ends makes the
+        loop grow, unit/s (``inf`` when none was found on the scan).
+    margin : RateMargin
+        The certificate's details.
+    seconds : float
+    message : str
+    """
+
+    parameter: str
+    certified: float
+    unstable: float
+    margin: RateMargin
+    seconds: float
+    message: str
+
+
+def rate_bracket(
+    plant: UncertainPlant,
+    design: Design,
+    name: str | None = None,
+    *,
+    scan_ratio: float = 1.25,
+    scan_span: float = 1e3,
+    tol: float = 1e-2,
+) -> RateBracket:
+    """Bracket the largest tolerated rate of a parameter (unit/s): certificate below, growth above.
+
+    The lower end is :func:`parameter_rate`. Above it, rates ``ν·scan_ratio^k`` up to
+    ``scan_span·ν`` are tried with :func:`parameter_switching_growth` (the parameter ramping
+    between its range's ends, with no dwell and with dwells of one and four ramp times, the
+    other parameters at their nominal): the first rate with a positive growth rate is the
+    upper end. The scan is a search, so the upper end is valid, not tight.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    design : Design
+    name : str, optional
+        As for :func:`parameter_rate`.
+    scan_ratio : float
+        Ratio between scanned rates (> 1).
+    scan_span : float
+        How far above the certified rate the scan goes (> 1).
+    tol : float
+        Relative width of the certificate's bisection.
+
+    Returns
+    -------
+    RateBracket
+    """
+    start = time.perf_counter()
+    key = _rate_parameter(plant, name)
+    scan_ratio = check_real("scan_ratio", scan_ratio, minimum=1.0 + 1e-9)
+    scan_span = check_real("scan_span", scan_span, minimum=1.0 + 1e-9)
+    margin = parameter_rate(plant, design, key, tol=tol)
+    lower = margin.rate
+    if margin.certificate is None and not math.isinf(lower):
+        return RateBracket(key, math.nan, math.nan, margin, time.perf_counter() - start, margin.message)
+    if math.isinf(lower):
+        return RateBracket(key, math.inf, math.inf, margin, time.perf_counter() - start,
+                           "a common quadratic P certifies the whole range at any rate")
+    lo, hi = plant.parameter(key).range
+    base = max(lower, 1e-12 * (hi - lo))
+    rate = base * scan_ratio
+    while rate <= base * scan_span:
+        ramp = (hi - lo) / rate
+        if any(parameter_switching_growth(plant, design.K, key, rate, hold_high=h, hold_low=h) > 0
+               for h in (0.0, ramp, 4 * ramp)):
+            return RateBracket(key, lower, rate, margin, time.perf_counter() - start,
+                               f"{margin.message}; a periodic ramp between {lo:.6g} and {hi:.6g} at the upper rate "
+                               "grows (Floquet)")
+        rate *= scan_ratio
+    return RateBracket(key, lower, math.inf, margin, time.perf_counter() - start,
+                       f"{margin.message}; no growing periodic ramp found up to {scan_span:g} x the certified rate")

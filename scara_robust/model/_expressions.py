@@ -296,7 +296,7 @@ def parse_expression(text: object, parameters: frozenset[str] | set[str], name: 
 
     Examples
     --------
-    >>> from scara_robust.model.expressions import parse_expression
+    >>> from scara_robust.model._expressions import parse_expression
     >>> e = parse_expression("-b/J", {"b", "J"})
     >>> float(e({"b": 1e-4, "J": 2e-4})), e.interval({"b": (1e-4, 1e-4), "J": (2e-4, 6e-4)})
     (-0.5, (-0.5, -0.16666666666666669))
