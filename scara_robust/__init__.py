@@ -77,6 +77,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
     check_sample_time, SampleTimeCheck, interior_grid -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
+    simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)
+    parameter_profile, PROFILES     -- p(t): constant, sinusoid, ramp, random walk within the rate bound, CSV column
     pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
     pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs
     ControlLaw                      -- what a package controller computes (its ``law``), for the compiled engine

@@ -318,7 +318,11 @@ class UncertainPlant:
         if A.shape != (1, n, n) or B.shape != (1, n, m):
             raise ArgumentValueError("matrices", f"must give A of shape ({n}, {n}) and B of shape ({n}, {m}), found "
                                                  f"{A.shape[1:]} and {B.shape[1:]}")
-        self._check_form(self.grid_values())
+        # the nominal and the box's corners (a cheap check; the samples are checked where used)
+        corners = self.grid_values({p.name: 2 for p in params if p.varies}) if len(self.varying) <= 10 else \
+            np.zeros((0, len(params)))
+        nominal_row = np.array([[p.nominal for p in params]], dtype=float).reshape(1, len(params))
+        self._check_form(np.vstack([nominal_row, corners]))
 
     # --- constructors -------------------------------------------------------------------
 

@@ -14,7 +14,9 @@ from .loop import *  # noqa: F403
 from .loop import __all__ as _loop
 from .metrics import *  # noqa: F403
 from .metrics import __all__ as _metrics
+from .plants import *  # noqa: F403
+from .plants import __all__ as _plants
 from .run import *  # noqa: F403
 from .run import __all__ as _run
 
-__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics]
+__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics, *_plants]

@@ -1,0 +1,334 @@
+"""Closed-loop runs of any :class:`~scara_robust.UncertainPlant` with time-varying parameters.
+
+The loop is the plant in its own coordinates, ``ẋ = A(p(t))x + B(p(t))(u + d(t))``, the
+controller the design's static gain on the design form (for ``form='pid'`` the PID
+``u = −K[∫e, e, ė]`` with ``e = r − q``, ``ė = ṙ − q̇``; for ``form='integral'``
+``u = −K[∫(r − Cx), x]``; for ``form='state'`` ``u = −Kx``), simulated by python-control
+(``control.nlsys`` and ``control.input_output_response``, LSODA). The parameters follow a
+profile of :data:`PROFILES`; every sample of the run records them.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_choice, check_int, check_real
+from ..exceptions import ArgumentValueError, InputFileError
+from ..model.plant import UncertainPlant
+from .metrics import STATUSES
+
+__all__ = ["PROFILES", "parameter_profile", "PlantRun", "simulate_plant", "PLANT_TRACKING_RTOL"]
+
+Array = NDArray[np.float64]
+#: Parameter profiles of :func:`parameter_profile`.
+PROFILES = ("constant", "sinusoid", "ramp", "random-walk", "csv")
+#: A run tracks when max |e| after the transient is at most this times the reference's
+#: peak (or this many output units for a zero reference), per output.
+PLANT_TRACKING_RTOL = 0.02
+_DIVERGED = 1e6
+
+
+def parameter_profile(
+    plant: UncertainPlant,
+    name: str,
+    kind: str = "constant",
+    *,
+    value: float | None = None,
+    period: float | None = None,
+    t_final: float = 10.0,
+    seed: int = 0,
+    path: str | os.PathLike[str] | None = None,
+    column: str | None = None,
+) -> Callable[[float], float]:
+    """A profile ``p(t)`` (in the parameter's unit) for parameter `name`.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    name : str
+        A parameter with a range.
+    kind : {'constant', 'sinusoid', 'ramp', 'random-walk', 'csv'}
+        ``constant``: `value` (default the nominal). ``sinusoid``: between the range's ends
+        with `period` (default: the fastest the rate bound allows, else 10 s), starting at
+        the lower end. ``ramp``: from the lower to the upper end at the rate bound (default:
+        over `t_final`), then held. ``random-walk``: slopes drawn uniformly within ± the rate
+        bound, redrawn every 0.1 of the range's traversal time, reflected at the ends
+        (needs a rate bound). ``csv``: column `column` of the CSV file `path` against its
+        column ``t`` (s), interpolated linearly and held beyond its ends.
+    value : float, optional
+    period : float, optional
+        s (> 0).
+    t_final : float
+        Horizon the profile must cover, s.
+    seed : int
+        Seed of the random walk.
+    path : path-like, optional
+    column : str, optional
+
+    Returns
+    -------
+    callable
+        ``p(t) -> float``.
+
+    Raises
+    ------
+    ArgumentValueError
+        For a fixed parameter, a value outside the range, a random walk without rate bound.
+    InputFileError
+        For a CSV file without the columns, or values outside the range.
+    """
+    check_choice("kind", kind, PROFILES)
+    param = plant.parameter(name)
+    lo, hi = param.range
+    t_final = check_real("t_final", t_final, positive=True)
+    if kind == "constant":
+        v = float(param.nominal) if value is None else check_real("value", value)  # type: ignore[arg-type]
+        if not lo <= v <= hi:
+            raise ArgumentValueError("value", f"must lie in {name}'s range [{lo:g}, {hi:g}] {param.unit}, found {v:g}")
+        return lambda t: v
+    if not param.varies:
+        raise ArgumentValueError("name", f"{name!r} is fixed at {lo:g} {param.unit}; a {kind} profile needs a range")
+    if kind == "sinusoid":
+        if period is None:
+            period = math.pi * (hi - lo) / param.rate if param.rate else 10.0
+        period = check_real("period", period, positive=True)
+        mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        return lambda t: mid - amp * math.cos(2 * math.pi * t / period)
+    if kind == "ramp":
+        rate = param.rate if param.rate else (hi - lo) / t_final
+        return lambda t: min(hi, lo + rate * max(t, 0.0))
+    if kind == "random-walk":
+        if not param.rate:
+            raise ArgumentValueError("kind", f"'random-walk' moves within {name}'s rate bound; {name} has none")
+        dwell = 0.1 * (hi - lo) / param.rate
+        n = int(math.ceil(t_final / dwell)) + 1
+        slopes = np.random.default_rng(check_int("seed", seed, 0)).uniform(-param.rate, param.rate, n)
+        knots = np.empty(n + 1)
+        knots[0] = float(param.nominal)  # type: ignore[arg-type]
+        for k in range(n):
+            nxt = knots[k] + slopes[k] * dwell
+            knots[k + 1] = 2 * hi - nxt if nxt > hi else (2 * lo - nxt if nxt < lo else nxt)
+        times = dwell * np.arange(n + 1)
+        return lambda t: float(np.interp(t, times, knots))
+    if path is None or column is None:
+        raise ArgumentValueError("path", "and `column` are needed by a 'csv' profile")
+    text_path = os.fspath(path)
+    try:
+        frame = pd.read_csv(text_path)
+    except (OSError, ValueError, csv.Error) as err:
+        raise InputFileError(f"{text_path!r}: cannot be read as CSV ({err})") from err
+    for key in ("t", column):
+        if key not in frame.columns:
+            raise InputFileError(f"{text_path!r}: missing column `{key}`; found {', '.join(map(str, frame.columns))}")
+    t_col = pd.to_numeric(frame["t"], errors="coerce").to_numpy(dtype=float)
+    v_col = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    if not (np.isfinite(t_col).all() and np.isfinite(v_col).all()) or t_col.size < 2 or np.any(np.diff(t_col) <= 0):
+        raise InputFileError(f"{text_path!r}: columns `t` (s, increasing) and `{column}` ({param.unit}) must hold at "
+                             "least two finite rows")
+    if v_col.min() < lo or v_col.max() > hi:
+        raise InputFileError(f"{text_path!r}: column `{column}` leaves {name}'s range [{lo:g}, {hi:g}] {param.unit} "
+                             f"(found [{v_col.min():g}, {v_col.max():g}])")
+    return lambda t: float(np.interp(t, t_col, v_col))
+
+
+@dataclass(frozen=True)
+class PlantRun:
+    """One closed-loop run of a plant.
+
+    Attributes
+    ----------
+    t : ndarray, shape (k,)
+        Times, s.
+    y : ndarray, shape (q, k)
+        Controlled outputs, in their units.
+    r : ndarray, shape (q, k)
+        Reference.
+    e : ndarray, shape (q, k)
+        ``r − y``.
+    u : ndarray, shape (m, k)
+        Controller outputs, in the inputs' units.
+    p : ndarray, shape (n_parameters, k)
+        Parameter values, in their units.
+    status : str
+        One of :data:`scara_robust.STATUSES`.
+    reason : str
+    max_abs_error : float
+        max |e| after the transient, over outputs.
+    peak_input : float
+        max |u| over the run.
+    max_rate : ndarray, shape (n_parameters,)
+        Largest |ṗ| of the profile, on the samples, unit/s.
+    labels : tuple of str
+        Column names with units, for :meth:`to_pandas`.
+    """
+
+    t: Array
+    y: Array
+    r: Array
+    e: Array
+    u: Array
+    p: Array
+    status: str
+    reason: str
+    max_abs_error: float
+    peak_input: float
+    max_rate: Array
+    labels: tuple[str, ...]
+
+    def to_pandas(self) -> pd.DataFrame:
+        """The time series, one column per signal with its unit (``t [s]``, ``angle [rad]``, ...).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        data = np.vstack([self.t[None], self.y, self.r, self.u, self.p]).T
+        return pd.DataFrame(data, columns=list(self.labels))
+
+
+def simulate_plant(
+    plant: UncertainPlant,
+    K: ArrayLike,
+    *,
+    profiles: Mapping[str, Callable[[float], float]] | None = None,
+    reference: tuple[ArrayLike, float] | None = None,
+    disturbance: ArrayLike | None = None,
+    t_final: float = 10.0,
+    n_points: int = 2001,
+    x0: ArrayLike | None = None,
+    t_transient: float | None = None,
+    tolerance: float | None = None,
+) -> PlantRun:
+    """Simulate the plant in closed loop with the gain K while its parameters follow `profiles`.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    K : array_like, shape (m, n)
+        Gain on the design form (a :class:`~scara_robust.Design`'s ``K``).
+    profiles : mapping of str to callable, optional
+        ``p(t)`` per parameter (:func:`parameter_profile`); the others stay nominal.
+    reference : (amplitude, omega), optional
+        ``r(t) = a·sin(ωt)`` per output, or a step of height a at t = 0 for ω = 0;
+        amplitude array_like, shape (q,), in the outputs' units, ω in rad/s (default: a
+        unit step). Not used for ``form='state'`` (regulation).
+    disturbance : array_like, shape (m,), optional
+        A constant input disturbance added from ``t_final/2`` on, in the inputs' units.
+    t_final : float
+        Horizon, s.
+    n_points : int
+        Output samples.
+    x0 : array_like, shape (n_x,), optional
+        Initial plant state (default zero).
+    t_transient : float, optional
+        Start of the tracking judgement, s (default ``t_final/4``; with a disturbance, the
+        judgement covers the whole interval after it, recovery included).
+    tolerance : float, optional
+        Largest max |e| after the transient that counts as tracking, in the outputs' units
+        (default :data:`PLANT_TRACKING_RTOL` times the reference's peak).
+
+    Returns
+    -------
+    PlantRun
+    """
+    n_x, m = plant.n_states, plant.n_inputs
+    n = plant.n_design_states
+    K = check_array("K", K, shape=(m, n))
+    t_final = check_real("t_final", t_final, positive=True)
+    n_points = check_int("n_points", n_points, 3)
+    profiles = dict(profiles or {})
+    for key in profiles:
+        check_choice("profiles", key, plant.names)
+    nominal = plant.nominal
+    q = len(plant.outputs)
+    if plant.form == "pid":
+        C = np.hstack([np.eye(q), np.zeros((q, n_x - q))])
+    elif plant.form == "integral":
+        assert plant.C is not None
+        C = np.asarray(plant.C)
+    else:
+        C = np.eye(n_x)
+    amp = np.ones(q) if reference is None else check_array("reference[0]", np.broadcast_to(reference[0], (q,)))
+    omega = 0.0 if reference is None else check_real("reference[1]", reference[1], nonnegative=True)
+    if plant.form == "state":
+        amp = np.zeros(q)
+    d = np.zeros(m) if disturbance is None else check_array("disturbance", disturbance, shape=(m,))
+    x_init = np.zeros(n_x) if x0 is None else check_array("x0", x0, shape=(n_x,))
+    t_on = 0.5 * t_final
+
+    def ref(t: float) -> tuple[Array, Array]:
+        if omega == 0.0:
+            return amp.copy(), np.zeros(q)
+        return amp * math.sin(omega * t), amp * omega * math.cos(omega * t)
+
+    def params_at(t: float) -> dict[str, float]:
+        return {k: (profiles[k](t) if k in profiles else v) for k, v in nominal.items()}
+
+    n_int = q if plant.form != "state" else 0
+
+    def control(t: float, x: Array, z: Array) -> Array:
+        r, rd = ref(t)
+        if plant.form == "pid":
+            e, ed = r - x[:q], rd - x[q:2 * q]
+            return np.asarray(-K @ np.concatenate([z, e, ed]))
+        if plant.form == "integral":
+            return np.asarray(-K @ np.concatenate([z, x]))
+        return np.asarray(-K @ x)
+
+    def update(t: float, xs: Array, u_in: Array, params: object) -> Array:
+        x, z = xs[:n_x], xs[n_x:]
+        A, B = plant.plant_matrices(params_at(t))
+        u = control(t, x, z) + (d if t >= t_on else 0.0)
+        dz = ref(t)[0] - C[:q] @ x if n_int else np.zeros(0)
+        return np.concatenate([A @ x + B @ u, dz])
+
+    sys = ct.nlsys(update, None, states=n_x + n_int, inputs=0, outputs=n_x + n_int, name=plant.name)
+    T = np.linspace(0.0, t_final, n_points)
+    try:
+        res = ct.input_output_response(sys, T, 0, np.concatenate([x_init, np.zeros(n_int)]),
+                                       solve_ivp_method="LSODA", solve_ivp_kwargs={"rtol": 1e-8, "atol": 1e-10})
+        states = np.asarray(res.states, dtype=float).reshape(n_x + n_int, -1)
+        ok, message = True, "integrated"
+    except (ValueError, RuntimeError, OverflowError) as err:  # python-control raises on a failed solve
+        states = np.full((n_x + n_int, T.size), np.nan)
+        ok, message = False, f"the integrator failed: {err}"
+    x, z = states[:n_x], states[n_x:]
+    r = np.array([ref(t)[0] for t in T]).T.reshape(q, -1)
+    y = C[:q] @ x if plant.form != "state" else x[:q]
+    e = r - y
+    u = np.array([control(t, x[:, k], z[:, k]) for k, t in enumerate(T)]).T.reshape(m, -1)
+    p = np.array([[params_at(t)[name] for t in T] for name in plant.names]).reshape(len(plant.names), -1)
+    rates = np.abs(np.diff(p, axis=1) / np.diff(T)).max(axis=1) if p.size else np.zeros(0)
+    peak_r = float(np.abs(amp).max()) if amp.size else 0.0
+    tol = (PLANT_TRACKING_RTOL * peak_r if peak_r > 0 else PLANT_TRACKING_RTOL) if tolerance is None else \
+        check_real("tolerance", tolerance, positive=True)
+    start = 0.25 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
+    after = T >= start
+    finite = bool(np.isfinite(states).all())
+    worst = float(np.abs(e[:, after]).max()) if finite else math.inf
+    scale = max(1.0, peak_r, float(np.abs(x_init).max()) if x_init.size else 0.0)
+    unit = plant.outputs[0].unit
+    if not ok:
+        status, reason = "failed", message
+    elif not finite or worst > _DIVERGED * scale:
+        status, reason = "diverged", f"the state grew beyond {_DIVERGED:g} times its scale"
+    elif worst <= tol:
+        status, reason = "tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} <= {tol:.3g} {unit}"
+    else:
+        status, reason = "not-tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} > {tol:.3g} {unit}"
+    assert status in STATUSES
+    labels = ("t [s]", *(f"{s.name} [{s.unit}]" for s in plant.outputs),
+              *(f"{s.name} reference [{s.unit}]" for s in plant.outputs),
+              *(f"{s.name} [{s.unit}]" for s in plant.inputs),
+              *(f"{prm.name} [{prm.unit}]" for prm in plant.parameters))
+    return PlantRun(T, y, r, e, u, p, status, reason, worst, float(np.abs(u).max()) if finite else math.inf,
+                    rates, labels)
