@@ -118,6 +118,7 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, plot_comparison, SIGNALS
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design
     plot_anti_windup                -- errors and torques under a torque limit, with and without anti-windup
+    plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
 """
 
 from .exceptions import *  # noqa: F403

@@ -15,7 +15,13 @@ the compiler does not contract or reorder floating-point operations (no ``-ffast
 ``-ffp-contract=off`` where FMA instructions are enabled). With ``derivative='filtered'``
 ``edot`` is not read and may be NULL.
 
-Units: e in rad, ė in rad/s, u in N·m, Ts in s.
+With ``precision='single'`` every ``double`` is a ``float`` (for boards whose FPU is
+single precision only), the constants are written with 9 significant digits (they read back
+as the same floats), and :func:`single_precision_step` is the Python step it matches to
+rounding: the same float32 operations in the same order.
+
+Units and names come from the plant (:class:`~scara_robust.Signal`): by default the SCARA's,
+e in rad, ė in rad/s, u in N·m; Ts in s.
 """
 
 from __future__ import annotations
@@ -24,18 +30,24 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from ._validation import check_choice, check_instance
+from ._validation import check_array, check_choice, check_instance
 from .exceptions import ArgumentValueError
 from .io import _umask
 from .lyapunov.discrete import DiscretePID
+from .model.plant import Signal
 
-__all__ = ["EXPORT_FORMATS", "controller_record", "c_source", "export_controller", "DEFAULT_PREFIX"]
+__all__ = ["EXPORT_FORMATS", "PRECISIONS", "controller_record", "c_source", "export_controller", "DEFAULT_PREFIX",
+           "single_precision_step"]
+
+#: Floating-point types of the C export.
+PRECISIONS = ("double", "single")
 
 #: Formats of :func:`export_controller`: ``'c'`` writes ``<prefix>.h`` and ``<prefix>.c``,
 #: ``'json'`` writes ``<prefix>.json``.
@@ -59,12 +71,38 @@ def _check_prefix(prefix: str) -> str:
     return prefix
 
 
-def controller_record(pid: DiscretePID, **metadata: Any) -> dict[str, Any]:
+def _signals(pid: DiscretePID, outputs: Sequence[Signal] | None,
+             inputs: Sequence[Signal] | None) -> tuple[tuple[Signal, ...], tuple[Signal, ...]]:
+    outs = tuple(outputs) if outputs else tuple(Signal(f"q{i + 1}", "rad") for i in range(pid.n_joints))
+    ins = tuple(inputs) if inputs else tuple(Signal(f"T{i + 1}", "N·m") for i in range(pid.n_torques))
+    if len(outs) != pid.n_joints:
+        raise ArgumentValueError("outputs", f"must name the PID's {pid.n_joints} errors, found {len(outs)}")
+    if len(ins) != pid.n_torques:
+        raise ArgumentValueError("inputs", f"must name the PID's {pid.n_torques} outputs, found {len(ins)}")
+    for k, sig in enumerate((*outs, *ins)):
+        check_instance(f"signals[{k}]", sig, Signal, "a Signal(name, unit)")
+    return outs, ins
+
+
+def _unit(units: Sequence[str]) -> str | list[str]:
+    return units[0] if len(set(units)) == 1 else list(units)
+
+
+def _per_second(unit: str) -> str:
+    return "1/s" if unit == "1" else f"{unit}/s"
+
+
+def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = None,
+                      inputs: Sequence[Signal] | None = None, **metadata: Any) -> dict[str, Any]:
     """Every gain, limit and matrix of the controller, as JSON-ready data.
 
     Parameters
     ----------
     pid : DiscretePID
+    outputs : sequence of Signal, optional
+        The controlled outputs, one per error (default the SCARA's joint angles, rad).
+    inputs : sequence of Signal, optional
+        The plant inputs the controller drives (default the SCARA's torques, N·m).
     **metadata
         Extra keys to record (e.g. ``rho``, ``eta``, the model's name).
 
@@ -72,11 +110,15 @@ def controller_record(pid: DiscretePID, **metadata: Any) -> dict[str, Any]:
     -------
     dict
         ``Ts`` (s), ``integrator``, ``derivative``, ``N`` (1/s), ``K_I``, ``K_P``, ``K_D``
-        (m × p lists), ``torque_limit`` (N·m, or None), ``tracking_time`` (s),
+        (m × p lists), ``torque_limit`` (the inputs' units, or None), ``tracking_time`` (s),
         ``anti_windup``, and the linear part ``A, B, C, D`` with the state and input
-        names, plus ``units`` and the `metadata`.
+        names, plus ``signals`` (names and units), ``units`` and the `metadata`.
     """
     check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    outs, ins = _signals(pid, outputs, inputs)
+    e_unit, u_unit = _unit([s.unit for s in outs]), _unit([s.unit for s in ins])
+    eu = e_unit if isinstance(e_unit, str) else "/".join(e_unit)
+    uu = u_unit if isinstance(u_unit, str) else "/".join(u_unit)
     A, B, C, D = pid.matrices()
     ss = pid.to_statespace()
     record: dict[str, Any] = {
@@ -102,24 +144,39 @@ def controller_record(pid: DiscretePID, **metadata: Any) -> dict[str, Any]:
         "states": list(ss.state_labels),
         "inputs": list(ss.input_labels),
         "outputs": list(ss.output_labels),
-        "units": {"e": "rad", "edot": "rad/s", "u": "N·m", "Ts": "s", "tracking_time": "s", "N": "1/s",
-                  "K_I": "N·m/(rad·s)", "K_P": "N·m/rad", "K_D": "N·m·s/rad", "z": "N·m"},
+        "signals": {"outputs": [{"name": s.name, "unit": s.unit} for s in outs],
+                    "inputs": [{"name": s.name, "unit": s.unit} for s in ins]},
+        "units": {"e": e_unit, "edot": _unit([_per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",
+                  "tracking_time": "s", "N": "1/s", "K_I": f"{uu}/({eu}·s)", "K_P": f"{uu}/{eu}",
+                  "K_D": f"{uu}·s/{eu}", "z": u_unit},
     }
     record.update(metadata)
     return record
 
 
-def _num(x: float) -> str:
+def _num(x: float, precision: str = "double") -> str:
+    if precision == "single":
+        text = f"{float(np.float32(x)):.9g}"
+        return (text if any(c in text for c in ".eEn") else text + ".0") + "f"
     text = f"{float(x):.17g}"
     return text if any(c in text for c in ".eEn") else text + ".0"
 
 
-def _matrix(name: str, M: np.ndarray) -> str:
-    rows = ",\n    ".join("{" + ", ".join(_num(v) for v in row) + "}" for row in M)
-    return f"static const double {name}[{M.shape[0]}][{M.shape[1]}] = {{\n    {rows}\n}};\n"
+def _matrix(name: str, M: np.ndarray, precision: str = "double") -> str:
+    ctype = "float" if precision == "single" else "double"
+    rows = ",\n    ".join("{" + ", ".join(_num(v, precision) for v in row) + "}" for row in M)
+    return f"static const {ctype} {name}[{M.shape[0]}][{M.shape[1]}] = {{\n    {rows}\n}};\n"
 
 
-def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str] = ()) -> tuple[str, str]:
+def c_source(
+    pid: DiscretePID,
+    prefix: str = DEFAULT_PREFIX,
+    notes: Sequence[str] = (),
+    *,
+    outputs: Sequence[Signal] | None = None,
+    inputs: Sequence[Signal] | None = None,
+    precision: str = "double",
+) -> tuple[str, str]:
     """The C99 header and source of the controller.
 
     Parameters
@@ -129,6 +186,11 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str
         C identifier that starts every exported name (and the file names).
     notes : sequence of str
         Lines for the header's opening comment (the sampled-data certificate, a warning).
+    outputs, inputs : sequence of Signal, optional
+        Names and units of the controlled outputs (the errors' signals) and of the
+        inputs driven, for the comments (default: the SCARA's, rad and N·m).
+    precision : {'double', 'single'}
+        The C floating-point type.
 
     Returns
     -------
@@ -137,6 +199,13 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str
     """
     check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
     prefix = _check_prefix(prefix)
+    check_choice("precision", precision, PRECISIONS)
+    outs, ins = _signals(pid, outputs, inputs)
+    T = "float" if precision == "single" else "double"
+
+    def num(x: float) -> str:
+        return _num(x, precision)
+
     A, B, C, D = pid.matrices()
     p, m, nz = pid.n_joints, pid.n_torques, A.shape[0]
     up = prefix.upper()
@@ -144,16 +213,24 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str
     limited = pid.torque_limit is not None
     windup = limited and pid.anti_windup
     guard = f"{up}_H"
+    u_units = _unit([s.unit for s in ins])
+    limit_unit = u_units if isinstance(u_units, str) else "/".join(u_units)
     settings = (
         f"Ts = {_num(pid.Ts)} s, integrator {pid.integrator}, derivative {pid.derivative}"
         + ("" if measured else f" (N = {_num(pid.N)} 1/s)")
-        + (f", torque limit {[float(v) for v in np.asarray(pid.torque_limit)]} N·m" if limited else ", no torque limit")
+        + (f", output limit {[float(v) for v in np.asarray(pid.torque_limit)]} {limit_unit}" if limited
+           else ", no output limit")
         + (f", back-calculation T_t = {[float(v) for v in np.asarray(pid.tracking_time)]} s" if windup else "")
+        + f", {precision} precision"
     )
     noted = "".join(f" * {line.replace('*/', '* /')}\n" for note in notes for line in note.splitlines())
+    errors = ", ".join(f"{s.name} [{s.unit}]" for s in outs)
+    rates = ", ".join(f"d{s.name}/dt [{_per_second(s.unit)}]" for s in outs)
+    driven = ", ".join(f"{s.name} [{s.unit}]" for s in ins)
     header = f"""/* {prefix}.h: discrete-time PID exported by scara_robust.
 {noted} * {settings}.
- * e = r - q [rad], edot = rdot - qdot [rad/s], u = joint torques [N·m].
+ * e[j] = reference - measured for {errors}; edot[j] = the same for {rates}.
+ * u = {driven}.
  * Call {prefix}_init once, then {prefix}_step once per sample; hold u until the next sample.
  * Compile without -ffast-math (and with -ffp-contract=off where FMA is enabled) to match
  * the Python controller to rounding. No dynamic allocation.
@@ -167,11 +244,11 @@ def c_source(pid: DiscretePID, prefix: str = DEFAULT_PREFIX, notes: Sequence[str
 #define {up}_TS {_num(pid.Ts)}
 
 typedef struct {{
-    double z[{nz}]; /* integral term w [N·m]{", then derivative filter state [N·m]" if not measured else ""} */
+    {T} z[{nz}]; /* integral term w [{limit_unit}]{", then derivative filter state" if not measured else ""} */
 }} {prefix}_state;
 
 void {prefix}_init({prefix}_state *s);
-void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}], double u[{m}]);
+void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T} u[{m}]);
 
 #endif /* {guard} */
 """
@@ -182,12 +259,13 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
     )
     unused = "" if measured else "    (void)edot; /* not read: the derivative is a filtered difference of e */\n"
     n_y = 2 * p if measured else p
-    consts = _matrix("A", A) + _matrix("B", B[:, :n_y]) + _matrix("C", C) + _matrix("D", D[:, :n_y])
+    consts = (_matrix("A", A, precision) + _matrix("B", B[:, :n_y], precision) + _matrix("C", C, precision)
+              + _matrix("D", D[:, :n_y], precision))
     if limited:
-        consts += f"static const double LIMIT[{m}] = {{{', '.join(_num(v) for v in np.asarray(pid.torque_limit))}}};\n"
+        consts += f"static const {T} LIMIT[{m}] = {{{', '.join(num(v) for v in np.asarray(pid.torque_limit))}}};\n"
     if windup:
         gains = [pid.Ts / float(t) for t in np.asarray(pid.tracking_time)]
-        consts += f"static const double AW[{m}] = {{{', '.join(_num(g) for g in gains)}}}; /* Ts / T_t */\n"
+        consts += f"static const {T} AW[{m}] = {{{', '.join(num(g) for g in gains)}}}; /* Ts / T_t */\n"
     clip = (
         "        x = v[i];\n        if (x < -LIMIT[i]) x = -LIMIT[i];\n        if (x > LIMIT[i]) x = LIMIT[i];\n"
         "        u[i] = x;\n"
@@ -195,6 +273,7 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
         else "        u[i] = v[i];\n"
     )
     aw = f"        if (i < {m}) acc += AW[i] * (u[i] - v[i]);\n" if windup else ""
+    zero = num(0.0)
     source = f"""/* {prefix}.c: discrete-time PID exported by scara_robust ({settings}). */
 #include <string.h>
 #include "{prefix}.h"
@@ -205,13 +284,13 @@ void {prefix}_init({prefix}_state *s)
     memset(s->z, 0, sizeof s->z);
 }}
 
-void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}], double u[{m}])
+void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T} u[{m}])
 {{
-    double y[{n_y}], v[{m}], z[{nz}], acc{", x" if limited else ""};
+    {T} y[{n_y}], v[{m}], z[{nz}], acc{", x" if limited else ""};
     int i, j;
 {y_fill}{unused}\
     for (i = 0; i < {m}; ++i) {{
-        acc = 0.0;
+        acc = {zero};
         for (j = 0; j < {nz}; ++j) acc += C[i][j] * s->z[j];
         for (j = 0; j < {n_y}; ++j) acc += D[i][j] * y[j];
         v[i] = acc;
@@ -219,7 +298,7 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
     for (i = 0; i < {m}; ++i) {{
 {clip}    }}
     for (i = 0; i < {nz}; ++i) {{
-        acc = 0.0;
+        acc = {zero};
         for (j = 0; j < {nz}; ++j) acc += A[i][j] * s->z[j];
         for (j = 0; j < {n_y}; ++j) acc += B[i][j] * y[j];
 {aw}        z[i] = acc;
@@ -230,6 +309,74 @@ void {prefix}_step({prefix}_state *s, const double e[{p}], const double edot[{p}
     return header, source
 
 
+def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.float32]]:
+    """The step of the single-precision C export, in Python: float32 operations in the C's order.
+
+    Each product and sum is rounded to float32 as C evaluates ``float`` arithmetic
+    (``FLT_EVAL_METHOD == 0``, no contraction), on the constants the C source holds.
+
+    Parameters
+    ----------
+    pid : DiscretePID
+
+    Returns
+    -------
+    callable
+        ``step(e, edot) -> u``: e and edot array_like, shape (p,) (edot ignored with
+        ``derivative='filtered'``), u float32, shape (m,); the state starts at zero.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> step = sr.single_precision_step(sr.design(sr.paper_model(), 3, 90).discretize(1e-3))
+    >>> step([0.1, 0.0], [0.0, 0.0]).dtype
+    dtype('float32')
+    """
+    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    f32 = np.float32
+    A, B, C, D = (np.asarray(M, dtype=f32) for M in pid.matrices())
+    p, m, nz = pid.n_joints, pid.n_torques, A.shape[0]
+    measured = pid.derivative == "measured"
+    limit = None if pid.torque_limit is None else np.asarray(pid.torque_limit, dtype=f32)
+    windup = limit is not None and pid.anti_windup
+    aw = np.array([pid.Ts / float(t) for t in np.asarray(pid.tracking_time)], dtype=f32) if windup else None
+    state = [f32(0.0)] * nz
+
+    def step(e: Any, edot: Any = None) -> NDArray[np.float32]:
+        e32 = check_array("e", e, shape=(p,)).astype(f32)
+        y = list(e32)
+        if measured:
+            y += list(check_array("edot", edot, shape=(p,)).astype(f32))
+        v, u = [], []
+        for i in range(m):
+            acc = f32(0.0)
+            for j in range(nz):
+                acc = f32(acc + f32(C[i, j] * state[j]))
+            for j in range(len(y)):
+                acc = f32(acc + f32(D[i, j] * y[j]))
+            v.append(acc)
+        for i in range(m):
+            x = v[i]
+            if limit is not None:
+                x = -limit[i] if x < -limit[i] else x
+                x = limit[i] if x > limit[i] else x
+            u.append(f32(x))
+        new = []
+        for i in range(nz):
+            acc = f32(0.0)
+            for j in range(nz):
+                acc = f32(acc + f32(A[i, j] * state[j]))
+            for j in range(len(y)):
+                acc = f32(acc + f32(B[i, j] * y[j]))
+            if aw is not None and i < m:
+                acc = f32(acc + f32(aw[i] * f32(u[i] - v[i])))
+            new.append(acc)
+        state[:] = new
+        return np.array(u, dtype=f32)
+
+    return step
+
+
 def export_controller(
     pid: DiscretePID,
     folder: str | os.PathLike[str],
@@ -238,6 +385,9 @@ def export_controller(
     prefix: str = DEFAULT_PREFIX,
     metadata: dict[str, Any] | None = None,
     notes: Sequence[str] = (),
+    outputs: Sequence[Signal] | None = None,
+    inputs: Sequence[Signal] | None = None,
+    precision: str = "double",
 ) -> list[Path]:
     """Write the controller into `folder`: all files or none.
 
@@ -256,6 +406,10 @@ def export_controller(
     notes : sequence of str
         Lines for the C header's opening comment (see :func:`c_source`) and, in JSON,
         the record's ``notes``.
+    outputs, inputs : sequence of Signal, optional
+        Names and units (default: the SCARA's), see :func:`c_source`.
+    precision : {'double', 'single'}
+        The C floating-point type (the JSON record says which the C would use).
 
     Returns
     -------
@@ -281,10 +435,12 @@ def export_controller(
     if not target.is_dir():
         raise NotADirectoryError(20, "not an existing folder", str(target))
     if format == "c":
-        header, source = c_source(pid, prefix, notes)
+        header, source = c_source(pid, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
         contents = {f"{prefix}.h": header, f"{prefix}.c": source}
     else:
-        record = controller_record(pid, **(metadata or {}), **({"notes": list(notes)} if notes else {}))
+        check_choice("precision", precision, PRECISIONS)
+        record = controller_record(pid, outputs=outputs, inputs=inputs, **(metadata or {}),
+                                   **({"notes": list(notes)} if notes else {}))
         contents = {f"{prefix}.json": json.dumps(record, indent=2) + "\n"}
     temps: list[str] = []
     try:

@@ -19,6 +19,8 @@ from .paper import PAPER_TRANSIENT
 
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
+    from .model.plant import UncertainPlant
+    from .simulation.plants import PlantRun
     from .simulation.run import SimulationResult
     from .studies.antiwindup import AntiWindupStudy
 
@@ -32,6 +34,7 @@ __all__ = [
     "plot_margin_map",
     "plot_margin_bracket",
     "plot_anti_windup",
+    "plot_plant_run",
     "SIGNALS",
 ]
 
@@ -804,4 +807,65 @@ def plot_anti_windup(study: AntiWindupStudy, torque_limit: float, *, t_torque: f
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(f"Sampled PID (Ts = {study.sample_time * 1e3:g} ms) under a torque limit "
                  "(the no-limit torque leaves the window at the start)", fontsize=10)
+    return fig
+
+
+def plot_plant_run(run: PlantRun, plant: UncertainPlant, *, title: str | None = None) -> Any:
+    """Panels for one run of a plant: outputs and references, the tracking errors, the inputs, the parameters.
+
+    Parameters
+    ----------
+    run : PlantRun
+        From :func:`scara_robust.simulate_plant`.
+    plant : UncertainPlant
+        The plant simulated (names and units of the signals).
+    title : str, optional
+        Figure title (default: the plant's name and the run's status).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    varying = [k for k, p in enumerate(plant.parameters) if p.varies]
+    n_panels = 3 + (1 if varying else 0)
+    fig, axes = plt.subplots(n_panels, 1, figsize=(9, 2.2 * n_panels + 0.6), sharex=True, layout="constrained")
+    t = run.t
+    out_ax, err_ax, in_ax = axes[0], axes[1], axes[2]
+    for k, sig in enumerate(plant.outputs):
+        out_ax.plot(t, run.y[k], label=f"{sig.name} [{sig.unit}]")
+        out_ax.plot(t, run.r[k], ":", label=f"{sig.name} reference [{sig.unit}]")
+        err_ax.plot(t, run.e[k], label=f"e = {sig.name} reference − {sig.name} [{sig.unit}]")
+    units = sorted({s.unit for s in plant.outputs})
+    out_ax.set_ylabel(f"output [{', '.join(units)}]")
+    err_ax.set_ylabel(f"tracking error [{', '.join(units)}]")
+    err_ax.axhline(0.0, color="0.6", lw=0.8)
+    # an initial kick (a step reference through K_P) would flatten the rest: scale to the
+    # inputs after the first 5 % of the run and name the peak in the legend
+    late = t >= t[0] + 0.05 * (t[-1] - t[0])
+    late_lo, late_hi = float(run.u[:, late].min()), float(run.u[:, late].max())
+    span = max(late_hi - late_lo, 1e-12 * max(1.0, float(np.abs(run.u).max())))
+    clip = bool(np.abs(run.u).max() > max(abs(late_lo), abs(late_hi)) + 2 * span)
+    for k, sig in enumerate(plant.inputs):
+        peak = int(np.argmax(np.abs(run.u[k])))
+        note = f" (peak {run.u[k, peak]:.3g} {sig.unit} at t = {t[peak]:.3g} s, off scale)" if clip else ""
+        in_ax.plot(t, run.u[k], label=f"{sig.name} [{sig.unit}]{note}")
+    if clip:
+        in_ax.set_ylim(late_lo - 0.25 * span, late_hi + 0.25 * span)
+    in_ax.set_ylabel(f"input [{', '.join(sorted({s.unit for s in plant.inputs}))}]")
+    for ax in (out_ax, err_ax, in_ax):
+        _legend_right(ax)
+    if varying:
+        p_ax = axes[3]
+        for k in varying:
+            prm = plant.parameters[k]
+            p_ax.plot(t, run.p[k], label=f"{prm.name} [{prm.unit}]")
+            p_ax.axhline(prm.range[0], color="0.6", ls="--", lw=0.8)
+            p_ax.axhline(prm.range[1], color="0.6", ls="--", lw=0.8, label=f"{prm.name} range [{prm.unit}]")
+        p_ax.set_ylabel("parameter [" + ", ".join(plant.parameters[k].unit for k in varying) + "]")
+        _legend_right(p_ax)
+    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlim(t[0], t[-1])
+    fig.suptitle(title or f"{plant.name}: {run.status}")
     return fig

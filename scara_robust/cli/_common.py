@@ -401,8 +401,8 @@ def add_setup_options(
         p.add_argument(
             "--model",
             metavar="FILE",
-            help="your own plant instead of the SCARA: an interval model or a polytope (.toml/.json, see "
-            "examples/plant-dc-motor.toml and examples/plant-polytope.toml)",
+            help="your own plant instead of the SCARA: physical parameters, an interval model or a polytope "
+            "(.toml/.json, see examples/plant-dc-motor.toml, examples/plant-polytope.toml)",
         )
     if bounds:
         p.add_argument(

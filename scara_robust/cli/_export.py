@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, _check_prefix, export_controller
+from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, PRECISIONS, _check_prefix, export_controller
 from ..io import load_design
 from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..lyapunov.gain import design
-from ..model.uncertain import UncertainLTVModel, physical_samples
+from ..model.plant import as_model, as_plant
 from ..robustness.sampled import check_sample_time, interior_grid
 from ._common import (
     CommandLineError,
@@ -22,7 +22,7 @@ from ._common import (
     finite_float,
     per_joint_values,
     resolve_bounds,
-    resolve_model,
+    resolve_plant,
     resolve_setup,
 )
 
@@ -64,7 +64,11 @@ def add_parser(sub: Any) -> None:
                    help="write the controller even where the sampled-data certificate fails at --ts (the header "
                    "and the JSON say so); by default such a Ts is refused")
     p.add_argument("--format", choices=EXPORT_FORMATS, default="c")
-    p.add_argument("--prefix", default=DEFAULT_PREFIX, help=f"C identifier of the names and files ({DEFAULT_PREFIX})")
+    p.add_argument("--prefix", default=None,
+                   help=f"C identifier of the names and files (default: the plant file's `prefix`, {DEFAULT_PREFIX} "
+                   "for the robot)")
+    p.add_argument("--precision", choices=PRECISIONS, default="double",
+                   help="C floating-point type: double (default) or single, for a single-precision FPU")
     p.add_argument("--output", dest="folder", metavar="DIR", required=True, help="existing, writable folder")
     p.set_defaults(func=run)
 
@@ -85,19 +89,24 @@ def _check_folder(folder: str) -> None:
 CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
 
 
-def _plant_set(args: argparse.Namespace, setup: Any, model: Any) -> tuple[Any, Any, str]:
+def _plant_set(args: argparse.Namespace, plant: Any, model: Any) -> tuple[Any, Any, str]:
     """The plants the sampled-data certificate runs on, a second set to verify on, and their name."""
+    physical = as_plant("model", plant)
+    if args.model is not None and physical is not None:
+        on, fine = physical.samples(), physical.samples(physical.fine_points())
+        return (on.A, on.B), (fine.A, fine.B), (
+            f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
+            f"{fine.n_samples})")
     if args.model is not None:
-        if isinstance(model, UncertainLTVModel):
+        if model.kind == "box":
             grid = interior_grid(model)
             return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "
                                  f"(verified on a {len(grid[0])}-plant grid of the box)")
         return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
-    times = np.linspace(0.0, 2 * np.pi, CERTIFICATE_GRID[0])
-    plants = physical_samples(setup.params, setup.reference, setup.payload, times=times, n_masses=CERTIFICATE_GRID[1])
-    check = physical_samples(setup.params, setup.reference, setup.payload,
-                             times=np.linspace(0.0, 2 * np.pi, CERTIFICATE_CHECK_GRID[0]),
-                             n_masses=CERTIFICATE_CHECK_GRID[1])
+    assert physical is not None
+    coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
+    fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
+    plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
     robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
     return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
                            f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
@@ -123,13 +132,18 @@ def run(args: argparse.Namespace) -> str:
         with an unstable frozen plant.
     """
     _check_folder(args.folder)  # before any computation
-    _check_prefix(args.prefix)
+    if args.prefix is not None:
+        _check_prefix(args.prefix)
     if args.design is not None and (args.rho is not None or args.eta is not None):
         raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
     if args.design is None and (args.rho is None or args.eta is None):
         raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
     setup = resolve_setup(args)
-    model = resolve_model(args, setup)
+    plant = resolve_plant(args, setup)
+    model = as_model("model", plant)
+    physical = as_plant("model", plant)
+    prefix = args.prefix or (physical.prefix if physical is not None else DEFAULT_PREFIX)
+    signals: dict[str, Any] = {} if physical is None else {"outputs": physical.outputs, "inputs": physical.inputs}
     options = {"integrator": args.integrator, "derivative": args.derivative, "N": args.filter_n,
                "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
                "anti_windup": not args.no_anti_windup}
@@ -149,7 +163,7 @@ def run(args: argparse.Namespace) -> str:
         pid = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
-    plants, check, set_name = _plant_set(args, setup, model)
+    plants, check, set_name = _plant_set(args, plant, model)
     result = check_sample_time(plants, pid, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
         raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
@@ -160,8 +174,11 @@ def run(args: argparse.Namespace) -> str:
         notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
                         "without your own analysis.")
     source = f"model {model.name}" if args.model is not None else f"bounds {resolve_bounds(args, setup)}"
-    files = export_controller(pid, args.folder, format=args.format, prefix=args.prefix, metadata=meta, notes=notes)
-    lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}",
+    meta["precision"] = args.precision
+    files = export_controller(pid, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
+                              precision=args.precision, **signals)
+    lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
+             f"{args.precision} precision",
              ("" if result.certified else "WARNING: not certified; ") + result.message]
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]

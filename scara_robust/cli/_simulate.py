@@ -12,11 +12,13 @@ import numpy as np
 from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
+from ..model.plant import as_model, as_plant
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
-from ..plotting import plot_response
+from ..plotting import plot_plant_run, plot_response
 from ..simulation.controllers import CONTROLLERS
 from ..simulation.engines import ENGINES
 from ..simulation.metrics import TRACKING_TOLERANCE
+from ..simulation.plants import PLANT_TRACKING_RTOL
 from ..simulation.run import SimulationResult, run_scenario
 from ..studies.campaign.inputs import replay_scenario
 from ..studies.campaign.runner import read_results
@@ -28,10 +30,12 @@ from ._common import (
     per_joint_values,
     resolve_design,
     resolve_model,
+    resolve_plant,
     resolve_setup,
     save_figure,
     write_text,
 )
+from ._plant_run import add_plant_run_options, plant_run, summary
 
 __all__ = ["add_parser", "run"]
 
@@ -51,7 +55,11 @@ def add_parser(sub: Any) -> None:
         help="default pid; with --from-campaign, the table's first controller",
     )
     add_design_option(p)
-    add_setup_options(p)
+    add_setup_options(p, model=True)
+    p.add_argument("--rho", type=finite_float, default=None,
+                   help="with --model: design parameter rho > 0 (or --design)")
+    p.add_argument("--eta", type=finite_float, default=None, help="with --model: design parameter eta >= 1")
+    add_plant_run_options(p)
     p.add_argument("--payload", choices=("on", "off"), default=None, help="payload m_p(t) on (default) or off")
     p.add_argument(
         "--t-final",
@@ -77,8 +85,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--tolerance",
         type=finite_float,
-        default=TRACKING_TOLERANCE,
-        help=f"max |e| after the transient, rad, for the run to count as tracking (default {TRACKING_TOLERANCE:g})",
+        default=None,
+        help=f"max |e| after the transient for the run to count as tracking: rad for the robot (default "
+        f"{TRACKING_TOLERANCE:g}), the outputs' units with --model (default {PLANT_TRACKING_RTOL:g} x the reference)",
     )
     p.add_argument(
         "--format",
@@ -132,8 +141,17 @@ def run(args: argparse.Namespace) -> str:
         limit = args.torque_limit
         if min(limit) <= 0:
             raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {limit[0] if len(limit) == 1 else limit}")
-    if args.tolerance <= 0:
-        raise CommandLineError(f"`--tolerance` must be > 0 rad, found {args.tolerance}")
+    if args.tolerance is not None and args.tolerance <= 0:
+        raise CommandLineError(f"`--tolerance` must be > 0, found {args.tolerance}")
+    if args.model is not None:
+        return _run_plant(args)
+    plant_only = [o for o in ("rho", "eta") if getattr(args, o) is not None]
+    plant_only += [o for o, default in (("profile", "constant"), ("reference", "1")) if getattr(args, o) != default]
+    plant_only += [o for o in ("parameter", "disturbance") if getattr(args, o) is not None]
+    if plant_only:
+        raise CommandLineError(f"`--{plant_only[0]}` describes a run of --model's plant; the robot's runs take "
+                               "--design, --scenario and --payload")
+    args.tolerance = TRACKING_TOLERANCE if args.tolerance is None else args.tolerance
     loaded = None
     if args.from_campaign is not None:
         res = _replay(args)
@@ -236,3 +254,51 @@ def _replay(args: argparse.Namespace) -> SimulationResult:
         if err.argument != "results":
             raise
         raise CommandLineError(f"`--from-campaign` {path!r} {err.problem}") from err
+
+
+def _run_plant(args: argparse.Namespace) -> str:
+    """``simulate --model F``: the plant file's closed loop under the chosen parameter profile."""
+    robot_only = [o for o in ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
+                  if getattr(args, o, None) is not None]
+    if robot_only:
+        raise CommandLineError(f"`--{robot_only[0].replace('_', '-')}` is an option of the robot's runs; it cannot go "
+                               "with --model")
+    setup = resolve_setup(args)
+    plant = as_plant("model", resolve_plant(args, setup))
+    if plant is None:
+        raise CommandLineError("`--model` must have [parameters] to be simulated (a plant file with physical "
+                               "parameters); this file describes only the uncertainty set")
+    loaded = resolve_design(args)
+    if loaded is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if loaded is None and (args.rho is None or args.eta is None):
+        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
+    if loaded is not None:
+        n = plant.n_design_states
+        if loaded.K.shape != (plant.n_inputs, n):
+            raise CommandLineError(f"`--design` {loaded.path!r}: field `K` must have shape ({plant.n_inputs}, {n}) for "
+                                   f"this plant, found {loaded.K.shape}")
+        K, gain = loaded.K, f"gain of {loaded.path!r}"
+    else:
+        d = design(as_model("model", plant), args.rho, args.eta)
+        K, gain = d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
+    t_final = 20.0 if args.t_final is None else args.t_final
+    run_ = plant_run(args, plant, K, t_final)
+    files = []
+    if args.plot is not None:
+        save_figure("--plot", args.plot, plot_plant_run(run_, plant))
+        files.append(f"figure: {args.plot}")
+    frame = run_.to_pandas()
+    if args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json")):
+        series = json.dumps({"plant": plant.name, "status": run_.status, "status_reason": run_.reason,
+                             "max_abs_error": run_.max_abs_error, "series": frame.to_dict(orient="list")})
+    else:
+        series = str(frame.to_csv(index=False))
+    if args.series_output is not None:
+        write_text("--output", args.series_output, series)
+        files.append(f"time series: {args.series_output}")
+    elif args.format != "text":
+        return series
+    head = f"{plant.name}, {gain}, {t_final:g} s, profile {args.profile}"
+    return "\n".join([*summary(run_, plant, head),
+                      *(files or ["time series: not written (use --output FILE or --format csv|json)"])])

@@ -222,7 +222,7 @@ def simulate_plant(
         amplitude array_like, shape (q,), in the outputs' units, ω in rad/s (default: a
         unit step). Not used for ``form='state'`` (regulation).
     disturbance : array_like, shape (m,), optional
-        A constant input disturbance added from ``t_final/2`` on, in the inputs' units.
+        A constant input disturbance added from ``t_final/4`` on, in the inputs' units.
     t_final : float
         Horizon, s.
     n_points : int
@@ -230,8 +230,8 @@ def simulate_plant(
     x0 : array_like, shape (n_x,), optional
         Initial plant state (default zero).
     t_transient : float, optional
-        Start of the tracking judgement, s (default ``t_final/4``; with a disturbance, the
-        judgement covers the whole interval after it, recovery included).
+        Start of the tracking judgement, s (default ``t_final/2``: the second half of the
+        run, after the disturbance has acted for a quarter of it).
     tolerance : float, optional
         Largest max |e| after the transient that counts as tracking, in the outputs' units
         (default :data:`PLANT_TRACKING_RTOL` times the reference's peak).
@@ -263,7 +263,7 @@ def simulate_plant(
         amp = np.zeros(q)
     d = np.zeros(m) if disturbance is None else check_array("disturbance", disturbance, shape=(m,))
     x_init = np.zeros(n_x) if x0 is None else check_array("x0", x0, shape=(n_x,))
-    t_on = 0.5 * t_final
+    t_on = 0.25 * t_final
 
     def ref(t: float) -> tuple[Array, Array]:
         if omega == 0.0:
@@ -311,7 +311,7 @@ def simulate_plant(
     peak_r = float(np.abs(amp).max()) if amp.size else 0.0
     tol = (PLANT_TRACKING_RTOL * peak_r if peak_r > 0 else PLANT_TRACKING_RTOL) if tolerance is None else \
         check_real("tolerance", tolerance, positive=True)
-    start = 0.25 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
+    start = 0.5 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
     after = T >= start
     finite = bool(np.isfinite(states).all())
     worst = float(np.abs(e[:, after]).max()) if finite else math.inf

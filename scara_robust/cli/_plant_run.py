@@ -1,0 +1,161 @@
+"""``simulate --model F`` and ``compare --model F``: runs of a plant file's closed loop."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import ArgumentError, InputFileError
+from ..model.plant import UncertainPlant
+from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
+from ._common import CommandLineError
+
+__all__ = ["add_plant_run_options", "plant_profiles", "plant_run", "summary"]
+
+
+def add_plant_run_options(p: argparse.ArgumentParser) -> None:
+    """Options of a plant file's run (``--profile``, ``--parameter``, ``--reference``, ``--disturbance``).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    """
+    p.add_argument("--profile", default="constant", metavar="SPEC",
+                   help="with --model: how the parameter varies: constant[:VALUE], sinusoid[:PERIOD_S], ramp, "
+                   "random-walk[:SEED] (within its rate bound) or FILE.csv:COLUMN (against column t, s); default "
+                   "constant at the nominal")
+    p.add_argument("--parameter", default=None, metavar="NAME",
+                   help="with --model: the parameter --profile drives (default: the one with a rate bound, else the "
+                   "last with a range)")
+    p.add_argument("--reference", default="1", metavar="A[,OMEGA]",
+                   help="with --model: reference a·sin(omega t) per output, in the outputs' units and rad/s; "
+                   "OMEGA 0 or absent: a step of height A (default 1)")
+    p.add_argument("--disturbance", default=None, metavar="D[,D2,...]",
+                   help="with --model: constant input disturbance from t_final/4 on, in the inputs' units")
+
+
+def _floats(option: str, text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise CommandLineError(f"`{option}` must be numbers separated by commas, found {text!r}") from None
+    if not all(np.isfinite(values)):
+        raise CommandLineError(f"`{option}` must be finite, found {text!r}")
+    return values
+
+
+def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: float) -> tuple[str, dict[str, Any]]:
+    """The parameter driven and its profile, from ``--parameter`` and ``--profile``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant
+    t_final : float
+        Horizon, s.
+
+    Returns
+    -------
+    name : str
+    profiles : dict
+        ``{name: p(t)}``.
+    """
+    varying = [p.name for p in plant.varying]
+    if not varying:
+        return "", {}
+    name = args.parameter
+    if name is None:
+        rated = [p.name for p in plant.varying if p.rate is not None]
+        name = rated[0] if rated else varying[-1]
+    elif name not in plant.names:
+        raise CommandLineError(f"`--parameter` must be one of {', '.join(plant.names)}, found {name!r}")
+    kind, _, rest = args.profile.partition(":")
+    kwargs: dict[str, Any] = {"t_final": t_final}
+    if kind.lower().endswith(".csv"):
+        if not rest:
+            raise CommandLineError(f"`--profile` FILE.csv:COLUMN names a column, found {args.profile!r}")
+        kwargs.update(path=kind, column=rest)
+        kind = "csv"
+    elif kind not in PROFILES or kind == "csv":
+        raise CommandLineError(f"`--profile` must be constant[:VALUE], sinusoid[:PERIOD_S], ramp, random-walk[:SEED] "
+                               f"or FILE.csv:COLUMN, found {args.profile!r}")
+    elif rest:
+        if kind == "ramp":
+            raise CommandLineError(f"`--profile` ramp takes no value (it runs at the rate bound), found "
+                                   f"{args.profile!r}")
+        value = _floats("--profile", rest)[0]
+        key = {"constant": "value", "sinusoid": "period", "random-walk": "seed"}[kind]
+        if key == "seed":
+            if value != int(value) or value < 0:
+                raise CommandLineError(f"`--profile` random-walk:SEED takes an integer >= 0, found {rest!r}")
+            kwargs[key] = int(value)
+        else:
+            kwargs[key] = value
+    try:
+        profile = parameter_profile(plant, name, kind, **kwargs)
+    except InputFileError as err:
+        raise CommandLineError(f"`--profile` {err}") from err
+    except OSError as err:
+        raise CommandLineError(f"`--profile` {kwargs.get('path')!r}: {err.strerror or err}") from err
+    except ArgumentError as err:
+        raise CommandLineError(f"`--profile` {args.profile!r}: `{err.argument}` {err.problem}") from err
+    return name, {name: profile}
+
+
+def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: float) -> PlantRun:
+    """Simulate the plant with gain K under the options' profile, reference and disturbance.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant
+    K : ndarray, shape (m, n)
+    t_final : float
+
+    Returns
+    -------
+    PlantRun
+    """
+    _, profiles = plant_profiles(args, plant, t_final)
+    ref = _floats("--reference", args.reference)
+    if len(ref) > 2:
+        raise CommandLineError(f"`--reference` is A or A,OMEGA, found {args.reference!r}")
+    if len(ref) == 2 and ref[1] < 0:
+        raise CommandLineError(f"`--reference` OMEGA must be >= 0 rad/s, found {ref[1]:g}")
+    dist = None
+    if args.disturbance is not None:
+        values = _floats("--disturbance", args.disturbance)
+        m = plant.n_inputs
+        if len(values) not in (1, m):
+            raise CommandLineError(f"`--disturbance` takes 1 or {m} values (one per input), found {len(values)}")
+        dist = np.broadcast_to(values, (m,)).astype(float)
+    return simulate_plant(plant, K, profiles=profiles, reference=(ref[0], ref[1] if len(ref) == 2 else 0.0),
+                          disturbance=dist, t_final=t_final, tolerance=args.tolerance)
+
+
+def summary(run: PlantRun, plant: UncertainPlant, head: str) -> list[str]:
+    """Lines summarizing a plant run: status, errors and inputs with units, parameter ranges and rates.
+
+    Parameters
+    ----------
+    run : PlantRun
+    plant : UncertainPlant
+    head : str
+        The first line.
+
+    Returns
+    -------
+    list of str
+    """
+    out_unit = plant.outputs[0].unit
+    lines = [head, f"status: {run.status} ({run.reason})",
+             f"  max |e| after the transient = {run.max_abs_error:.4g} {out_unit}",
+             *[f"  peak |{s.name}| = {float(np.abs(run.u[k]).max()):.4g} {s.unit}" for k, s in enumerate(plant.inputs)]]
+    for k, prm in enumerate(plant.parameters):
+        if prm.varies:
+            rate = "" if prm.rate is None else f" (bound {prm.rate:.4g})"
+            lines.append(f"  {prm.name} in [{run.p[k].min():.6g}, {run.p[k].max():.6g}] {prm.unit}, "
+                         f"max |d{prm.name}/dt| = {run.max_rate[k]:.4g} {prm.unit}/s{rate}")
+    return lines
