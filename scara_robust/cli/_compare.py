@@ -13,17 +13,21 @@ import pandas as pd
 
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
+from ..model.plant import as_model, as_plant
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
+from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
-from ..studies.comparison import compare_controllers
+from ..studies.comparison import compare_controllers, compare_plant_designs
 from ._common import (
     CommandLineError,
     add_setup_options,
     finite_float,
     resolve_design,
     resolve_model,
+    resolve_plant,
     resolve_setup,
 )
+from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
 
 __all__ = ["add_parser", "run"]
 
@@ -35,14 +39,24 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios")
-    add_setup_options(p)
+    p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios; with --model, the designs for "
+                       "your plant side by side")
+    add_setup_options(p, model=True)
+    p.add_argument("--rho", type=finite_float, default=None,
+                   help=f"with --model: the Riccati PID's rho (default {PAPER_DESIGN_POINT[0]:g})")
+    p.add_argument("--eta", type=finite_float, default=None,
+                   help=f"with --model: the Riccati PID's eta (default {PAPER_DESIGN_POINT[1]:g})")
+    p.add_argument("--no-synthesis", action="store_true",
+                   help="with --model: leave out the synthesized PID (an LMI, extra lmi)")
+    add_plant_run_options(p)
     p.add_argument("--design", metavar="FILE.json", action="append",
                    help="add rows for the PID gain of a design file (written by synthesize --output); repeatable")
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help=f"horizon, s (> {PAPER_TRANSIENT:g})")
-    p.add_argument("--payload", choices=("on", "off"), default="on")
+    p.add_argument("--payload", choices=("on", "off"), default=None, help="the robot's payload on (default) or off")
+    p.add_argument("--tolerance", type=finite_float, default=None,
+                   help="with --model: max |e| after t_final/2 for a run to count as tracking, in the outputs' units")
     p.add_argument("--progress", action="store_true", help="show a progress bar even when stderr is not a terminal")
     p.set_defaults(func=run)
 
@@ -80,6 +94,14 @@ def run(args: argparse.Namespace) -> str:
             f"`--t-final` must be > {PAPER_TRANSIENT:g} s (metrics are taken after {PAPER_TRANSIENT:g} s), "
             f"found {args.t_final}"
         )
+    if args.model is not None:
+        return _compare_plant(args)
+    plant_only = [o for o in ("rho", "eta", "parameter", "disturbance", "tolerance") if getattr(args, o) is not None]
+    plant_only += [o for o, default in (("profile", "constant"), ("reference", "1"), ("no_synthesis", False))
+                   if getattr(args, o) != default]
+    if plant_only:
+        raise CommandLineError(f"`--{plant_only[0].replace('_', '-')}` describes the comparison for --model's plant")
+    args.payload = args.payload or "on"
     setup = resolve_setup(args)
     K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
     scenarios = list(SCENARIOS) if setup.initial is None else [setup.initial]
@@ -109,3 +131,47 @@ def run(args: argparse.Namespace) -> str:
     if args.format == "markdown":
         return shown.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(shown)
     return str(shown.to_string(index=False, float_format="%.4g"))
+
+
+def _compare_plant(args: argparse.Namespace) -> str:
+    """``compare --model F``: the Riccati PID, the synthesized PID and design files for the plant file."""
+    if args.payload is not None:
+        raise CommandLineError("`--payload` is the robot's; it cannot go with --model")
+    setup = resolve_setup(args)
+    plant = as_plant("model", resolve_plant(args, setup))
+    if plant is None:
+        raise CommandLineError("`--model` must have [parameters] to be compared (runs need a plant to simulate)")
+    model = as_model("model", plant)
+    rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
+    eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
+    d = design(model, rho, eta)
+    designs: dict[str, tuple[Any, Any]] = {f"riccati (rho={d.rho:g}, eta={d.eta:g})": (d.K, d.P)}
+    notes = []
+    if not args.no_synthesis:
+        synth = synthesize(model)
+        if synth.design is not None and synth.certified:
+            designs["synthesized (LMI, decay)"] = (synth.design.K, synth.design.P)
+        else:
+            notes.append(f"synthesized PID left out: {synth.message}")
+    n = plant.n_design_states
+    for path in args.design or []:
+        loaded = resolve_design(argparse.Namespace(design=path))
+        assert loaded is not None
+        if loaded.K.shape != (plant.n_inputs, n):
+            raise CommandLineError(f"`--design` {path!r}: field `K` must have shape ({plant.n_inputs}, {n}) for this "
+                                   f"plant, found {loaded.K.shape}")
+        designs[f"file {os.path.basename(path)}"] = (loaded.K, loaded.P)
+    t_final = 20.0 if args.t_final == PAPER_T_FINAL else args.t_final
+    name, profiles = plant_profiles(args, plant, t_final)
+    reference, disturbance = run_inputs(args, plant)
+    table = compare_plant_designs(plant, designs, profiles=profiles, reference=reference, disturbance=disturbance,
+                                  t_final=t_final)
+    if args.format == "json":
+        return json.dumps(table.to_dict(orient="records"), indent=2, default=str)
+    if args.format == "csv":
+        return str(table.to_csv(index=False))
+    if args.format == "markdown":
+        return table.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(table)
+    head = f"{plant.name}: designs side by side; runs of {t_final:g} s, profile {args.profile}" + (
+        f" of {name}" if name else "")
+    return "\n".join([head, str(table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")), *notes])

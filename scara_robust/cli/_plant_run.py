@@ -12,7 +12,7 @@ from ..model.plant import UncertainPlant
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError
 
-__all__ = ["add_plant_run_options", "plant_profiles", "plant_run", "summary"]
+__all__ = ["add_plant_run_options", "plant_profiles", "plant_run", "run_inputs", "summary"]
 
 
 def add_plant_run_options(p: argparse.ArgumentParser) -> None:
@@ -119,6 +119,24 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
     PlantRun
     """
     _, profiles = plant_profiles(args, plant, t_final)
+    reference, dist = run_inputs(args, plant)
+    return simulate_plant(plant, K, profiles=profiles, reference=reference, disturbance=dist, t_final=t_final,
+                          tolerance=args.tolerance)
+
+
+def run_inputs(args: argparse.Namespace, plant: UncertainPlant) -> tuple[tuple[float, float], Any]:
+    """The reference ``(amplitude, omega)`` and the input disturbance of ``--reference``, ``--disturbance``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant
+
+    Returns
+    -------
+    reference : (float, float)
+    disturbance : ndarray, shape (m,), or None
+    """
     ref = _floats("--reference", args.reference)
     if len(ref) > 2:
         raise CommandLineError(f"`--reference` is A or A,OMEGA, found {args.reference!r}")
@@ -131,8 +149,7 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
         if len(values) not in (1, m):
             raise CommandLineError(f"`--disturbance` takes 1 or {m} values (one per input), found {len(values)}")
         dist = np.broadcast_to(values, (m,)).astype(float)
-    return simulate_plant(plant, K, profiles=profiles, reference=(ref[0], ref[1] if len(ref) == 2 else 0.0),
-                          disturbance=dist, t_final=t_final, tolerance=args.tolerance)
+    return (ref[0], ref[1] if len(ref) == 2 else 0.0), dist
 
 
 def summary(run: PlantRun, plant: UncertainPlant, head: str) -> list[str]:

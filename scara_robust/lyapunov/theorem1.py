@@ -166,7 +166,8 @@ def theorem1_scaling(
     if anchor == "center" and elements != "all":
         raise ArgumentValueError("elements", f"must be 'all' with anchor 'center', found {elements!r}")
     P = design.P
-    base = P @ design.A_cl + design.A_cl.T @ P
+    A_cl = model.A - model.B @ design.K  # the set's own nominal loop (the design's, for its own model)
+    base = P @ A_cl + A_cl.T @ P
     E = model.perturbation_matrices(design.K)
     Psi = P @ E + np.swapaxes(E, -1, -2) @ P
     varying = np.array([elements in ("all", el.matrix) for el in model.elements], dtype=bool)

@@ -148,7 +148,7 @@ def _vertex(model: Model, design: Design, elements: str, anchor: str) -> tuple[f
     P = design.P
     C, D = model.affine_vertex_loops(design.K, elements, anchor)
     where = f"{len(D)} vertices of the {model.kind}"
-    PA = P @ (design.A_cl + C)
+    PA = P @ (model.A - model.B @ design.K + C)  # the set's own nominal loop
     base = PA + PA.T
     S = P @ D + np.swapaxes(D, -1, -2) @ P
     theta = float(affine_margin(np.broadcast_to(base, S.shape), S).min())

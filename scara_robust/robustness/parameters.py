@@ -33,9 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 import scipy.linalg
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_choice, check_instance, check_int, check_real
+from .._validation import check_array, check_choice, check_instance, check_int, check_real
 from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
@@ -72,21 +72,23 @@ def _hull(plant: UncertainPlant, s: float) -> object:
         raise _Undefined(str(err)) from err
 
 
-def _ok(plant: UncertainPlant, design: Design, method: str) -> Callable[[float], bool]:
+def _ok(plant: UncertainPlant, design: Design | None, K: Array, method: str) -> Callable[[float], bool]:
     def theorem1(s: float) -> bool:
+        assert design is not None
         return bool(certify(_hull(plant, s), design).certified)  # type: ignore[arg-type]
 
     def vertex(s: float) -> bool:
+        assert design is not None
         hull = _hull(plant, s)
-        return bool(polytope_certificate(hull.vertex_closed_loops(design.K), design.P).certified)  # type: ignore[attr-defined]
+        return bool(polytope_certificate(hull.vertex_closed_loops(K), design.P).certified)  # type: ignore[attr-defined]
 
     def lmi(s: float) -> bool:
         hull = _hull(plant, s)
-        return bool(lmi_certificate(hull.vertex_closed_loops(design.K)).certified)  # type: ignore[attr-defined]
+        return bool(lmi_certificate(hull.vertex_closed_loops(K)).certified)  # type: ignore[attr-defined]
 
     def stable(s: float) -> bool:
         try:
-            loops = plant.samples(theta=s).closed_loops(design.K)
+            loops = plant.samples(theta=s).closed_loops(K)
         except ArgumentError as err:
             raise _Undefined(str(err)) from err
         return bool(np.linalg.eigvals(loops).real.max() < 0)
@@ -131,7 +133,7 @@ def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[floa
 
 def parameter_margin(
     plant: UncertainPlant,
-    design: Design,
+    design: Design | ArrayLike,
     methods: Sequence[str] = tuple(PARAMETER_METHODS),
     *,
     tol: float = 1e-3,
@@ -141,8 +143,9 @@ def parameter_margin(
     Parameters
     ----------
     plant : UncertainPlant
-    design : Design
-        A design for the plant's design form (K of shape (m, n)).
+    design : Design or array_like, shape (m, n)
+        A design for the plant's design form, or a plain gain K of ``u = −Kx`` (then only
+        the methods that need no Lyapunov matrix: 'lmi' and 'frozen').
     methods : sequence of str
         From :data:`PARAMETER_METHODS`.
     tol : float
@@ -166,13 +169,17 @@ def parameter_margin(
     0.174
     """
     check_instance("plant", plant, UncertainPlant, "an UncertainPlant (sr.load_plant, sr.UncertainPlant...)")
-    check_instance("design", design, Design, "a Design")
     n = plant.n_design_states
-    if design.K.shape != (plant.n_inputs, n):
+    found = design if isinstance(design, Design) else None
+    K = found.K if found is not None else check_array("design", design, ndim=2)
+    if K.shape != (plant.n_inputs, n):
         raise ArgumentValueError("design", f"must have K of shape ({plant.n_inputs}, {n}) for the plant, found "
-                                           f"{design.K.shape}")
+                                           f"{K.shape}")
     for method in methods:
         check_choice("methods", method, tuple(PARAMETER_METHODS))
+        if found is None and method in ("theorem1", "vertex"):
+            raise ArgumentValueError("methods", f"{method!r} tests the design's Lyapunov matrix P: pass a Design, or "
+                                                "use 'lmi' and 'frozen' with a plain K")
     tol = check_real("tol", tol, positive=True)
     varying = plant.varying
     if not varying:
@@ -184,7 +191,7 @@ def parameter_margin(
         if method == "lmi" and not cvxpy_available():
             rows.append((method, kind, math.nan, "", *([math.nan] * 2 * len(varying)), 0.0, NOT_INSTALLED))
             continue
-        ok = _ok(plant, design, method)
+        ok = _ok(plant, found, K, method)
         lo, hi, note = _search(ok, _FROZEN_RTOL if method == "frozen" else tol,
                                _FROZEN_RATIO if method == "frozen" else 2.0)
         scale = lo if kind == "lower" else hi

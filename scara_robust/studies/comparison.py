@@ -13,18 +13,24 @@ import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 from tqdm import tqdm
 
 from .._validation import check_array
 from ..exceptions import ArgumentValueError
+from ..lyapunov.theorem1 import certify
 from ..model.initial import SCENARIOS, Scenario
+from ..model.plant import UncertainPlant
 from ..paper import PAPER_T_FINAL
+from ..robustness.lmi import lmi_certificate
+from ..robustness.parameters import parameter_margin
 from ..simulation.metrics import METRIC_NAMES
+from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
 
-__all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS"]
+__all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS", "compare_plant_designs"]
 
 #: Controllers of the default comparison: the paper's PID, the synthesized PID, both sliding modes.
 COMPARED_CONTROLLERS = ("pid", "pid-lmi", "smc", "smc-sign")
@@ -96,3 +102,74 @@ def compare_controllers(
         row.update(res.metrics().to_dict() if res.has_metrics else dict.fromkeys(METRIC_NAMES, math.nan))
         rows.append(row)
     return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
+
+
+def compare_plant_designs(
+    plant: UncertainPlant,
+    designs: Mapping[str, tuple[Any, Any]],
+    *,
+    profiles: Mapping[str, Any] | None = None,
+    reference: tuple[Any, float] | None = None,
+    disturbance: Any = None,
+    t_final: float = 20.0,
+) -> pd.DataFrame:
+    """Gains for one plant side by side: their certificates, margins and a simulated run.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    designs : mapping of str to (K, P)
+        Name -> gain K, shape (m, n), on the design form, and its Lyapunov matrix P,
+        shape (n, n), or None (Theorem 1 and the design-P margin need one).
+    profiles, reference, disturbance, t_final
+        The run, as for :func:`scara_robust.simulate_plant`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per design: ``design``, the gains (``K_I``, ``K_P``, ``K_D`` for the PID
+        form, else ``K``), ``theorem1 max eig`` (NaN without P), ``lmi decay [1/s]`` (a
+        common P on the interval hull's corners for this K, NaN when none verifies),
+        for each varying parameter ``NAME certified high [UNIT]`` (the design-P vertex
+        margin, NaN without P) and ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
+        beyond), then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
+    """
+    from ..lyapunov.gain import Design
+
+    hull = plant.interval_model()
+    rows = []
+    for name, (K_raw, P_raw) in designs.items():
+        K = check_array(f"designs[{name!r}][0]", K_raw, shape=(plant.n_inputs, plant.n_design_states))
+        P = None if P_raw is None else check_array(f"designs[{name!r}][1]", P_raw, shape=(K.shape[1], K.shape[1]))
+        row: dict[str, Any] = {"design": name}
+        if plant.form == "pid":
+            q = plant.n_states // 2
+            for label, block in (("K_I", -K[:, :q]), ("K_P", -K[:, q:2 * q]), ("K_D", -K[:, 2 * q:])):
+                row[label] = float(block[0, 0]) if block.size == 1 else str(block.round(6).tolist())
+        else:
+            row["K"] = str(K.round(6).tolist())
+        A_cl = hull.A - hull.B @ K
+        design = None
+        if P is not None:
+            Q = -0.5 * (P @ A_cl + A_cl.T @ P)
+            poles = np.linalg.eigvals(A_cl).astype(complex)
+            design = Design(rho=math.nan, eta=math.nan, K=K, P=P, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
+                            hurwitz=bool(np.all(poles.real < 0)), care_residual=math.nan, n_joints=hull.n_joints)
+        row["theorem1 max eig"] = certify(hull, design).max_eig if design is not None else math.nan
+        lmi = lmi_certificate(hull.vertex_closed_loops(K))
+        row["lmi decay [1/s]"] = lmi.margin if lmi.certified else math.nan
+        margins = parameter_margin(plant, design if design is not None else K,
+                                   ["vertex", "frozen"] if design is not None else ["frozen"])
+        for prm in plant.varying:
+            column = f"{prm.name} high [{prm.unit}]"
+            vertex = margins.loc[margins["method"] == "vertex", column]
+            row[f"{prm.name} certified high [{prm.unit}]"] = float(vertex.iloc[0]) if len(vertex) else math.nan
+            row[f"{prm.name} frozen limit [{prm.unit}]"] = float(
+                margins.loc[margins["method"] == "frozen", column].iloc[0])
+        run = simulate_plant(plant, K, profiles=profiles, reference=reference, disturbance=disturbance,
+                             t_final=t_final)
+        out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit
+        row.update({"status": run.status, f"max |e| [{out_unit}]": run.max_abs_error,
+                    f"peak |u| [{in_unit}]": run.peak_input})
+        rows.append(row)
+    return pd.DataFrame(rows)
