@@ -100,8 +100,10 @@ Files (:mod:`scara_robust.io`)
     write_design, load_design, design_record, DesignFile, DESIGN_FORMAT -- design files (``synthesize --output``)
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
+    PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
+    compare_plant_designs           -- designs for a plant side by side: certificates, margins in units, a run (``compare --model``)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs

@@ -116,7 +116,8 @@ def test_ultimate_bound_makes_vdot_negative(paper, paper_design):
         (lambda m: sr.design(m, float("nan"), 90), ValueError, "`rho` must be finite"),
         (lambda m: sr.design(m, 3, float("inf")), ValueError, "`eta` must be finite"),
         (lambda m: sr.design(m, "3", 90), TypeError, "`rho` must be a real number"),
-        (lambda m: sr.design("model", 3, 90), TypeError, "`model` must be an UncertainLTVModel"),
+        (lambda m: sr.design("model", 3, 90), TypeError,
+         "`model` must be an UncertainPlant, an UncertainLTVModel or a PolytopicModel"),
         (lambda m: sr.certify(m, sr.design(m, 3, 90), "C"), ValueError, "`elements` must be one of"),
         (lambda m: sr.certify(m, "design"), TypeError, "`design` must be a Design"),
         (

@@ -151,18 +151,18 @@ def test_polytope_from_systems_and_theorem1_refusal():
     assert table.loc["theorem1-all", "verdict"] == "skipped" and table.loc["vertex-polytope", "certified"]
 
 
-def test_certificate_table_on_a_three_state_model_skips_the_robots_rows():
+def test_certificate_table_on_a_model_without_parameters_skips_the_physical_rows():
     motor = sr.load_model(EXAMPLES / "plant-dc-motor-elements.toml")
     table = sr.certificate_table(motor, sr.design(motor, 1, 2), falsifier_tries=2).set_index("method")
     assert table.loc["theorem1-all", "certified"] and table.loc["vertex-box", "certified"]
     for method in ("physical-polytope", "lmi-physical", "falsifier-physical"):
-        assert table.loc[method, "verdict"] == "skipped" and "SCARA" in table.loc[method, "detail"]
+        assert table.loc[method, "verdict"] == "skipped" and "physical parameters" in table.loc[method, "detail"]
 
 
 # ---------------------------------------------------------------- model files and the command line
 
 
-@pytest.mark.parametrize("name", ["plant-dc-motor", "plant-polytope"])
+@pytest.mark.parametrize("name", ["plant-dc-motor", "plant-dc-motor-elements", "plant-polytope"])
 def test_certify_design_and_surface_take_model_files(capsys, name):
     import json
 
@@ -172,6 +172,8 @@ def test_certify_design_and_surface_take_model_files(capsys, name):
     applicable = {m for m, r in rows.items() if r["verdict"] != "skipped"}
     expected = {"vertex-polytope", "lmi-polytope", "falsifier-polytope"} if name.endswith("polytope") else {
         "theorem1-all", "theorem1-A", "theorem1-B", "vertex-box", "lmi-box", "falsifier-box"}
+    if name == "plant-dc-motor":  # physical parameters: its frozen plants on the parameter grid are tested too
+        expected |= {"physical-polytope", "lmi-physical", "falsifier-physical"}
     assert applicable == expected
     assert main(["design", "--model", path, "--rho", "1", "--eta", "2"]) == 0
     assert "closed loop Hurwitz: True" in capsys.readouterr().out

@@ -158,7 +158,8 @@ def test_lmi_without_cvxpy(monkeypatch, paper, paper_design):
     result = sr.lmi_certificate(sr.box_closed_loops(paper.subset("A"), paper_design.K))
     assert result.status == "not installed" and result.P is None and not result.certified
     assert "pip install '.[lmi]'" in result.message
-    table = sr.certificate_table(paper, paper_design, falsifier_tries=3).set_index("method")
+    table = sr.certificate_table(paper, paper_design, plant=sr.scara_uncertain_plant(bounds="paper"),
+                                 falsifier_tries=3).set_index("method")
     for method in ("lmi-box", "lmi-physical"):
         assert table.loc[method, "verdict"] == "not installed" and table.loc[method, "certified"] is None
     assert table.loc["theorem1-A", "certified"]
@@ -272,12 +273,12 @@ def test_certify_bad_input(capsys, argv, match):
 
 
 def test_certificate_table_bad_input(paper, paper_design):
-    with pytest.raises(TypeError, match="`model` must be an UncertainLTVModel"):
+    with pytest.raises(TypeError, match="`model` must be an UncertainPlant, an UncertainLTVModel or a PolytopicModel"):
         sr.certificate_table("paper", paper_design)
     with pytest.raises(ValueError, match="`lmi_solver` must be one of"):
         sr.certificate_table(paper, paper_design, lmi_solver="MOSEK")
-    with pytest.raises(ValueError, match="`lmi_masses` must be an integer >= 1"):
-        sr.certificate_table(paper, paper_design, lmi_masses=0)
+    with pytest.raises(ValueError, match=r"`lmi_points\['m_p'\]` must be an integer >= 1"):
+        sr.certificate_table(sr.scara_uncertain_plant(bounds="paper"), paper_design, lmi_points={"m_p": 0})
 
 
 def test_falsifier_reports_huge_growth_by_its_order_of_magnitude(paper, paper_design):

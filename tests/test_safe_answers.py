@@ -300,8 +300,9 @@ def test_every_decay_rate_is_the_states_alpha():
 
 
 def test_certificate_table_names_its_columns_by_what_they_are():
-    table = sr.certificate_table(sr.paper_model(), sr.design(sr.paper_model(), 3, 90), n_times=9, n_masses=3,
-                                 lmi_times=5, lmi_masses=2, falsifier_tries=1)
+    plant = sr.scara_uncertain_plant(bounds="paper")
+    table = sr.certificate_table(plant, sr.design(plant, 3, 90), points={"t_ref": 9, "m_p": 3},
+                                 lmi_points={"t_ref": 5, "m_p": 2}, falsifier_tries=1)
     assert {"max_eig", "decay_rate [1/s]", "growth_rate [1/s]"} <= set(table.columns)
     assert "margin" not in table.columns
     by = table.set_index("method")

@@ -317,8 +317,9 @@ def certify(model: ModelLike, design: Design, elements: str = "all") -> Certific
     >>> cert.certified
     True
     """
-    model = as_box("model", model, "use vertex_certificate, lmi_certificate, falsify or certificate_table, or "
-                                   "certify(model.box_hull(), design) for the box around the polytope")
+    model = as_box("model", model, "Theorem 1 needs interval elements: use vertex_certificate, lmi_certificate, "
+                                   "falsify or certificate_table, or certify(model.box_hull(), design) for the box "
+                                   "around the polytope")
     check_instance("design", design, Design, "a Design")
     check_choice("elements", elements, ELEMENT_SETS)
     if design.K.shape != (model.n_inputs, model.n_states):

@@ -889,7 +889,7 @@ def as_plant(name: str, value: object) -> UncertainPlant | None:
 
 
 def as_box(name: str, value: object,
-           hint: str = "use model.box_hull() for the box around a polytope") -> UncertainLTVModel:
+           hint: str = "this needs interval elements; model.box_hull() is the box around it") -> UncertainLTVModel:
     """The interval box of `value` (a plant's hull, or the box itself); a polytope is refused.
 
     Parameters
@@ -911,5 +911,5 @@ def as_box(name: str, value: object,
     """
     model = as_model(name, value)
     if not isinstance(model, UncertainLTVModel):
-        raise ArgumentTypeError(name, f"is a PolytopicModel, and this needs interval elements: {hint}")
+        raise ArgumentTypeError(name, f"is a PolytopicModel: {hint}")
     return model
