@@ -37,7 +37,7 @@ Model (:mod:`scara_robust.model`)
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
     ParameterSamples, PLANT_FORMS, HULL_RTOL -- its frozen plants on a grid; its design forms; the sampled hull's rtol
-    ModelLike, is_model, as_model, as_plant, as_box -- what every analysis takes, and its uncertainty set
+    ModelLike, is_model, as_model, as_plant, as_box, require_plant -- what every analysis takes, and its set
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
@@ -103,7 +103,7 @@ Export (:mod:`scara_robust.export`)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
-    compare_plant_designs           -- designs for a plant side by side: certificates, margins in units, a run (``compare --model``)
+    compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)
     reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs

@@ -197,3 +197,59 @@ def test_the_checker_finds_each_fault(tmp_path, files, expected):
         (root / name).write_text(text)
     problems = check(root)
     assert any(expected in p for p in problems), problems
+
+
+#: The uncertainty descriptions: only ``model/`` may ask which one it holds.
+MODEL_TYPES = frozenset({"UncertainLTVModel", "PolytopicModel", "UncertainPlant"})
+
+
+def _type_names(node: ast.AST) -> set[str]:
+    elements = node.elts if isinstance(node, ast.Tuple) else [node]
+    names = set()
+    for el in elements:
+        if isinstance(el, ast.Name):
+            names.add(el.id)
+        elif isinstance(el, ast.Attribute):
+            names.add(el.attr)
+    return names
+
+
+def model_type_tests(root: Path = ROOT) -> list[str]:
+    """``isinstance(x, T)`` or ``check_instance(name, x, T, ...)`` with T a model type, outside ``model/``."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        module = module_name(path, root)
+        if module == f"{PACKAGE}.model" or module.startswith(f"{PACKAGE}.model."):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.Call) or not isinstance(node.func, (ast.Name, ast.Attribute)):
+                continue
+            func = node.func.id if isinstance(node.func, ast.Name) else node.func.attr
+            position = {"isinstance": 1, "check_instance": 2}.get(func)
+            if position is None or len(node.args) <= position:
+                continue
+            hit = _type_names(node.args[position]) & MODEL_TYPES
+            if hit:
+                found.append(f"{module}:{node.lineno} {func}(..., {', '.join(sorted(hit))})")
+    return found
+
+
+def test_no_isinstance_on_a_model_type_outside_model():
+    # every consumer uses the shared interface (kind, vertex_closed_loops, interval_hull, as_model...)
+    assert model_type_tests() == []
+
+
+@pytest.mark.parametrize(
+    "source",
+    ["isinstance(m, PolytopicModel)\n", "isinstance(m, (UncertainLTVModel, int))\n",
+     "check_instance('model', m, sr.UncertainPlant, 'a plant')\n"],
+    ids=["isinstance", "tuple", "check-instance"],
+)
+def test_the_model_type_checker_finds_each_form(tmp_path, source):
+    root = tmp_path / PACKAGE
+    (root / "robustness").mkdir(parents=True)
+    (root / "__init__.py").write_text("")
+    (root / "robustness" / "x.py").write_text(source)
+    (root / "model").mkdir()
+    (root / "model" / "y.py").write_text(source)  # allowed inside model/
+    assert [p.split(":")[0] for p in model_type_tests(root)] == [f"{PACKAGE}.robustness.x"]

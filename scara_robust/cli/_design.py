@@ -12,7 +12,6 @@ import pandas as pd
 from ..io import design_record
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
-from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
 from ._common import add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
@@ -85,10 +84,10 @@ def run(args: argparse.Namespace) -> str:
         lines += [f"{name} = {np.array2string(np.array(out[name]), precision=4, suppress_small=True)}"
                   for name in ("K_I", "K_P", "K_D")] + ["(u = K_I ∫e + K_P e + K_D ė)"]
     lines.append(f"closed loop Hurwitz: {d.hurwitz} (largest real part {max(out['closed_loop_poles_real']):.4g} 1/s)")
-    if isinstance(model, PolytopicModel):
+    if model.kind == "polytope":
         vertex = vertex_certificate(model, d)
         out.update(max_eig_Z=None, certified=vertex.certified, vertex_test=vertex.message)
-        lines += [f"Theorem 1 needs interval elements; exact test over the {model.n_vertices} vertices: "
+        lines += [f"Theorem 1 needs interval elements; exact test over the {vertex.n_vertices} vertices: "
                   f"{vertex.message}"]
     else:
         cert = certify(model, d, args.elements)

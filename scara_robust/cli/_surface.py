@@ -15,7 +15,7 @@ from ..lyapunov.surface import (
     design_surface,
     surface_memory,
 )
-from ..model.polytopic import PolytopicModel
+from ..model.plant import as_box
 from ..plotting import plot_surface
 from ._common import (
     RANGE_HELP,
@@ -105,11 +105,12 @@ def run(args: argparse.Namespace) -> str:
         _check_mark(args.mark, args.rho, args.eta)
     model = resolve_model(args, resolve_setup(args))
     note = ""
-    if isinstance(model, PolytopicModel):  # Theorem 1 needs intervals: the box around the polytope
-        model = model.box_hull()
+    if model.kind == "polytope":  # Theorem 1 needs intervals: the box around the polytope
+        model = model.interval_hull()
         note = f"Theorem 1 on the {model.name} (its corners need not be in the polytope)\n"
     surface = design_surface(
-        model, args.rho, args.eta, args.elements, measure=args.measure, margin_method=args.margin_method
+        as_box("model", model), args.rho, args.eta, args.elements, measure=args.measure,
+        margin_method=args.margin_method,
     )
     frame = surface.to_frame()
     if args.plot is not None:

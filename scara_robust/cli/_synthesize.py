@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 
 from ..io import design_record, write_design
-from ..model.polytopic import PolytopicModel
 from ..model.uncertain import physical_samples
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import payload_margin, robustness_margin
@@ -127,7 +126,7 @@ def run(args: argparse.Namespace) -> str:
         structured = model.B.shape[0] == 3 * model.B.shape[1]
         objective = args.objective or ("l2" if structured else "decay")
         result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound)
-        kind = "polytope" if isinstance(model, PolytopicModel) else "box"
+        kind = model.kind
         what = f"the {kind} of {model.name}, objective {objective}"
     if result.status == NOT_INSTALLED:
         raise CommandLineError("synthesize needs cvxpy: pip install '.[lmi]'")

@@ -81,7 +81,7 @@ def _check(node: ast.AST, name: str, text: str, parameters: frozenset[str]) -> N
     elif isinstance(node, ast.Call):
         func = node.func.id if isinstance(node.func, ast.Name) else None
         if func not in FUNCTIONS:
-            called = func if func is not None else type(node.func).__name__
+            called = func if func is not None else ast.unparse(node.func)
             raise _refuse(name, text, f"calls `{called}`, which is not an allowed function")
         if node.keywords or len(node.args) != 1 or isinstance(node.args[0], ast.Starred):
             raise _refuse(name, text, f"`{func}` takes one positional argument")
@@ -91,7 +91,10 @@ def _check(node: ast.AST, name: str, text: str, parameters: frozenset[str]) -> N
 
 
 def _names(node: ast.AST) -> frozenset[str]:
-    return frozenset(n.id for n in ast.walk(node) if isinstance(n, ast.Name) and n.id not in CONSTANTS)
+    """The parameter names `node` uses (not the constants, not the functions it calls)."""
+    called = {id(n.func) for n in ast.walk(node) if isinstance(n, ast.Call)}
+    return frozenset(n.id for n in ast.walk(node)
+                     if isinstance(n, ast.Name) and n.id not in CONSTANTS and id(n) not in called)
 
 
 def _evaluate(node: ast.AST, values: Mapping[str, Array]) -> Array:

@@ -51,6 +51,7 @@ __all__ = [
     "as_model",
     "as_plant",
     "as_box",
+    "require_plant",
 ]
 
 Array = NDArray[np.float64]
@@ -870,6 +871,30 @@ def as_model(name: str, value: object) -> UncertainLTVModel | PolytopicModel:
         return value
     raise ArgumentTypeError(name, f"must be an UncertainPlant, an UncertainLTVModel or a PolytopicModel, found "
                                   f"{type(value).__name__}")
+
+
+def require_plant(name: str, value: object) -> UncertainPlant:
+    """`value`, which must be an :class:`UncertainPlant` (an analysis in the parameters' units).
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for errors.
+    value : object
+
+    Returns
+    -------
+    UncertainPlant
+
+    Raises
+    ------
+    ArgumentTypeError
+        For anything else (an interval box or a polytope has no physical parameters).
+    """
+    if not isinstance(value, UncertainPlant):
+        raise ArgumentTypeError(name, f"must be an UncertainPlant (sr.load_plant, sr.UncertainPlant...), found "
+                                      f"{type(value).__name__}")
+    return value
 
 
 def as_plant(name: str, value: object) -> UncertainPlant | None:

@@ -35,11 +35,11 @@ import pandas as pd
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_int, check_real
+from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
-from ..model.plant import UncertainPlant
+from ..model.plant import UncertainPlant, require_plant
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
 from .pdl import RateMargin, max_certified_rate
 from .polytope import polytope_certificate
@@ -168,7 +168,7 @@ def parameter_margin(
     >>> round(float(table["J high [kg·m²]"].iloc[0]), 4)
     0.174
     """
-    check_instance("plant", plant, UncertainPlant, "an UncertainPlant (sr.load_plant, sr.UncertainPlant...)")
+    _gain(plant, design)  # the plant's type and K's shape
     n = plant.n_design_states
     found = design if isinstance(design, Design) else None
     K = found.K if found is not None else check_array("design", design, ndim=2)
@@ -213,6 +213,16 @@ def parameter_margin(
     return pd.DataFrame(rows, columns=[*columns, "seconds", "message"])
 
 
+def _gain(plant: UncertainPlant, design: Design | ArrayLike) -> Array:
+    """K of a Design or a plain gain, checked against the plant's design form."""
+    require_plant("plant", plant)
+    K = design.K if isinstance(design, Design) else check_array("design", design, ndim=2)
+    shape = (plant.n_inputs, plant.n_design_states)
+    if K.shape != shape:
+        raise ArgumentValueError("design", f"must have K of shape {shape} for the plant, found {K.shape}")
+    return np.asarray(K, dtype=float)
+
+
 def _rate_parameter(plant: UncertainPlant, name: str | None) -> str:
     names = [p.name for p in plant.varying]
     if not names:
@@ -226,7 +236,7 @@ def _rate_parameter(plant: UncertainPlant, name: str | None) -> str:
 
 def parameter_rate(
     plant: UncertainPlant,
-    design: Design,
+    design: Design | ArrayLike,
     name: str | None = None,
     *,
     rate_max: float | None = None,
@@ -242,7 +252,8 @@ def parameter_rate(
     Parameters
     ----------
     plant : UncertainPlant
-    design : Design
+    design : Design or array_like, shape (m, n)
+        The design, or a plain gain K of ``u = −Kx`` on the design form.
     name : str, optional
         The rate-bounded parameter (default: the first with a ``rate``, else the last
         varying one).
@@ -258,15 +269,14 @@ def parameter_rate(
         ``rate`` in the parameter's unit per second; ``inf`` when a common P certifies
         any rate.
     """
-    check_instance("plant", plant, UncertainPlant, "an UncertainPlant")
-    check_instance("design", design, Design, "a Design")
+    K = _gain(plant, design)
     key = _rate_parameter(plant, name)
     width = plant.parameter(key).range[1] - plant.parameter(key).range[0]
     cap = 1e6 * width if rate_max is None else check_real("rate_max", rate_max, positive=True)
     coarse = plant.samples(plant.coarse_points())
     fine = plant.samples(plant.fine_points())
-    return max_certified_rate(coarse.closed_loops(design.K), coarse.column(key),
-                              check=(fine.closed_loops(design.K), fine.column(key)), rate_max=cap, tol=tol,
+    return max_certified_rate(coarse.closed_loops(K), coarse.column(key),
+                              check=(fine.closed_loops(K), fine.column(key)), rate_max=cap, tol=tol,
                               solver=solver)
 
 
@@ -310,7 +320,7 @@ def parameter_switching_growth(
     float
         The growth rate, 1/s.
     """
-    check_instance("plant", plant, UncertainPlant, "an UncertainPlant")
+    K = _gain(plant, K)
     key = _rate_parameter(plant, name)
     rate = check_real("rate", rate, positive=True)
     hold_high = check_real("hold_high", hold_high, nonnegative=True)
@@ -365,7 +375,7 @@ class RateBracket:
 
 def rate_bracket(
     plant: UncertainPlant,
-    design: Design,
+    design: Design | ArrayLike,
     name: str | None = None,
     *,
     scan_ratio: float = 1.25,
@@ -383,7 +393,8 @@ def rate_bracket(
     Parameters
     ----------
     plant : UncertainPlant
-    design : Design
+    design : Design or array_like, shape (m, n)
+        The design, or a plain gain K.
     name : str, optional
         As for :func:`parameter_rate`.
     scan_ratio : float
@@ -413,7 +424,7 @@ def rate_bracket(
     rate = base * scan_ratio
     while rate <= base * scan_span:
         ramp = (hi - lo) / rate
-        if any(parameter_switching_growth(plant, design.K, key, rate, hold_high=h, hold_low=h) > 0
+        if any(parameter_switching_growth(plant, _gain(plant, design), key, rate, hold_high=h, hold_low=h) > 0
                for h in (0.0, ramp, 4 * ramp)):
             return RateBracket(key, lower, rate, margin, time.perf_counter() - start,
                                f"{margin.message}; a periodic ramp between {lo:.6g} and {hi:.6g} at the upper rate "

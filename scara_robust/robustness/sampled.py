@@ -36,14 +36,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_instance, check_real
-from ..exceptions import ArgumentValueError
+from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design
-from ..model.plant import as_box
+from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import PhysicalSamples, UncertainLTVModel
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
-from .synthesis import vertices_of
 
 __all__ = [
     "sampled_closed_loops",
@@ -75,11 +74,10 @@ def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Arr
                 "model", f"must be (A, B) of shapes (V, n, n), (V, n, m), found {A.shape}, {B.shape}"
             )
         return A, B
-    check_instance(
-        "model", model, (UncertainLTVModel, PolytopicModel, PhysicalSamples),
-        "an UncertainLTVModel, a PolytopicModel, PhysicalSamples or a tuple (A, B)",
-    )
-    return vertices_of(model)
+    if not is_model(model):
+        raise ArgumentTypeError("model", f"must be an UncertainPlant, an UncertainLTVModel, a PolytopicModel, "
+                                         f"PhysicalSamples or a tuple (A, B), found {type(model).__name__}")
+    return as_model("model", model).vertex_matrices()
 
 
 def _expm(X: Array) -> Array:

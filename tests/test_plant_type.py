@@ -1,0 +1,330 @@
+"""The uncertain plant over named physical parameters: files, hulls, margins in units, runs, export.
+
+Independent checks: the interval enclosure holds every sampled plant; the frozen upper bound of
+the DC motor's inertia matches the Routh–Hurwitz limit in closed form; the SCARA through the
+plant type gives the numbers the element-level code gave; the single-precision C matches a
+float32 Python step bit for bit and the double step to float32 rounding.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.cli import main
+from scara_robust.model._expressions import parse_expression
+
+ROOT = Path(__file__).resolve().parents[1]
+MOTOR = ROOT / "examples" / "plant-dc-motor.toml"
+CARTS = ROOT / "examples" / "plant-two-mass.toml"
+CC = shutil.which("cc")
+B_FRICTION, K_TORQUE = 1e-4, 0.05  # the motor file's fixed parameters
+
+
+@pytest.fixture(scope="module")
+def motor():
+    return sr.load_plant(MOTOR)
+
+
+@pytest.fixture(scope="module")
+def carts():
+    return sr.load_plant(CARTS)
+
+
+# --- expressions: a whitelist, never executed ---------------------------------------------
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("__import__('os').system('true')", r"calls `__import__\('os'\).system`, which is not an allowed function"),
+        ("J.__class__", "Attribute is not allowed"),
+        ("[J][0]", "Subscript is not allowed"),
+        ("(lambda: 1)()", "calls `lambda: 1`"),
+        ("J if J else 1", "IfExp is not allowed"),
+        ("J < 1", "Compare is not allowed"),
+        ("'J'", "is not a number"),
+        ("open('f')", "calls `open`"),
+        ("x + J", "names `x`, which is not a parameter"),
+        ("J ** J", "exponent must be a number"),
+        ("sqrt(J, J)", "takes one positional argument"),
+        ("J +", "is not an arithmetic expression"),
+    ],
+    ids=["import", "attribute", "subscript", "lambda", "ifexp", "compare", "string", "open", "unknown",
+         "power-of-parameter", "two-arguments", "syntax"],
+)
+def test_expressions_outside_the_whitelist_are_refused(text, match):
+    with pytest.raises(sr.ArgumentValueError, match=match):
+        parse_expression(text, {"J"}, "A[1][1]")
+
+
+def test_a_huge_power_overflows_instead_of_computing():
+    expr = parse_expression("9**9**9", set(), "A[0][0]")
+    assert math.isinf(float(expr({})))
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["-b/J", "kt/J", "sqrt(J) * 3 - exp(-J)", "sin(J * 1e4) + cos(3 * J * 1e4)", "abs(J - 4e-4) ** 2", "tanh(J*1e3)",
+     "J / (J + 1e-4)", "log(J) * J ** 0.5", "(J - 4e-4) ** 3"],
+    ids=["ratio", "gain", "sqrt-exp", "trig", "abs-square", "tanh", "dependent", "log-root", "odd-power"],
+)
+def test_interval_enclosure_holds_every_sample(text):
+    """Property: the interval of an entry over the box contains the entry at 20 001 points of it."""
+    expr = parse_expression(text, {"J", "b", "kt"}, "e")
+    box = {"J": (2e-4, 6e-4), "b": (B_FRICTION, B_FRICTION), "kt": (K_TORQUE, K_TORQUE)}
+    lo, hi = expr.interval({k: box[k] for k in expr.names})
+    J = np.linspace(2e-4, 6e-4, 20_001)
+    values = expr({"J": J, "b": B_FRICTION, "kt": K_TORQUE})
+    # the ends are computed by the same correctly rounded operations; allow numpy's and math's last bits
+    assert lo - 4 * np.spacing(abs(lo)) <= values.min() and values.max() <= hi + 4 * np.spacing(abs(hi))
+
+
+def test_monotone_entries_have_the_exact_hull(motor):
+    """−b/J and k_t/J are monotone in J: the enclosure is exactly the range of the samples (ends included)."""
+    model = motor.interval_model()
+    samples = motor.samples({"J": 101})
+    assert np.allclose(model.lower_bounds() + [model.A[2, 2], model.B[2, 0]],
+                       [samples.A[:, 2, 2].min(), samples.B[:, 2, 0].min()], rtol=1e-15)
+    assert np.allclose(model.upper_bounds() + [model.A[2, 2], model.B[2, 0]],
+                       [samples.A[:, 2, 2].max(), samples.B[:, 2, 0].max()], rtol=1e-15)
+
+
+def test_the_motor_file_is_the_element_file_plant(motor):
+    """The parameter file and the element file describe the same box (the element file rounds to 5 digits)."""
+    elements = sr.load_model(ROOT / "examples" / "plant-dc-motor-elements.toml")
+    hull = motor.interval_model()
+    for model in (hull, elements):
+        assert model.n_states == 3 and model.n_elements == 2
+    lo_h, hi_h = hull.matrices_at(hull.lower_bounds())[0], hull.matrices_at(hull.upper_bounds())[0]
+    corners = elements.vertex_matrices()[0]
+    assert np.allclose(np.sort([lo_h[2, 2], hi_h[2, 2]]), np.sort(np.unique(corners[:, 2, 2].round(4))), atol=1e-4)
+
+
+# --- the frozen bound against Routh–Hurwitz -------------------------------------------------
+
+@pytest.mark.parametrize(("rho", "eta"), [(1.0, 2.0), (1.0, 10.0), (3.0, 5.0)], ids=["1-2", "1-10", "3-5"])
+def test_frozen_inertia_limit_is_the_routh_hurwitz_bound(motor, rho, eta):
+    """J s³ + (b + k_t K_D) s² + k_t K_P s + k_t K_I is Hurwitz iff J < (b + k_t K_D) K_P / K_I."""
+    d = sr.design(motor, rho, eta)
+    K_I, K_P, K_D = (float(v) for v in -d.K[0])
+    limit = (B_FRICTION + K_TORQUE * K_D) * K_P / K_I
+    table = sr.parameter_margin(motor, d, ["frozen"])
+    assert table["J high [kg·m²]"].iloc[0] == pytest.approx(limit, rel=1e-6)
+
+
+# --- margins in units and rates ----------------------------------------------------------------
+
+def test_parameter_margins_are_ordered_and_in_units(motor):
+    d = sr.design(motor, 1.0, 10.0)
+    table = sr.parameter_margin(motor, d).set_index("method")
+    high = table["J high [kg·m²]"]
+    assert (table["J low [kg·m²]"] == 2e-4).all()
+    assert high["theorem1"] <= high["vertex"] <= high["lmi"] <= high["frozen"]
+    assert high["theorem1"] >= 6e-4  # Theorem 1 certifies the file's whole range at (1, 10)
+    # each certified range re-verified by numpy: the design's P on the hull's corners at that range
+    hull = motor.with_ranges({"J": (2e-4, float(high["vertex"]))}).interval_model()
+    assert sr.polytope_certificate(hull.vertex_closed_loops(d.K), d.P).certified
+
+
+def test_rate_of_a_wider_range_is_certified_and_verified(motor):
+    """Beyond the common-P range the certified rate is finite, and numpy verifies its P(J) on a finer grid."""
+    pytest.importorskip("cvxpy")
+    d = sr.design(motor, 1.0, 2.0)
+    assert math.isinf(sr.parameter_rate(motor, d).rate)  # the file's range: a common P, any rate
+    wide = motor.with_ranges({"J": (2e-4, 0.12)})  # past the common-P limit (0.0619 kg·m²), below the frozen one
+    bracket = sr.rate_bracket(wide, d)
+    assert 0 < bracket.certified < math.inf
+    cert = bracket.margin.certificate
+    assert cert is not None and cert.certified
+    fine = wide.samples({"J": 4 * wide.parameter("J").samples - 3})
+    assert sr.verify_rate_bounded(fine.closed_loops(d.K), fine.column("J"), cert.P0, cert.P1,
+                                  bracket.certified) > 0
+    # above it: no periodic ramp the scan tried makes this loop grow, and the bracket says so
+    assert math.isinf(bracket.unstable) and "no growing periodic ramp" in bracket.message
+
+
+def test_rate_bracket_finds_growth_above_the_certificate():
+    """A lightly damped oscillator whose stiffness ramps between 1 and 9 1/s²: parametric resonance above."""
+    pytest.importorskip("cvxpy")
+    k = sr.Parameter("k", "1/s²", (1.0, 9.0))
+    oscillator = sr.UncertainPlant.from_expressions([k], [[0, 1], ["-k", -0.1]], [[0], [1]], form="state")
+    bracket = sr.rate_bracket(oscillator, np.zeros((1, 2)))
+    assert 0 < bracket.certified < bracket.unstable < math.inf
+    # the other side, recomputed: a growing Floquet multiplier at the upper rate
+    ramp = 8.0 / bracket.unstable
+    assert max(sr.parameter_switching_growth(oscillator, np.zeros((1, 2)), "k", bracket.unstable, hold_high=h,
+                                             hold_low=h) for h in (0.0, ramp, 4 * ramp)) > 0
+    # and an independent check of that growth: integrate one period of the ramp with scipy
+    from scipy.integrate import solve_ivp
+
+    rate = bracket.unstable
+    for h in (0.0, ramp, 4 * ramp):
+        period = 2 * h + 2 * ramp
+
+        def k_of(t, h=h):
+            t = t % period
+            if t < h:
+                return 9.0
+            if t < h + ramp:
+                return 9.0 - rate * (t - h)
+            if t < 2 * h + ramp:
+                return 1.0
+            return 1.0 + rate * (t - 2 * h - ramp)
+
+        def f(t, x, k_of=k_of):
+            return [x[1], -k_of(t) * x[0] - 0.1 * x[1]]
+
+        monodromy = np.column_stack([solve_ivp(f, (0, period), e, rtol=1e-10, atol=1e-12, max_step=ramp / 50).y[:, -1]
+                                     for e in np.eye(2)])
+        growth = np.log(np.abs(np.linalg.eigvals(monodromy)).max()) / period
+        expected = sr.parameter_switching_growth(oscillator, np.zeros((1, 2)), "k", rate, hold_high=h, hold_low=h,
+                                                 n_ramp=400)
+        assert growth == pytest.approx(expected, abs=2e-3)
+
+
+# --- the SCARA through the plant type ---------------------------------------------------------
+
+REFERENCE = json.loads((ROOT / "tests" / "data" / "scara_reference.json").read_text())
+
+
+@pytest.mark.parametrize("bounds", ["paper", "derived"])
+def test_scara_plant_gives_the_element_models_exactly(bounds):
+    plant = sr.scara_uncertain_plant(bounds=bounds)
+    old = sr.paper_model() if bounds == "paper" else sr.derived_model()
+    new = plant.interval_model()
+    assert new.elements == old.elements
+    assert np.array_equal(new.A, old.A) and np.array_equal(new.B, old.B)
+
+
+def test_scara_plant_samples_are_the_physical_samples():
+    s = sr.scara_uncertain_plant().samples({"t_ref": 37, "m_p": 5})
+    p = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 37), n_masses=5)
+    assert np.array_equal(s.A, p.A) and np.array_equal(s.B, p.B)
+    assert np.array_equal(s.column("m_p"), p.masses) and np.array_equal(s.column("t_ref"), p.times)
+
+
+@pytest.mark.parametrize("bounds", ["paper", "derived"])
+def test_scara_numbers_are_those_of_the_element_code(bounds):
+    """K, max λ(Z) and the exact margins at (3, 90), recorded with the element-level code (tests/data)."""
+    ref = REFERENCE[bounds]
+    plant = sr.scara_uncertain_plant(bounds=bounds)
+    d = sr.design(plant, 3.0, 90.0)
+    assert np.allclose(d.K, ref["K"], rtol=1e-12, atol=0)
+    assert sr.certify(plant, d).max_eig == pytest.approx(ref["max_eig"], rel=1e-9)
+    for method in ("theorem1", "vertex", "frozen"):
+        assert sr.robustness_margin(plant, d, method).theta == pytest.approx(ref[method], rel=1e-9), method
+
+
+def test_scara_payload_margin_is_that_of_the_element_code():
+    ref = REFERENCE["payload"]
+    d = sr.design(sr.paper_model(), 3.0, 90.0)
+    table = sr.payload_margin(d, methods=("payload-design-P", "payload-frozen")).set_index("method")
+    assert table.loc["payload-design-P", "mass [kg]"] == pytest.approx(ref["payload-design-P"], rel=1e-12)
+    assert table.loc["payload-frozen", "mass [kg]"] == pytest.approx(ref["payload-frozen"], rel=1e-12)
+
+
+def test_scara_certificate_table_through_the_plant(capsys):
+    """The physical rows run on the plant's samples; the verdicts and numbers are the element code's."""
+    ref = REFERENCE["certify"]
+    assert main(["certify", "--rho", "3", "--eta", "90", "--tries", "2", "--format", "json"]) == 0
+    rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
+    for method, (verdict, max_eig) in ref.items():
+        assert rows[method]["verdict"] == verdict, method
+        if max_eig is not None:
+            assert rows[method]["max_eig"] == pytest.approx(max_eig, rel=1e-9), method
+
+
+# --- runs and export -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("profile", ["sinusoid", "random-walk", "ramp"])
+def test_motor_tracks_with_varying_inertia(motor, profile):
+    d = sr.design(motor, 1.0, 10.0)
+    p = sr.parameter_profile(motor, "J", profile, t_final=20.0, seed=3)
+    run = sr.simulate_plant(motor, d.K, profiles={"J": p}, t_final=20.0)
+    assert run.status == "tracking", run.reason
+    J = run.p[motor.names.index("J")]
+    assert J.min() >= 2e-4 - 1e-12 and J.max() <= 6e-4 + 1e-12
+    assert run.max_rate[motor.names.index("J")] <= 4e-4 * (1 + 1e-6)  # within the file's rate bound
+    assert J.max() - J.min() > 1e-4  # J did vary
+
+
+def test_simulation_matches_the_frozen_linear_response(motor):
+    """With J held, the loop is LTI: python-control's step response of the closed loop is the same run."""
+    import control as ct
+
+    d = sr.design(motor, 1.0, 10.0)
+    run = sr.simulate_plant(motor, d.K, profiles={"J": lambda t: 4e-4}, t_final=5.0, n_points=501)
+    A, B = motor.frozen({"J": 4e-4})
+    # x = [∫e, e, ė] with r a unit step: ẋ = (A − BK)x + [1, 0, 0]ᵀ r' ... from e(0) = 1: y = 1 − e
+    closed = ct.ss(A - B @ d.K, np.zeros((3, 1)), [[0, 1, 0]], 0)
+    response = ct.initial_response(closed, run.t, X0=[0.0, 1.0, 0.0])
+    assert np.allclose(run.e[0], np.asarray(response.outputs).ravel(), atol=1e-6)
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler `cc` on this machine: the exported C is not compiled")
+def test_single_precision_export_compiles_and_matches(motor, tmp_path):
+    d = sr.design(motor, 1.0, 10.0)
+    pid = d.discretize(5e-4)
+    files = sr.export_controller(pid, tmp_path, prefix="motor_pid", precision="single",
+                                 outputs=motor.outputs, inputs=motor.inputs)
+    header = files[0].read_text()
+    assert "u = current [A]" in header and "const float e[1]" in header and "double" not in files[1].read_text()
+    main_c = """#include <stdio.h>
+#include "motor_pid.h"
+int main(void) {
+    motor_pid_state s; float e[1], ed[1], u[1]; double a, b;
+    motor_pid_init(&s);
+    while (scanf("%lf %lf", &a, &b) == 2) { e[0] = (float)a; ed[0] = (float)b; motor_pid_step(&s, e, ed, u);
+        printf("%.9g\\n", (double)u[0]); }
+    return 0;
+}
+"""
+    (tmp_path / "main.c").write_text(main_c)
+    exe = tmp_path / "replay"
+    subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-ffp-contract=off", "-o",
+                    str(exe), str(tmp_path / "main.c"), str(files[1])], check=True, capture_output=True, timeout=120)
+    rng = np.random.default_rng(0)
+    e = np.cumsum(rng.normal(0, 0.01, 2000))
+    ed = np.gradient(e, 5e-4)
+    out = subprocess.run([str(exe)], input="\n".join(f"{float(a)!r} {float(b)!r}" for a, b in zip(e, ed)), check=True,
+                         capture_output=True, text=True, timeout=60).stdout
+    u_c = np.array([float(v) for v in out.split()], dtype=np.float32)
+    step32 = sr.single_precision_step(pid)
+    u_32 = np.array([step32([a], [b])[0] for a, b in zip(e, ed)], dtype=np.float32)
+    assert np.array_equal(u_c, u_32)  # same float32 operations in the same order
+    pid.reset()
+    u_64 = np.array([pid.step([a], [b])[0] for a, b in zip(e, ed)])
+    assert np.abs(u_32 - u_64).max() <= 1e-5 * np.abs(u_64).max()
+
+
+# --- the second example plant ------------------------------------------------------------------
+
+def test_second_plant_has_another_shape(carts):
+    assert (carts.n_states, carts.n_inputs, len(carts.varying)) == (4, 2, 2)
+    hull = carts.interval_model()
+    assert hull.n_states == 6 and hull.n_elements == 6
+    samples = carts.samples()
+    lo = hull.matrices_at(hull.lower_bounds())
+    hi = hull.matrices_at(hull.upper_bounds())
+    assert (samples.A >= lo[0] - 1e-12).all() and (samples.A <= hi[0] + 1e-12).all()
+    assert (samples.B >= lo[1] - 1e-12).all() and (samples.B <= hi[1] + 1e-12).all()
+
+
+def test_scara_compare_table_is_that_of_the_element_code(capsys):
+    """The compare command designs its PID through the plant type; every run is the element code's."""
+    assert main(["compare", "--t-final", "7", "--format", "json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    ref = REFERENCE["compare"]
+    assert [(r["controller"], r["scenario"], r["status"]) for r in rows] == [
+        (r["controller"], r["scenario"], r["status"]) for r in ref]
+    for new, old in zip(rows, ref):
+        for key, value in old.items():
+            if isinstance(value, float):
+                assert new[key] == pytest.approx(value, rel=1e-6), (new["controller"], key)
