@@ -168,7 +168,7 @@ def test_rate_bracket_finds_growth_above_the_certificate():
     for h in (0.0, ramp, 4 * ramp):
         period = 2 * h + 2 * ramp
 
-        def k_of(t, h=h):
+        def k_of(t, h=h, period=period):
             t = t % period
             if t < h:
                 return 9.0
@@ -328,3 +328,44 @@ def test_scara_compare_table_is_that_of_the_element_code(capsys):
         for key, value in old.items():
             if isinstance(value, float):
                 assert new[key] == pytest.approx(value, rel=1e-6), (new["controller"], key)
+
+
+# --- bad plant files: one line, exit 2, nothing written ------------------------------------------
+
+MOTOR_TEXT = MOTOR.read_text(encoding="utf-8")
+PLANT_FILE_CASES = [
+    ("min-above-max", ("range = [2e-4, 6e-4]", "range = [6e-4, 2e-4]"),
+     "field `parameters.J.range` must have lower <= upper, found [0.0006, 0.0002] kg·m²"),
+    ("unit-missing", ('unit = "kg·m²"\n', ""), "missing field `parameters.J.unit`"),
+    ("unit-empty", ('unit = "kg·m²"', 'unit = " "'), "`parameters.J.unit` must name the unit"),
+    ("unknown-name", ('["kt/J"]', '["kt/Jx"]'), "names `Jx`, which is not a parameter"),
+    ("import", ('"-b/J"', "\"__import__('os').system('touch pwned')\""), "which is not an allowed function"),
+    ("attribute", ('"-b/J"', '"J.__class__"'), "Attribute is not allowed"),
+    ("rate-without-range", ("value = 1e-4\n", "value = 1e-4\nrate = 1.0\n"),
+     "field `parameters.b.rate` bounds the change of a parameter with a `range`"),
+    ("divides-by-zero", ("range = [2e-4, 6e-4]", "range = [0.0, 6e-4]"), "field `A[1][1]` is -inf at J = 0 kg·m²"),
+    ("input-vanishes", ('["kt/J"]', '["kt*(J - 2e-4)/J"]'),
+     "input rows B_u (p = 1) have rank 0 < 1 at J = 0.0002 kg·m²"),
+    ("unknown-field", ("samples = 9", "sample = 9"), "unknown field `parameters.J.sample`"),
+]
+
+
+@pytest.mark.parametrize(("name", "edit", "needle"), PLANT_FILE_CASES, ids=[c[0] for c in PLANT_FILE_CASES])
+@pytest.mark.parametrize("command", ["margin", "export", "simulate"])
+def test_bad_plant_file_is_one_line_and_writes_nothing(capsys, tmp_path, monkeypatch, name, edit, needle, command):
+    old, new = edit
+    assert old in MOTOR_TEXT
+    bad = tmp_path / "plant.toml"
+    bad.write_text(MOTOR_TEXT.replace(old, new, 1), encoding="utf-8")
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    monkeypatch.chdir(out_dir)
+    argv = {"margin": ["margin", "--model", str(bad), "--rho", "1", "--eta", "10", "--output", "m.txt"],
+            "export": ["export", "--model", str(bad), "--rho", "1", "--eta", "10", "--ts", "5e-4", "--output", "."],
+            "simulate": ["simulate", "--model", str(bad), "--rho", "1", "--eta", "10", "--output", "run.csv"]}[command]
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and err.startswith("scara_robust: error:")
+    assert needle in err and str(bad) in err and "Traceback" not in err
+    assert list(out_dir.iterdir()) == []  # nothing written, no temporary left
+    assert not (out_dir / "pwned").exists()

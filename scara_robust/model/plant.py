@@ -667,8 +667,11 @@ class UncertainPlant:
         A, B = self._plant_matrices(vals)
         bad = ~(np.isfinite(A).all(axis=(-2, -1)) & np.isfinite(B).all(axis=(-2, -1)))
         if bad.any():
-            raise ArgumentValueError("matrices", f"are not finite at {self._point(grid[int(np.argmax(bad))])}: the "
-                                                 "plant is undefined there")
+            k = int(np.argmax(bad))
+            label, M = ("A", A[k]) if not np.isfinite(A[k]).all() else ("B", B[k])
+            i, j = (int(v) for v in np.argwhere(~np.isfinite(M))[0])
+            raise ArgumentValueError(f"{label}[{i}][{j}]", f"is {M[i, j]} at {self._point(grid[k])}: the plant is "
+                                                           "undefined (singular) there")
         n = self.n_states
         if self.form == "pid":
             p = n // 2
