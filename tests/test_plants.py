@@ -214,6 +214,7 @@ def test_bad_model_files_get_one_line_naming_file_and_field(tmp_path, capsys, ca
 
 
 def test_model_file_excludes_the_robots_options(capsys):
-    argv = ["design", "--model", str(EXAMPLES / "plant-dc-motor-elements.toml"), "--rho", "1", "--eta", "2", "--bounds", "paper"]
+    argv = ["design", "--model", str(EXAMPLES / "plant-dc-motor-elements.toml"), "--rho", "1", "--eta", "2",
+            "--bounds", "paper"]
     assert main(argv) == 2
     assert "--bounds describe the SCARA" in capsys.readouterr().err

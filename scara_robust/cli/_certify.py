@@ -10,8 +10,17 @@ import numpy as np
 
 from ..lyapunov.gain import design
 from ..model.plant import as_model, as_plant
+from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_plant, resolve_setup
+from ._common import (
+    CommandLineError,
+    add_setup_options,
+    finite_float,
+    resolve_bounds,
+    resolve_plant,
+    resolve_setup,
+    sampled_plants,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -29,6 +38,10 @@ def add_parser(sub: Any) -> None:
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
+    p.add_argument("--max-ts", action="store_true",
+                   help="also: the largest sample time the sampled-data certificate holds at (the design discretized "
+                   "as export does: Tustin integral, measured derivative), and the smallest at which a frozen plant "
+                   "is unstable (extra lmi)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
@@ -60,8 +73,15 @@ def run(args: argparse.Namespace) -> str:
     model = as_model("model", plant)
     d = design(model, args.rho, args.eta)
     table = certificate_table(model, d, plant=as_plant("model", plant), falsifier_tries=args.tries, seed=args.seed)
+    limit = None
+    if args.max_ts:
+        plants, check, set_name = sampled_plants(args, plant, model)
+        limit = max_sample_time(plants, d, check=check, rtol=1e-3)
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        if limit is not None:
+            records.append({"method": "max-ts", "certified_ts [s]": _json_value(limit.certified_ts),
+                            "unstable_ts [s]": _json_value(limit.unstable_ts), "detail": limit.message})
         return json.dumps(records, indent=2)
     source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
     header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), {source}"
@@ -69,4 +89,5 @@ def run(args: argparse.Namespace) -> str:
         certified=table["certified"].map({True: "yes", False: "no", None: "-"})
     )
     details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
-    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details])
+    sampled = [] if limit is None else ["", f"sample time on {set_name}: {limit.message}"]
+    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details, *sampled])

@@ -19,12 +19,13 @@ import numpy as np
 from ..exceptions import ArgumentError, InputFileError
 from ..io import DesignFile, load_design, load_model, load_robot, load_scenario, write_atomic
 from ..model.initial import SCENARIOS, Scenario
-from ..model.plant import UncertainPlant, as_model
+from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.polytopic import PolytopicModel
 from ..model.robot import PayloadProfile, ScaraParams
 from ..model.scara import SCARA_BOUNDS, scara_uncertain_plant
 from ..model.signals import Reference, SquareWave
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.sampled import interior_grid
 
 __all__ = [
     "BOUNDS",
@@ -44,6 +45,7 @@ __all__ = [
     "resolve_bounds",
     "resolve_model",
     "resolve_plant",
+    "sampled_plants",
     "resolve_setup",
     "RANGE_HELP",
     "save_figure",
@@ -520,6 +522,48 @@ def resolve_plant(args: argparse.Namespace, setup: Setup) -> UncertainPlant | Un
             )
         return scara_uncertain_plant(bounds="paper")
     return scara_uncertain_plant(setup.params, setup.reference, setup.payload, bounds="derived")
+
+
+#: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
+CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
+
+
+def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[Any, Any, str]:
+    """The plants the sampled-data certificate runs on, a second set to verify on, and their name.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant, UncertainLTVModel or PolytopicModel
+        From :func:`resolve_plant`.
+    model : UncertainLTVModel or PolytopicModel
+        Its uncertainty set.
+
+    Returns
+    -------
+    plants, check : set or tuple (A, B)
+    name : str
+    """
+    physical = as_plant("model", plant)
+    if args.model is not None and physical is not None:
+        on, fine = physical.samples(), physical.samples(physical.fine_points())
+        return (on.A, on.B), (fine.A, fine.B), (
+            f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
+            f"{fine.n_samples})")
+    if args.model is not None:
+        if model.kind == "box":
+            grid = interior_grid(model)
+            return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "
+                                 f"(verified on a {len(grid[0])}-plant grid of the box)")
+        return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
+    assert physical is not None
+    coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
+    fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
+    plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
+    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
+    return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
+                           f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
+                           f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
 
 
 def add_design_option(p: argparse.ArgumentParser) -> None:

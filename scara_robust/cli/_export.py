@@ -14,7 +14,7 @@ from ..io import load_design
 from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..lyapunov.gain import design
 from ..model.plant import as_model, as_plant
-from ..robustness.sampled import check_sample_time, interior_grid
+from ..robustness.sampled import check_sample_time
 from ._common import (
     CommandLineError,
     _load_file,
@@ -24,6 +24,7 @@ from ._common import (
     resolve_bounds,
     resolve_plant,
     resolve_setup,
+    sampled_plants,
 )
 
 __all__ = ["add_parser", "run"]
@@ -85,34 +86,6 @@ def _check_folder(folder: str) -> None:
     os.unlink(probe)
 
 
-#: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
-CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
-
-
-def _plant_set(args: argparse.Namespace, plant: Any, model: Any) -> tuple[Any, Any, str]:
-    """The plants the sampled-data certificate runs on, a second set to verify on, and their name."""
-    physical = as_plant("model", plant)
-    if args.model is not None and physical is not None:
-        on, fine = physical.samples(), physical.samples(physical.fine_points())
-        return (on.A, on.B), (fine.A, fine.B), (
-            f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
-            f"{fine.n_samples})")
-    if args.model is not None:
-        if model.kind == "box":
-            grid = interior_grid(model)
-            return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "
-                                 f"(verified on a {len(grid[0])}-plant grid of the box)")
-        return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
-    assert physical is not None
-    coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
-    fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
-    plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
-    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
-    return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
-                           f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
-                           f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
-
-
 def run(args: argparse.Namespace) -> str:
     """Design (or read), discretize, certify at Ts and write the files; the list of files written.
 
@@ -163,7 +136,7 @@ def run(args: argparse.Namespace) -> str:
         pid = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
-    plants, check, set_name = _plant_set(args, plant, model)
+    plants, check, set_name = sampled_plants(args, plant, model)
     result = check_sample_time(plants, pid, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
         raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
