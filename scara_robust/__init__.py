@@ -4,7 +4,7 @@ Use as ``import scara_robust as sr``. Every name below is re-exported from the
 subpackage that defines it; each subpackage's ``__all__`` is the one source of the API.
 The layers, bottom to top (each imports only those before it)::
 
-    paper, exceptions  ->  model  ->  lyapunov  ->  robustness | simulation
+    paper, exceptions  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
                        ->  io  ->  export  ->  studies  ->  plotting  ->  cli (front end)
 
 The paper's numbers (:mod:`scara_robust.paper`)
@@ -39,10 +39,11 @@ Model (:mod:`scara_robust.model`)
     ParameterSamples, PLANT_FORMS, HULL_RTOL -- its frozen plants on a grid; its design forms; the sampled hull's rtol
     ModelLike, is_model, as_model, as_plant, as_box, require_plant -- what every analysis takes, and its set
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
-The paper's method (:mod:`scara_robust.lyapunov`)
-    design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
+The controller on a board (:mod:`scara_robust.controller`)
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
     default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
+The paper's method (:mod:`scara_robust.lyapunov`)
+    design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
     theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
     affine_margin, theorem1_scaling -- Z(θ) = Z₀ + θZ₁ for the box scaled by θ, and its exact margin
@@ -123,6 +124,8 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
 """
 
+from .controller import *  # noqa: F403
+from .controller import __all__ as _controller
 from .exceptions import *  # noqa: F403
 from .exceptions import __all__ as _exceptions
 from .export import *  # noqa: F403
@@ -148,6 +151,7 @@ __all__ = [
     *_paper,
     *_exceptions,
     *_model,
+    *_controller,
     *_lyapunov,
     *_robustness,
     *_simulation,

@@ -38,9 +38,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._validation import check_array, check_choice, check_instance
+from .controller.discrete import DiscretePID
 from .exceptions import ArgumentValueError
 from .io import _umask
-from .lyapunov.discrete import DiscretePID
 from .model.plant import Signal
 
 __all__ = ["EXPORT_FORMATS", "PRECISIONS", "controller_record", "c_source", "export_controller", "DEFAULT_PREFIX",

@@ -23,6 +23,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.exceptions", "scara_robust.paper"),
     ("scara_robust._validation", "scara_robust._resources"),
     ("scara_robust.model",),
+    ("scara_robust.controller",),
     ("scara_robust.lyapunov",),
     ("scara_robust.robustness", "scara_robust.simulation"),
     ("scara_robust.io",),

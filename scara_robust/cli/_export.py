@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
+from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, PRECISIONS, _check_prefix, export_controller
 from ..io import load_design
-from ..lyapunov.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..lyapunov.gain import design
 from ..model.plant import as_model, as_plant
 from ..robustness.sampled import check_sample_time

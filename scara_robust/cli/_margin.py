@@ -14,8 +14,9 @@ from ..exceptions import ArgumentError
 from ..lyapunov.gain import Design, design
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.uncertain import ANCHORS
-from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, payload_margin, robustness_margin
+from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, robustness_margin
 from ..robustness.parameters import parameter_margin, rate_bracket
+from ..robustness.payload import payload_margin
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_plant, resolve_setup
 
 __all__ = ["add_parser", "run"]

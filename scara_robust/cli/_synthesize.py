@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 from ..io import design_record, write_design
-from ..model.uncertain import physical_samples
+from ..model.scara import physical_samples
 from ..robustness.lmi import NOT_INSTALLED
-from ..robustness.margins import payload_margin, robustness_margin
+from ..robustness.margins import robustness_margin
+from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_model, resolve_setup
 

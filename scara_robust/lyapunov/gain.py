@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_real
+from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
 from ..model.plant import ModelLike, as_model
-from .discrete import DiscretePID
 
 __all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
 

@@ -14,17 +14,28 @@ hull computed from the robot.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_choice, check_int
+from .._validation import check_array, check_choice, check_int, check_real
+from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
 from .plant import Parameter, Signal, UncertainPlant
 from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
 from .signals import Reference, paper_reference
-from .uncertain import UncertainLTVModel, paper_model
+from .uncertain import UncertainElement, UncertainLTVModel
 
-__all__ = ["scara_uncertain_plant", "SCARA_BOUNDS"]
+__all__ = [
+    "scara_uncertain_plant",
+    "SCARA_BOUNDS",
+    "paper_model",
+    "derived_model",
+    "physical_samples",
+    "PhysicalSamples",
+    "pid_state_matrices",
+]
 
 Array = NDArray[np.float64]
 #: Interval views of :func:`scara_uncertain_plant`.
@@ -114,4 +125,199 @@ def scara_uncertain_plant(
         outputs=(Signal("q1", "rad"), Signal("q2", "rad")),
         hull=published if bounds == "paper" else None,
         prefix="scara_pid",
+    )
+
+
+def pid_state_matrices(a_star: ArrayLike, b_star: ArrayLike) -> tuple[Array, Array]:
+    """Assemble Eq. (4)'s A (6x6) and B (6x2) for the PID state ``[∫e, e, ė]``.
+
+    Parameters
+    ----------
+    a_star : array_like, shape (2, 4)
+        Rows 5-6, columns 3-6 of A (the Jacobian of f with respect to ``e, ė``).
+    b_star : array_like, shape (2, 2)
+        Rows 5-6 of B.
+
+    Returns
+    -------
+    A : ndarray, shape (6, 6)
+    B : ndarray, shape (6, 2)
+    """
+    a_star = check_array("a_star", a_star, shape=(2, 4))
+    b_star = check_array("b_star", b_star, shape=(2, 2))
+    A = np.zeros((6, 6))
+    A[:4, 2:] = np.eye(4)
+    A[4:, 2:] = a_star
+    B = np.zeros((6, 2))
+    B[4:, :] = b_star
+    return A, B
+
+
+
+
+def paper_model() -> UncertainLTVModel:
+    """The published model of Section 4: A*, B* and Tables 1-2 exactly.
+
+    Returns
+    -------
+    UncertainLTVModel
+        n = 6, m = 2, N = 10 elements: ΔA(5..6, 4..6) then ΔB(5..6, 1..2), each with
+        lower bound 0 (A*, B* are the lower ends of the intervals).
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.paper_model().n_elements
+    10
+    """
+    a_star = np.zeros((2, 4))
+    a_star[:, 1:] = PAPER_A_STAR
+    A, B = pid_state_matrices(a_star, PAPER_B_STAR)
+    elements = [
+        UncertainElement("A", 4 + i, 3 + j, 0.0, float(PAPER_TABLE1[i, j])) for i in range(2) for j in range(3)
+    ] + [UncertainElement("B", 4 + i, k, 0.0, float(PAPER_TABLE2[i, k])) for i in range(2) for k in range(2)]
+    return UncertainLTVModel(A, B, tuple(elements), name="paper (Tables 1-2)", n_joints=2)
+
+
+@dataclass(frozen=True)
+class PhysicalSamples:
+    """The robot's own (A, B) pairs, sampled along the reference over the payload range.
+
+    Attributes
+    ----------
+    A : ndarray, shape (k, 6, 6)
+        State matrices of Eq. (4) at each sample.
+    B : ndarray, shape (k, 6, 2)
+        Input matrices (rows 5-6 hold ``-M⁻¹``).
+    times : ndarray, shape (k,)
+        Reference time of each sample, s.
+    masses : ndarray, shape (k,)
+        Payload mass of each sample, kg.
+    """
+
+    A: Array
+    B: Array
+    times: Array
+    masses: Array
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples k."""
+        return int(self.times.size)
+
+
+def physical_samples(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    times: ArrayLike | None = None,
+    n_masses: int = 21,
+) -> PhysicalSamples:
+    """Linearize the robot at ``e = 0`` on the grid ``times × masses``.
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        Robot (default: the paper's).
+    reference : Reference, optional
+        Joint reference (default: the paper's ``sin t, cos t``).
+    payload : callable, optional
+        ``payload(t) -> m_p`` in kg (default: the paper's); only its range over `times`
+        is used.
+    times : array_like, shape (n_t,), optional
+        Reference sample times, s (default: 721 points over [0, 2π]).
+    n_masses : int
+        Payload masses sampled evenly across its range (>= 1).
+
+    Returns
+    -------
+    PhysicalSamples
+        ``k = n_t * n_masses`` samples, time-major.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.physical_samples(times=[0.0, 1.0], n_masses=3).A.shape
+    (6, 6, 6)
+    """
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    payload = payload if payload is not None else paper_payload(params)
+    t = np.linspace(0.0, 2 * np.pi, 721) if times is None else check_array("times", times, ndim=1)
+    if t.size == 0:
+        raise ValueError("`times` must hold at least one time, found none")
+    n_masses = check_int("n_masses", n_masses, 1)
+    lo, hi = payload_range(payload, t)
+    masses = np.linspace(lo, hi, int(n_masses))
+    r, rd, _ = reference.sample(t)
+    a_star, g_bar = error_dynamics_jacobians(params, r[:, None, :], rd[:, None, :], masses[None, :])
+    k = t.size * masses.size
+    A0, _ = pid_state_matrices(np.zeros((2, 4)), np.zeros((2, 2)))
+    A_all = np.repeat(A0[None], k, axis=0)
+    A_all[:, 4:, 2:] = a_star.reshape(k, 2, 4)
+    B_all = np.zeros((k, 6, 2))
+    B_all[:, 4:, :] = g_bar.reshape(k, 2, 2)
+    grid_t, grid_m = np.meshgrid(t, masses, indexing="ij")
+    return PhysicalSamples(A=A_all, B=B_all, times=grid_t.ravel(), masses=grid_m.ravel())
+
+
+def derived_model(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    times: ArrayLike | None = None,
+    n_masses: int = 21,
+    rtol: float = 1e-9,
+) -> UncertainLTVModel:
+    """Interval model obtained by linearizing the robot along the reference.
+
+    The Jacobians of :func:`scara_robust.error_dynamics_jacobians` are evaluated on the
+    grid ``times × masses`` (masses spanning the payload's range; see
+    :func:`physical_samples`), so the reference and payload are treated as independent.
+    An element varies when its range exceeds ``rtol`` times the largest magnitude in its
+    matrix; the nominal matrices hold the element-wise minima and each varying element
+    gets ``[0, max - min]``, the paper's convention.
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+        Robot (default: the paper's).
+    reference : Reference, optional
+        Joint reference (default: the paper's ``sin t, cos t``).
+    payload : callable, optional
+        ``payload(t) -> m_p`` in kg (default: the paper's).
+    times : array_like, shape (k,), optional
+        Reference sample times, s (default: 721 points over [0, 2π]).
+    n_masses : int
+        Payload masses sampled across its range (>= 1).
+    rtol : float
+        Relative threshold below which an element is constant.
+
+    Returns
+    -------
+    UncertainLTVModel
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.derived_model().n_elements
+    10
+    """
+    rtol = check_real("rtol", rtol, nonnegative=True)
+    samples = physical_samples(params, reference, payload, times=times, n_masses=n_masses)
+    elements: list[UncertainElement] = []
+    nominal = {}
+    for label, stack in (("A", samples.A), ("B", samples.B)):
+        low, high = stack.min(axis=0), stack.max(axis=0)
+        scale = max(np.abs(stack).max(), 1e-300)
+        nominal[label] = low.copy()
+        for i, j in zip(*np.nonzero(high - low > rtol * scale)):
+            matrix: Literal["A", "B"] = "A" if label == "A" else "B"
+            elements.append(UncertainElement(matrix, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
+        unchanged = high - low <= rtol * scale
+        nominal[label][unchanged] = stack[0][unchanged]
+    return UncertainLTVModel(
+        nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)", n_joints=2
     )

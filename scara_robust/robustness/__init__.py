@@ -13,6 +13,8 @@ from .margins import *  # noqa: F403
 from .margins import __all__ as _margins
 from .parameters import *  # noqa: F403
 from .parameters import __all__ as _parameters
+from .payload import *  # noqa: F403
+from .payload import __all__ as _payload
 from .pdl import *  # noqa: F403
 from .pdl import __all__ as _pdl
 from .polytope import *  # noqa: F403
@@ -24,4 +26,5 @@ from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters]
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters,
+           *_payload]

@@ -27,7 +27,8 @@ method          kind   how
 ==============  =====  ==========================================================================
 
 :func:`margin_table` runs them all and reports the bracket [best lower, best upper];
-:func:`payload_margin` answers the robot's version in kilograms of payload.
+:func:`scara_robust.parameter_margin` answers in the units of a plant's parameters, and
+:func:`scara_robust.payload_margin` the robot's version in kilograms of payload.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,12 +50,9 @@ from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
 from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
-from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
-from ..model.signals import Reference
-from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel, physical_samples
+from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
 from .falsifier import falsify
-from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
-from .polytope import polytope_certificate
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
 
 __all__ = [
     "Margin",
@@ -62,8 +60,6 @@ __all__ = [
     "MARGIN_TOL",
     "robustness_margin",
     "margin_table",
-    "payload_margin",
-    "PAYLOAD_METHODS",
     "FROZEN_SCAN_RATIO",
     "FROZEN_RTOL",
 ]
@@ -82,9 +78,6 @@ MARGIN_METHODS: dict[str, str] = {
 #: Default relative tolerance of the bisections.
 MARGIN_TOL = 1e-3
 _THETA_MAX = 1e6
-#: Rows of :func:`payload_margin`: the design's own P, a common P by LMI (lower bounds),
-#: the frozen samples' stability (upper bound).
-PAYLOAD_METHODS = ("payload-design-P", "payload-lmi", "payload-frozen")
 
 
 @dataclass(frozen=True)
@@ -382,98 +375,3 @@ def margin_table(
     return frame
 
 
-def payload_margin(
-    design: Design,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    *,
-    n_times: int = 181,
-    n_masses: int = 11,
-    lmi_times: int = 37,
-    lmi_masses: int = 5,
-    tol: float = MARGIN_TOL,
-    mass_max: float = 1e3,
-    methods: Sequence[str] = PAYLOAD_METHODS,
-) -> pd.DataFrame:
-    """The largest payload peak mass (kg) for which the robot's own sampled set is certified.
-
-    The payload is ``m_p(t) = (M/2)(1 + sin t)`` (the paper's shape, peak M); the set is
-    the robot's linearized error dynamics along the reference for masses in [0, M]
-    (:func:`scara_robust.physical_samples`).
-
-    Parameters
-    ----------
-    design : Design
-        A design for the SCARA's 6-state error model.
-    params : ScaraParams, optional
-    reference : Reference, optional
-    n_times, n_masses : int
-        Sampling of the set for the design-P test and the frozen test.
-    lmi_times, lmi_masses : int
-        Coarser sampling on which the LMI is solved; its P is verified with numpy on the
-        finer one.
-    tol : float
-        Relative tolerance of the bisections on M.
-    mass_max : float
-        Largest peak mass searched, kg.
-    methods : sequence of str
-        Rows to compute, from :data:`PAYLOAD_METHODS` (the design-P row alone needs only numpy
-        and takes milliseconds).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Rows ``payload-design-P`` and ``payload-lmi`` (lower bounds) and
-        ``payload-frozen`` (upper bound); columns ``method``, ``kind``, ``mass [kg]``,
-        ``bracket [kg]``, ``seconds``, ``message``.
-    """
-    check_instance("design", design, Design, "a Design")
-    tol = check_real("tol", tol, positive=True)
-    for method in methods:
-        check_choice("methods", method, PAYLOAD_METHODS)
-    if design.K.shape != (2, 6):
-        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
-
-    def closed(mass: float, nt: int, nm: int) -> Array:
-        profile: PayloadProfile = SinusoidalPayload(0.5 * mass, 0.5 * mass)
-        s = physical_samples(params, reference, profile, times=np.linspace(0, 2 * np.pi, nt), n_masses=nm)
-        return np.asarray(s.A - s.B @ design.K, dtype=float)
-
-    def p_ok(mass: float) -> bool:
-        return polytope_certificate(closed(mass, n_times, n_masses), design.P).certified
-
-    def lmi_ok(mass: float) -> bool:
-        # a P verified on the coarse and the fine sampling; anything else (infeasible,
-        # inaccurate, unknown) ends the bisection's lower side, which only claims what it verified
-        result = lmi_certificate(closed(mass, lmi_times, lmi_masses))
-        return bool(result.P is not None and result.certified
-                    and verify_lyapunov(closed(mass, n_times, n_masses), result.P)[1] > 0)
-
-    def stable(mass: float) -> bool:
-        return bool(np.linalg.eigvals(closed(mass, n_times, n_masses)).real.max() < 0)
-
-    rows = []
-    for name, kind, ok in (("payload-design-P", "lower", p_ok), ("payload-lmi", "lower", lmi_ok),
-                           ("payload-frozen", "upper", stable)):
-        if name not in methods:
-            continue
-        start = time.perf_counter()
-        if name == "payload-lmi" and not cvxpy_available():
-            rows.append((name, kind, math.nan, "", 0.0, NOT_INSTALLED))
-            continue
-        if not ok(1e-9):
-            rows.append((name, kind, 0.0, "[0, 0]", time.perf_counter() - start, "not even without payload"))
-            continue
-        lo, hi = 1e-9, 1.0
-        while ok(hi) and hi < mass_max:
-            lo, hi = hi, 2 * hi
-        if hi >= mass_max and ok(hi):
-            rows.append((name, kind, math.inf, f"[{hi:g}, inf]", time.perf_counter() - start,
-                         f"holds up to the {mass_max:g} kg searched"))
-            continue
-        lo, hi = _bisect(ok, lo, hi, tol)
-        value = lo if kind == "lower" else hi
-        message = ("certified up to lo, not at hi" if kind == "lower"
-                   else "every frozen sample stable at lo, one unstable at hi")
-        rows.append((name, kind, value, f"[{lo:.6g}, {hi:.6g}]", time.perf_counter() - start, message))
-    return pd.DataFrame(rows, columns=["method", "kind", "mass [kg]", "bracket [kg]", "seconds", "message"])

@@ -46,12 +46,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_int, check_real
+from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
-from ..lyapunov.gain import Design
-from ..model.robot import ScaraParams, SinusoidalPayload
-from ..model.signals import Reference
-from ..model.uncertain import physical_samples
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
 
 __all__ = [
@@ -61,9 +57,6 @@ __all__ = [
     "rate_bounded_certificate",
     "verify_rate_bounded",
     "max_certified_rate",
-    "payload_closed_loops",
-    "payload_rate_certificate",
-    "payload_switching_growth",
 ]
 
 Array = NDArray[np.float64]
@@ -523,175 +516,3 @@ def max_certified_rate(
     return RateMargin(lo, (lo, hi), best, common, solves, time.perf_counter() - start)
 
 
-def payload_closed_loops(
-    design: Design,
-    mass_max: float,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    *,
-    n_times: int = 37,
-    n_masses: int = 9,
-) -> tuple[Array, Array, Array]:
-    """The robot's closed loops along the reference, indexed by payload mass.
-
-    Parameters
-    ----------
-    design : Design
-        A design for the SCARA's 6-state error model.
-    mass_max : float
-        Peak payload M, kg (> 0); masses span [0, M] (the payload ``(M/2)(1 + sin t)`` of
-        :func:`scara_robust.payload_margin`).
-    params : ScaraParams, optional
-    reference : Reference, optional
-    n_times : int
-        Reference phases over [0, 2π] s (>= 1).
-    n_masses : int
-        Masses over [0, M] (>= 2).
-
-    Returns
-    -------
-    closed_loops : ndarray, shape (n_times * n_masses, 6, 6)
-        ``Ā = A − BK`` of :func:`scara_robust.physical_samples`, time-major.
-    masses : ndarray, shape (n_times * n_masses,)
-        Payload mass of each sample, kg.
-    times : ndarray, shape (n_times * n_masses,)
-        Reference time of each sample, s.
-    """
-    check_instance("design", design, Design, "a Design")
-    if design.K.shape != (2, 6):
-        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
-    mass_max = check_real("mass_max", mass_max, positive=True)
-    n_times = check_int("n_times", n_times, 1)
-    n_masses = check_int("n_masses", n_masses, 2)
-    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
-                               times=np.linspace(0.0, 2 * np.pi, n_times), n_masses=n_masses)
-    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)
-    return closed, np.asarray(samples.masses, dtype=float), np.asarray(samples.times, dtype=float)
-
-
-def payload_rate_certificate(
-    design: Design,
-    mass_max: float,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    *,
-    n_times: int = 37,
-    n_masses: int = 9,
-    check_times: int = 181,
-    check_masses: int = 33,
-    rate_max: float = 1e6,
-    tol: float = 1e-2,
-    solver: str = "CLARABEL",
-) -> RateMargin:
-    """The largest payload rate ``|ṁ_p|`` (kg/s) certified for payloads in [0, M].
-
-    Scheduling parameter: the payload mass m_p ∈ [0, M] (kg), with ``|ṁ_p| <= ν``; the
-    reference phase (times over [0, 2π] s) varies arbitrarily within the hull of the
-    samples at each mass. The robot's linearized error dynamics (Eq. 3-4) depend on m_p
-    through ``M(q, m_p)⁻¹``, not affinely, so this is the gridding condition, re-verified
-    by numpy on a finer grid of phases and masses than the LMI used.
-
-    Parameters
-    ----------
-    design : Design
-        A design for the SCARA's 6-state error model.
-    mass_max : float
-        Peak payload M, kg (> 0).
-    params : ScaraParams, optional
-    reference : Reference, optional
-    n_times, n_masses : int
-        Grid on which the LMIs are solved.
-    check_times, check_masses : int
-        Finer grid of the numpy check, its points mostly new (``(k − 1)j + 1`` holds the
-        LMI's points and j − 1 new ones between each pair).
-    rate_max : float
-        Largest rate tried, kg/s.
-    tol : float
-        Relative width of the final bracket.
-    solver : {'CLARABEL', 'SCS'}
-
-    Returns
-    -------
-    RateMargin
-        Its ``common`` field is the common-P test on the same samples.
-
-    Examples
-    --------
-    >>> import scara_robust as sr
-    >>> d = sr.design(sr.paper_model(), 3.0, 90.0)
-    >>> sr.payload_rate_certificate(d, 180.0, n_times=13, n_masses=5).rate  # doctest: +SKIP
-    """
-    closed, masses, _ = payload_closed_loops(design, mass_max, params, reference, n_times=n_times, n_masses=n_masses)
-    closed_chk, masses_chk, _ = payload_closed_loops(design, mass_max, params, reference, n_times=check_times,
-                                                     n_masses=check_masses)
-    return max_certified_rate(closed, masses, check=(closed_chk, masses_chk), rate_max=rate_max, tol=tol,
-                              solver=solver)
-
-
-
-def payload_switching_growth(
-    design: Design,
-    mass_max: float,
-    rate: float,
-    *,
-    phase: float,
-    hold_high: float,
-    hold_low: float,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    n_ramp: int = 100,
-) -> float:
-    """Growth rate of the linearized closed loop under a periodic payload ramping at `rate`.
-
-    The evidence from the other side of :func:`payload_rate_certificate`: one period holds
-    m_p = M for `hold_high`, ramps down to 0 at ``−rate``, holds 0 for `hold_low`, and ramps
-    back up at ``+rate``, with the reference phase held at `phase` (the certificates let the
-    phase vary arbitrarily, so holding it is one admissible variation). The transition over
-    a period is exact for a piecewise-constant mass (each ramp is `n_ramp` steps held at their
-    midpoints), and the growth rate is ``log ρ(Φ(T)) / T`` (Floquet): positive means that
-    ‖x‖ grows without bound, so no certificate of any kind exists for that rate.
-
-    Parameters
-    ----------
-    design : Design
-        A design for the SCARA's 6-state error model.
-    mass_max : float
-        Peak payload M, kg (> 0).
-    rate : float
-        |ṁ_p| on the ramps, kg/s (> 0).
-    phase : float
-        Reference time held, s.
-    hold_high, hold_low : float
-        Time at M and at 0 in each period, s (>= 0).
-    params : ScaraParams, optional
-    reference : Reference, optional
-    n_ramp : int
-        Steps of each ramp (>= 1).
-
-    Returns
-    -------
-    float
-        Floquet growth rate, 1/s.
-    """
-    check_instance("design", design, Design, "a Design")
-    if design.K.shape != (2, 6):
-        raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
-    mass_max = check_real("mass_max", mass_max, positive=True)
-    rate = check_real("rate", rate, positive=True)
-    phase = check_real("phase", phase)
-    hold_high = check_real("hold_high", hold_high, nonnegative=True)
-    hold_low = check_real("hold_low", hold_low, nonnegative=True)
-    n_ramp = check_int("n_ramp", n_ramp, 1)
-    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
-                               times=np.array([phase]), n_masses=2 * n_ramp + 1)
-    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)  # masses 0, M/2n, ..., M
-    step = scipy.linalg.expm(closed[1::2] * (mass_max / n_ramp / rate))  # midpoints, each held for one step
-    down = np.eye(6)
-    for E in step[::-1]:
-        down = E @ down
-    up = np.eye(6)
-    for E in step:
-        up = E @ up
-    period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
-    duration = hold_high + hold_low + 2 * mass_max / rate
-    return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)

@@ -22,12 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_int, check_symmetric
+from .._validation import check_array, check_choice, check_symmetric
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_box, as_model
-from ..model.robot import PayloadProfile, ScaraParams
-from ..model.signals import Reference
-from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel, physical_samples
+from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 
 __all__ = [
     "PolytopeCertificate",
@@ -36,7 +34,6 @@ __all__ = [
     "box_closed_loops",
     "polytope_certificate",
     "vertex_certificate",
-    "physical_certificate",
 ]
 
 Array = NDArray[np.float64]
@@ -236,44 +233,3 @@ def vertex_certificate(
     return polytope_certificate(sub.vertex_closed_loops(design.K), design.P, sub.vertex_points(), set_name=sub.kind)
 
 
-def physical_certificate(
-    design: Design,
-    params: ScaraParams | None = None,
-    reference: Reference | None = None,
-    payload: PayloadProfile | None = None,
-    *,
-    n_times: int = 721,
-    n_masses: int = 21,
-) -> PolytopeCertificate:
-    """Exact test of the design's P over the convex hull of the robot's own (A, B) samples.
-
-    Parameters
-    ----------
-    design : Design
-    params, reference, payload
-        Robot, reference and payload (defaults: the paper's), see
-        :func:`scara_robust.physical_samples`.
-    n_times : int
-        Reference samples over one period [0, 2π] s (>= 2).
-    n_masses : int
-        Payload masses across its range (>= 1).
-
-    Returns
-    -------
-    PolytopeCertificate
-        ``worst_point`` is ``(t, m_p)`` in s and kg. The polytope holds every convex
-        combination of the samples, so a time-varying payload and any switching between
-        them are covered; points of the robot between samples are not, so check that a
-        finer sampling keeps the verdict (:func:`scara_robust.certificate_table` does).
-    """
-    if not isinstance(design, Design):
-        raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
-    n_times = check_int("n_times", n_times, 2)
-    samples = physical_samples(
-        params, reference, payload, times=np.linspace(0.0, 2 * np.pi, int(n_times)), n_masses=n_masses
-    )
-    if samples.A.shape[1:] != design.A_cl.shape:
-        raise ValueError(f"`design` must be for a {samples.A.shape[1]}-state model, found {design.A_cl.shape[0]}")
-    closed = samples.A - samples.B @ design.K
-    points = np.column_stack([samples.times, samples.masses])
-    return polytope_certificate(closed, design.P, points, set_name="physical")

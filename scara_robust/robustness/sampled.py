@@ -36,12 +36,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_instance, check_real
+from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design
 from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
-from ..model.uncertain import PhysicalSamples, UncertainLTVModel
+from ..model.scara import PhysicalSamples
+from ..model.uncertain import UncertainLTVModel
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 
 __all__ = [

@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_per_item, check_real
+from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
-from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import design
 from ..model.robot import ScaraParams, dynamics_terms
+from ..model.scara import paper_model
 from ..model.signals import Reference, paper_reference
-from ..model.uncertain import paper_model
 from ..paper import PAPER_DESIGN_POINT
 
 __all__ = [

@@ -14,10 +14,10 @@ import numpy as np
 import pandas as pd
 
 from .._validation import check_array, check_instance, check_real
+from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
-from ..lyapunov.discrete import DiscretePID
 from ..lyapunov.gain import Design, design
-from ..model.uncertain import paper_model
+from ..model.scara import paper_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..simulation.controllers import sampled_pid_controller
 from ..simulation.metrics import TRACKING_TOLERANCE

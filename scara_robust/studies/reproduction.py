@@ -18,8 +18,8 @@ from ..lyapunov.gain import design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
 from ..model.robot import ScaraParams
+from ..model.scara import paper_model
 from ..model.signals import SquareWave
-from ..model.uncertain import paper_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.run import run_scenario

@@ -23,8 +23,8 @@ from ...exceptions import ArgumentValueError
 from ...lyapunov.gain import design
 from ...model.initial import Scenario
 from ...model.robot import ConstantPayload, ScaraParams, SinusoidalPayload
+from ...model.scara import paper_model
 from ...model.signals import SquareWave, sinusoidal_reference
-from ...model.uncertain import paper_model
 from ...simulation.engines import ENGINES
 from ...simulation.metrics import TRACKING_TOLERANCE
 from ...simulation.run import SimulationResult, run_scenario

@@ -1,0 +1,11 @@
+"""The controller as it runs on a board: the discrete-time PID, its limits and anti-windup.
+
+Below the paper's method (:mod:`scara_robust.lyapunov`, whose ``Design.discretize`` builds
+one) and above the plant (:mod:`scara_robust.model`); the sampled-data certificate
+(:mod:`scara_robust.robustness`), the simulation and the export take it.
+"""
+
+from .discrete import *  # noqa: F403
+from .discrete import __all__ as _discrete
+
+__all__ = [*_discrete]
