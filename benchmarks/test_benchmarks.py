@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
+from scara_robust.simulation.compiled import compile_seconds
 
 GRIDS = {"50x50": 50, "200x200": 200}
 
@@ -43,7 +44,7 @@ def test_simulation_pid_20s(benchmark, method):
     t_final = 20.0 if not benchmark.disabled else 2.0
     if method == "compiled":
         pytest.importorskip("numba")
-        benchmark.extra_info["compile_seconds"] = sr.compile_seconds()  # cached on disk after the first time
+        benchmark.extra_info["compile_seconds"] = compile_seconds()  # cached on disk after the first time
         res = benchmark(sr.run_scenario, "pid", "large", t_final=t_final, method=method)
     else:
         res = benchmark.pedantic(sr.run_scenario, ("pid", "large"), {"t_final": t_final, "method": method}, rounds=3)
@@ -61,7 +62,7 @@ def test_compiled_integrators(benchmark, integrator):
     loop = ClosedLoop(sr.make_controller("pid"), sr.ScaraParams(), sr.paper_payload(), sr.paper_reference(),
                       sr.paper_disturbance())
     x0 = np.r_[sr.SCENARIOS["large"].initial_state(sr.paper_reference()), 0.0, 0.0]
-    sr.compile_seconds()
+    compile_seconds()
     run = benchmark(sr.compiled_run, loop, x0, t_final, integrator=integrator)
     benchmark.extra_info["rhs_calls"] = run.rhs_calls
     assert run.success and run.t[-1] == pytest.approx(t_final)

@@ -21,8 +21,7 @@ Errors (:mod:`scara_robust.exceptions`)
 Model (:mod:`scara_robust.model`)
     ScaraParams, PARAM_UNITS, PARAM_LIMITS, paper_params -- robot data (SI, plausible ranges), the paper's by default
     SinusoidalPayload, ConstantPayload, paper_payload, payload_range -- payload mass profiles m_p(t)
-    mass_matrix, coriolis, forward_dynamics, kinetic_energy, inertia_coefficients -- Eq. (1)
-    forward_dynamics_scalar, dynamics_terms -- the same for one state, without array overhead
+    mass_matrix, coriolis, forward_dynamics, kinetic_energy -- Eq. (1)
     error_dynamics_jacobians        -- linearized error dynamics (Eq. 3)
     scara_plant                     -- the robot as a control.NonlinearIOSystem
     Reference, paper_reference, sinusoidal_reference -- joint references with derivatives
@@ -30,45 +29,38 @@ Model (:mod:`scara_robust.model`)
     Scenario, SCENARIOS             -- initial tracking errors ('large', 'small')
     UncertainElement, UncertainLTVModel, ELEMENT_SETS -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
     ANCHORS                         -- what a margin θ scales the set about: the lower corner or the centre
-    paper_model, derived_model, pid_state_matrices -- published bounds / bounds derived from the robot
+    paper_model, derived_model      -- published bounds / bounds derived from the robot
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
-    state_space, as_element         -- a continuous-time control.StateSpace / an element from its fields
     PolytopicModel                  -- (A(t), B(t)) in the convex hull of vertices; box_hull() for Theorem 1
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
-    ParameterSamples, PLANT_FORMS, HULL_RTOL -- its frozen plants on a grid; its design forms; the sampled hull's rtol
-    ModelLike, is_model, as_model, as_plant, as_box, require_plant -- what every analysis takes, and its set
+    ParameterSamples, PLANT_FORMS   -- its frozen plants on a grid; its design forms; the sampled hull's rtol
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
 The controller on a board (:mod:`scara_robust.controller`)
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
     default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
 The paper's method (:mod:`scara_robust.lyapunov`)
-    design, Design, riccati_solution, check_stabilizable, CARE_RTOL -- K from (ρ, η), steps 2-3
+    design, Design, riccati_solution -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
-    theorem1_z, positive_part, rank2_positive_part -- Z and the positive parts Ψ⁺
-    affine_margin, theorem1_scaling -- Z(θ) = Z₀ + θZ₁ for the box scaled by θ, and its exact margin
     design_surface, DesignSurface, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Figure 2)
-    MAX_SURFACE_POINTS, surface_memory -- the largest grid of one call and its memory
+    MAX_SURFACE_POINTS              -- the largest grid of one call and its memory
     SURFACE_MEASURES, MARGIN_MAP_METHODS -- design_surface(measure='margin'): the margin θ(ρ, η) map
 Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
-    box_vertices, box_closed_loops, MAX_BOX_ELEMENTS -- the box's corners and closed loops
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
-    lmi_verdict, LMI_VERDICTS       -- what an LMI answer proves: certified, infeasible, inaccurate, unknown
-    LMI_SOLVERS, NOT_INSTALLED, cvxpy_available -- its solvers, and whether cvxpy is there
-    falsify, FalsifierResult, FALSIFIER_RULES, FALSIFIER_OVERFLOW -- search for a destabilizing switching signal
+    LMI_VERDICTS                    -- what an LMI answer proves: certified, infeasible, inaccurate, unknown
+    LMI_SOLVERS, cvxpy_available    -- its solvers, and whether cvxpy is there
+    falsify, FalsifierResult, FALSIFIER_RULES -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
-    FROZEN_SCAN_RATIO, FROZEN_RTOL  -- resolution of the frozen upper bound's scan, and of its bisection
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
-    synthesize, Synthesis, decay_rate, GAIN_BOUND, vertices_of -- a gain with its own certificate (LMI, extra ``lmi``)
-    decay_floor, DECAY_FLOOR_RTOL, MARGIN_DECAY_RTOL -- below the floor a verified decay is marginal (every LMI)
-    OBJECTIVES, L2_DECAY, error_output -- its objectives: decay, worst-case L2 gain to the error e, margin θ
+    synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
+    OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
-    max_certified_rate, RateMargin, FEASIBILITY_TOL -- the largest certified rate ν, by bisection
-    payload_rate_certificate, payload_closed_loops -- the robot's largest certified payload rate, kg/s
+    max_certified_rate, RateMargin  -- the largest certified rate ν, by bisection
+    payload_rate_certificate        -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
     parameter_margin, PARAMETER_METHODS -- the certified range of every parameter, in its unit (``margin --model``)
     parameter_rate, rate_bracket, RateBracket -- how fast a parameter may vary, unit/s: certificate below, growth above
@@ -76,47 +68,40 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P
     discrete_lyapunov_check         -- numpy's check of A_iᵀPA_i − P ≺ 0
     max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
-    check_sample_time, SampleTimeCheck, interior_grid -- is this Ts safe? (run by ``export``)
+    check_sample_time, SampleTimeCheck -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
     simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)
     parameter_profile, PROFILES     -- p(t): constant, sinusoid, ramp, random walk within the rate bound, CSV column
-    pid_controller, sliding_mode_controller, SlidingModeGains, check_torque_limit -- the controllers
-    pid_lmi_gain, PID_LMI_FILE      -- the synthesized gain the ``pid-lmi`` controller runs
-    ControlLaw                      -- what a package controller computes (its ``law``), for the compiled engine
-    compiled_run, compiled_batch, CompiledRun, CompiledEngine -- the compiled engine (numba, extra ``compiled``)
-    pack_loop, compiled_support, N_THETA, numba_available, compile_seconds -- its packed inputs, scope, compile cost
+    pid_controller, sliding_mode_controller, SlidingModeGains -- the controllers
+    pid_lmi_gain                    -- the synthesized gain the ``pid-lmi`` controller runs
+    compiled_run, compiled_batch, CompiledRun -- the compiled engine (numba, extra ``compiled``)
+    numba_available                 -- its packed inputs, scope, compile cost
     COMPILED_INTEGRATORS            -- its integrators of a continuous law: stiff BDF (default) or Dormand–Prince
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
     sampled_pid_controller, SampledPID -- a DiscretePID on the robot, zero-order hold (``pid-sampled``)
-    ClosedLoop, closed_loop, OUTPUT_LABELS, STATE_LIMIT, DIVERGENCE_LIMIT -- the loop and its limits
-    ENGINES, Engine, DEFAULT_ENGINE, SAMPLED_ENGINE, integrate, Trajectory, output_grid -- integrators by name
+    ENGINES                         -- integrators by name
     simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
-    run_scenarios, ERROR_POLICIES   -- many runs, the compiled ones batched (a campaign chunk)
-    tracking_metrics, TrackingMetrics, metric_names, METRIC_NAMES -- errors and torques after the transient
-    run_status, STATUSES, TRACKING_TOLERANCE -- does a run track: tracking, not-tracking, diverged, failed, too-short
+    run_scenarios                   -- many runs, the compiled ones batched (a campaign chunk)
+    tracking_metrics, TrackingMetrics, METRIC_NAMES -- errors and torques after the transient
+    STATUSES, TRACKING_TOLERANCE    -- does a run track: tracking, not-tracking, diverged, failed, too-short
 Files (:mod:`scara_robust.io`)
-    load_robot, load_scenario, ScenarioFile, ROBOT_UNITS, read_mapping -- robot and scenario files
+    load_robot, load_scenario, ScenarioFile -- robot and scenario files
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
-    write_atomic, table_format, TABLE_FORMATS -- atomic writes, results tables
-    write_design, load_design, design_record, DesignFile, DESIGN_FORMAT -- design files (``synthesize --output``)
+    write_design, load_design, DesignFile -- design files (``synthesize --output``)
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)
-    reproduction_table, gain_digits_matched -- the paper's claims next to the package's results
+    reproduction_table              -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
-    load_spec, spec_from_dict, CampaignSpec, Range, SPEC_FIELDS, PAYLOAD_PROFILES, draw_scenario -- campaign specs
-    run_campaign, run_draw, run_draws, read_results, RESULT_COLUMNS, SCHEDULERS -- run (local or Dask), resume
-    CAMPAIGN_ENGINES, COMPILED_CONTROLLERS, resolve_engine -- compiled or scipy engines for a campaign
-    FIXED_COLUMNS, DRAWN_COLUMNS, fixed_inputs, run_arguments -- a row's inputs and the run_scenario arguments they give
+    load_spec, spec_from_dict, CampaignSpec, Range, PAYLOAD_PROFILES, draw_scenario -- campaign specs
+    run_campaign, read_results      -- run (local or Dask), resume
     replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)
-    campaign_report, METRIC_UNITS   -- per-controller statistics with confidence intervals
-    wilson_interval, bootstrap_quantiles, BOOTSTRAP_RESAMPLES, REPORT_CONFIDENCE -- their intervals
+    campaign_report                 -- per-controller statistics with confidence intervals
     worst_scenarios                 -- the worst runs of each controller with their drawn inputs
-    anti_windup_study, AntiWindupStudy, ANTI_WINDUP_COLUMNS -- the sampled PID under a torque limit, anti-windup on/off
-    overshoot, settling_time        -- transient measures of an error history
+    anti_windup_study, AntiWindupStudy -- the sampled PID under a torque limit, anti-windup on/off
 Plotting (:mod:`scara_robust.plotting`)
     plot_surface, plot_surface_contour, plot_response, plot_signals, plot_campaign, plot_comparison, SIGNALS
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design

@@ -35,7 +35,6 @@ __all__ = [
     "plot_margin_bracket",
     "plot_anti_windup",
     "plot_plant_run",
-    "SIGNALS",
 ]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.

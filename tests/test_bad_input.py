@@ -13,6 +13,8 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.studies.campaign.inputs import fixed_inputs, run_arguments
+from scara_robust.studies.campaign.report import wilson_interval
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 PAPER = sr.paper_model()
@@ -99,11 +101,11 @@ API_CASES = [
     ("plot-signals-empty", lambda: sr.plot_signals([]), ValueError, r"`results`"),
     ("campaign-spec-type", lambda: sr.run_campaign("spec.toml", "r.csv"), TypeError, r"`spec`"),
     ("campaign-report-frame", lambda: sr.campaign_report(np.zeros(3)), ValueError, r"`results`"),
-    ("campaign-report-confidence", lambda: sr.wilson_interval(1, 10, confidence=95), ValueError, r"`confidence`"),
+    ("campaign-report-confidence", lambda: wilson_interval(1, 10, confidence=95), ValueError, r"`confidence`"),
     ("worst-frame", lambda: sr.worst_scenarios([1, 2]), ValueError, r"`results`"),
     ("replay-frame", lambda: sr.replay_scenario(pd.DataFrame({"scenario": [0], "controller": ["pid"]}), 0),
      ValueError, r"`results` lacks the inputs needed to replay"),
-    ("run-arguments-missing", lambda: sr.run_arguments({"scenario": 0}), ValueError, r"`inputs` lacks"),
+    ("run-arguments-missing", lambda: run_arguments({"scenario": 0}), ValueError, r"`inputs` lacks"),
     # sizes, refused up front with the memory they would need
     ("simulate-t-final-huge", lambda: sr.run_scenario("pid", "small", t_final=1e7), ValueError,
      r"`t_final` asks for 1e\+10 output samples .* of memory"),
@@ -155,7 +157,7 @@ def _cli_cases(tmp):
     foreign = tmp / "foreign.json"
     foreign.write_text('{"K": [[1.0]]}')
     spec = sr.spec_from_dict({"controllers": ["pid"], "t_final": 6.5})
-    row = {**sr.draw_scenario(spec, 0, 0), **sr.fixed_inputs(spec), "controller": "pid", "status": "tracking",
+    row = {**sr.draw_scenario(spec, 0, 0), **fixed_inputs(spec), "controller": "pid", "status": "tracking",
            "success": True, "diverged": False, "error": "", "status_reason": "", "seed": 0, "spec": spec.digest()}
     table = tmp / "table.csv"
     pd.DataFrame([{**row, **dict.fromkeys(sr.METRIC_NAMES, 0.01)}]).to_csv(table, index=False)

@@ -14,6 +14,8 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.studies.campaign.inputs import DRAWN_COLUMNS, FIXED_COLUMNS
+from scara_robust.studies.campaign.report import bootstrap_quantiles, wilson_interval
 
 Z95 = 1.959963984540054  # standard normal quantile of 0.975
 
@@ -51,7 +53,7 @@ def wilson_by_hand(k, n, z=Z95):
 @pytest.mark.parametrize(("k", "n"), [(0, 10), (3, 10), (10, 10), (1, 10_000)], ids=["0of10", "3of10", "10of10",
                                                                                       "1of10000"])
 def test_wilson_interval_is_the_closed_form(k, n):
-    low, high = sr.wilson_interval(k, n)
+    low, high = wilson_interval(k, n)
     want_low, want_high = wilson_by_hand(k, n)
     assert float(low) == pytest.approx(max(want_low, 0.0), abs=1e-15)
     assert float(high) == pytest.approx(min(want_high, 1.0), abs=1e-15)
@@ -59,25 +61,25 @@ def test_wilson_interval_is_the_closed_form(k, n):
 
 
 def test_wilson_interval_ends_and_known_values():
-    low, high = sr.wilson_interval([0, 3, 10], [10, 10, 10])
+    low, high = wilson_interval([0, 3, 10], [10, 10, 10])
     assert low[0] == 0.0 and high[2] == 1.0  # no rounding residue at k = 0 and k = n
     # 3 of 10 at 95 %: [0.1078, 0.6032] (the closed form, to 4 digits)
     assert (round(float(low[1]), 4), round(float(high[1]), 4)) == (0.1078, 0.6032)
-    narrow = sr.wilson_interval(30, 100, confidence=0.5)
-    wide = sr.wilson_interval(30, 100, confidence=0.99)
+    narrow = wilson_interval(30, 100, confidence=0.5)
+    wide = wilson_interval(30, 100, confidence=0.99)
     assert wide[0] < narrow[0] < 0.3 < narrow[1] < wide[1]
 
 
 @pytest.mark.parametrize(
     ("call", "match"),
     [
-        (lambda: sr.wilson_interval(11, 10), "`successes` must be integers in"),
-        (lambda: sr.wilson_interval(1, 0), "`trials` must be integers >= 1"),
-        (lambda: sr.wilson_interval(1, 10, confidence=1.0), r"`confidence` must be in \(0, 1\)"),
-        (lambda: sr.bootstrap_quantiles([], [0.5]), "`values` must hold at least one value"),
-        (lambda: sr.bootstrap_quantiles([1.0, np.nan], [0.5]), "`values` must contain only finite"),
-        (lambda: sr.bootstrap_quantiles([1.0], [1.5]), r"`quantiles` must be numbers in \[0, 1\]"),
-        (lambda: sr.bootstrap_quantiles([1.0], [0.5], resamples=0), "`resamples` must be an integer >= 1"),
+        (lambda: wilson_interval(11, 10), "`successes` must be integers in"),
+        (lambda: wilson_interval(1, 0), "`trials` must be integers >= 1"),
+        (lambda: wilson_interval(1, 10, confidence=1.0), r"`confidence` must be in \(0, 1\)"),
+        (lambda: bootstrap_quantiles([], [0.5]), "`values` must hold at least one value"),
+        (lambda: bootstrap_quantiles([1.0, np.nan], [0.5]), "`values` must contain only finite"),
+        (lambda: bootstrap_quantiles([1.0], [1.5]), r"`quantiles` must be numbers in \[0, 1\]"),
+        (lambda: bootstrap_quantiles([1.0], [0.5], resamples=0), "`resamples` must be an integer >= 1"),
     ],
     ids=["k>n", "n=0", "confidence", "empty", "nan", "quantile", "resamples"],
 )
@@ -90,7 +92,7 @@ def test_bootstrap_equals_explicit_resampling():
     # The counting algorithm against the textbook one: resample, sort, take np.quantile.
     x = np.random.default_rng(5).normal(size=37)
     qs = [0.0, 0.1, 0.5, 0.95, 1.0]
-    low, high = sr.bootstrap_quantiles(x, qs, resamples=300, seed=3)
+    low, high = bootstrap_quantiles(x, qs, resamples=300, seed=3)
     rng = np.random.default_rng(3)
     picks = np.vstack([rng.integers(0, 37, size=(250, 37)), rng.integers(0, 37, size=(50, 37))])
     estimates = np.quantile(np.sort(x)[picks], qs, axis=1)
@@ -104,14 +106,14 @@ def test_bootstrap_contains_the_estimate_and_shrinks_with_n():
     widths = []
     for n in (100, 1_000, 10_000):
         x = rng.lognormal(size=n)
-        low, high = sr.bootstrap_quantiles(x, qs)
+        low, high = bootstrap_quantiles(x, qs)
         estimate = np.quantile(x, qs)
         assert np.all(low <= estimate) and np.all(estimate <= high)
         widths.append(high - low)
     assert np.all(widths[1] < widths[0]) and np.all(widths[2] < widths[1])
     # roughly 1/sqrt(N): a hundredfold N narrows the median's interval about tenfold
     assert 4 < widths[0][1] / widths[2][1] < 25
-    again = sr.bootstrap_quantiles(x, qs)
+    again = bootstrap_quantiles(x, qs)
     assert np.array_equal(again[0], low) and np.array_equal(again[1], high)  # seeded
 
 
@@ -148,18 +150,18 @@ def test_report_intervals(campaign):
     _, table = campaign
     report = sr.campaign_report(table)
     for _, row in report.iterrows():
-        low, high = sr.wilson_interval(row["failures"], row["runs"])
+        low, high = wilson_interval(row["failures"], row["runs"])
         assert row["failure_rate low"] == low and row["failure_rate high"] == high
         for metric in sr.METRIC_NAMES:
             for q in ("q5", "q50", "q95"):
                 assert row[f"{metric} {q} low"] <= row[f"{metric} {q}"] <= row[f"{metric} {q} high"]
     worst = sr.worst_scenarios(table, n=1)
-    assert set(sr.DRAWN_COLUMNS) <= set(worst.columns) and len(worst) == 2
+    assert set(DRAWN_COLUMNS) <= set(worst.columns) and len(worst) == 2
 
 
 def test_replay_equals_the_campaign_row(campaign):
     _, table = campaign
-    assert set(sr.FIXED_COLUMNS) <= set(table.columns)
+    assert set(FIXED_COLUMNS) <= set(table.columns)
     # the default engine of a campaign is the compiled one when numba is there; the row says which ran
     assert set(table["method"]) == ({"compiled"} if sr.numba_available() else {"lsoda"})
     for _, row in table.iterrows():
@@ -205,6 +207,6 @@ def test_report_command_shows_the_statistics(campaign, capsys):
 def test_resume_refuses_a_table_without_the_inputs(campaign, tmp_path):
     _, table = campaign
     old = tmp_path / "old.csv"
-    table.drop(columns=list(sr.FIXED_COLUMNS)).to_csv(old, index=False)
+    table.drop(columns=list(FIXED_COLUMNS)).to_csv(old, index=False)
     with pytest.raises(ValueError, match=r"`resume` cannot continue .* lacks the columns \['t_final'"):
         sr.run_campaign(sr.spec_from_dict(TINY), old, runs=2, resume=True)

@@ -11,7 +11,7 @@ import scara_robust as sr
 from scara_robust.simulation import compiled
 from scara_robust.simulation.engines import ENGINES, integrate
 from scara_robust.simulation.loop import ClosedLoop
-from scara_robust.studies.campaign.runner import resolve_engine, run_draw
+from scara_robust.studies.campaign.runner import resolve_engine, run_draw, run_draws
 
 pytestmark = pytest.mark.compiled
 
@@ -220,7 +220,7 @@ def test_a_batched_chunk_gives_the_rows_of_single_draws():
     spec = sr.load_spec("examples/campaign.toml")
     spec = type(spec)(**{**spec.__dict__, "t_final": 6.5})
     draws = [sr.draw_scenario(spec, 3, i) for i in range(3)]
-    chunk = sr.run_draws(spec, draws, "compiled")
+    chunk = run_draws(spec, draws, "compiled")
     one_by_one = [row for draw in draws for row in run_draw(spec, draw, "compiled")]
     assert pd.DataFrame(chunk).equals(pd.DataFrame(one_by_one))
 

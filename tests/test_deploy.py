@@ -12,6 +12,7 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.studies.campaign.runner import run_draw
 
 CC = shutil.which("cc")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler `cc` on this machine: the exported C is not compiled")
@@ -169,6 +170,6 @@ def test_compare_and_campaigns_run_the_sampled_pid(monkeypatch):
         return real(**kw)
 
     monkeypatch.setitem(sr.CONTROLLERS, "pid-sampled", dataclasses.replace(sr.CONTROLLERS["pid-sampled"], build=spy))
-    (row,) = sr.run_draw(spec, sr.draw_scenario(spec, 1, 0))
+    (row,) = run_draw(spec, sr.draw_scenario(spec, 1, 0))
     assert row["controller"] == "pid-sampled" and row["status"] == "tracking"
     np.testing.assert_allclose(gains[0], sr.design(sr.paper_model(), 2.0, 50.0).K)  # the spec's (rho, eta)

@@ -8,6 +8,8 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.robustness.polytope import box_closed_loops
+from scara_robust.simulation.controllers import PID_LMI_FILE
 
 
 def test_design_file_round_trip(tmp_path):
@@ -53,7 +55,7 @@ def test_pid_lmi_is_the_pid_law_with_the_shipped_gain():
 
 
 def test_compare_adds_rows_for_design_files(capsys):
-    shipped = str(sr.__file__).replace("__init__.py", sr.PID_LMI_FILE)
+    shipped = str(sr.__file__).replace("__init__.py", PID_LMI_FILE)
     assert main(["compare", "--design", shipped, "--t-final", "6.3", "--scenario", "small", "--format", "json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     by_name = {r["controller"]: r for r in rows}
@@ -76,7 +78,7 @@ def test_synthesize_writes_a_design_file_that_simulate_reads(tmp_path, capsys):
     loaded = sr.load_design(out)
     assert loaded.info["set"] == "box" and loaded.info["certified"] is True
     model = sr.load_model("examples/plant-dc-motor-elements.toml")
-    closed = sr.box_closed_loops(model, loaded.K)
+    closed = box_closed_loops(model, loaded.K)
     lhs = np.swapaxes(closed, -1, -2) @ loaded.P + loaded.P @ closed
     assert np.linalg.eigvalsh(lhs).max() < 0  # V̇ < 0 at every corner of the box
     assert main(["simulate", "--design", str(out), "--t-final", "0.1"]) == 2  # a DC motor gain is not a SCARA gain

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
+from scara_robust.lyapunov.theorem1 import theorem1_z
 
 #: A 3-state plant, one input, ΔA(3, 3) ∈ [-0.5, 0.5] and ΔB(3, 1) ∈ [0.8, 1.0] (0-based rows/cols).
 A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, -2.0, -1.5]])
@@ -75,7 +76,7 @@ def test_theorem1_on_the_subset_equals_a_model_built_by_hand(elements):
     by_hand = sr.UncertainLTVModel(sub.A, sub.B, sub.elements)
     # the same design (K, P, Q) certified against the hand-built model
     ours = sr.certify(MODEL, DESIGN, elements)
-    Z_hand = sr.theorem1_z(ours.P, by_hand.A - by_hand.B @ DESIGN.K, by_hand.perturbation_matrices(DESIGN.K),
+    Z_hand = theorem1_z(ours.P, by_hand.A - by_hand.B @ DESIGN.K, by_hand.perturbation_matrices(DESIGN.K),
                            by_hand.lower_bounds(), by_hand.upper_bounds())[0]
     assert np.allclose(ours.Z, Z_hand, rtol=1e-12, atol=1e-12 * np.abs(Z_hand).max())
 

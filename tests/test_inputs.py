@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
-from scara_robust import ROBOT_UNITS, InputFileError, load_robot, load_scenario
+from scara_robust import InputFileError, load_robot, load_scenario
 from scara_robust.cli import main
+from scara_robust.io import ROBOT_UNITS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 ROBOTS = ["robot-paper.toml", "robot-light.toml"]

@@ -9,6 +9,7 @@ from conftest import random_model
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.robustness.polytope import box_closed_loops
 
 EPS = 1e-6
 
@@ -40,9 +41,9 @@ def test_published_box_at_the_paper_design(paper, paper_design):
     assert 0.5 < t1 <= vertex < frozen.theta < 1.0
     lo, hi = frozen.bracket
     assert (hi - lo) <= 1e-3 * hi
-    loops = sr.box_closed_loops(paper.scaled(hi), paper_design.K)
+    loops = box_closed_loops(paper.scaled(hi), paper_design.K)
     assert np.linalg.eigvals(loops).real.max() > 0
-    assert np.linalg.eigvals(sr.box_closed_loops(paper.scaled(lo), paper_design.K)).real.max() < 0
+    assert np.linalg.eigvals(box_closed_loops(paper.scaled(lo), paper_design.K)).real.max() < 0
 
 
 @pytest.mark.lmi
@@ -66,9 +67,9 @@ def test_lmi_margin_certifies_at_lo_and_not_at_hi():
     m = sr.robustness_margin(model, d, "lmi", tol=1e-3)
     lo, hi = m.bracket
     assert (hi - lo) <= 1e-3 * hi and m.theta == lo
-    at = sr.lmi_certificate(sr.box_closed_loops(model.scaled(lo), d.K))
+    at = sr.lmi_certificate(box_closed_loops(model.scaled(lo), d.K))
     assert at.certified
-    assert not sr.lmi_certificate(sr.box_closed_loops(model.scaled(hi), d.K)).certified
+    assert not sr.lmi_certificate(box_closed_loops(model.scaled(hi), d.K)).certified
 
 
 @pytest.mark.parametrize("c", [0.5, 2.0, 10.0])

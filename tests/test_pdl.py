@@ -20,6 +20,7 @@ import pytest
 import scipy.linalg
 
 import scara_robust as sr
+from scara_robust.robustness.payload import payload_closed_loops
 
 pytestmark = pytest.mark.lmi
 
@@ -115,13 +116,13 @@ def test_robot_certified_at_a_rate_beyond_the_common_p_payload_margin(paper_desi
     # Both masses lie between the common-P payload margin (about 130 kg) and the frozen one
     # (about 271 kg) of `payload_margin`; coarse grids keep this quick, and the answer is
     # verified on a grid that holds the midpoints of both directions.
-    closed, masses, times = sr.payload_closed_loops(paper_design, mass_max, n_times=13, n_masses=5)
+    closed, masses, times = payload_closed_loops(paper_design, mass_max, n_times=13, n_masses=5)
     assert closed.shape == (65, 6, 6) and masses.shape == times.shape == (65,)
     assert np.allclose(np.unique(masses), np.linspace(0.0, mass_max, 5))
     assert np.linalg.eigvals(closed).real.max() < 0  # every frozen sample is stable
     assert not sr.lmi_certificate(closed).certified
     assert sr.rate_bounded_certificate(closed, masses, np.inf).status == "infeasible"
-    check = sr.payload_closed_loops(paper_design, mass_max, n_times=25, n_masses=9)[:2]
+    check = payload_closed_loops(paper_design, mass_max, n_times=25, n_masses=9)[:2]
     cert = sr.rate_bounded_certificate(closed, masses, 50.0, check=check)
     assert cert.certified and cert.margin > 0 and cert.check_margin > 0 and cert.n_checked == 225
     assert sr.verify_rate_bounded(*check, cert.P0, cert.P1, 50.0) == pytest.approx(cert.check_margin)
@@ -162,9 +163,9 @@ def test_robot_fast_payload_ramps_diverge_where_slow_ones_are_certified(paper_de
         (lambda: sr.verify_rate_bounded(*GRID, np.eye(3), np.eye(2), 0.1), "P0"),
         (lambda: sr.max_certified_rate(*GRID, rate_max=0.0), "rate_max"),
         (lambda: sr.max_certified_rate(*GRID, tol=-1.0), "tol"),
-        (lambda: sr.payload_closed_loops(sr.design(sr.paper_model(), 3.0, 90.0), 0.0), "mass_max"),
-        (lambda: sr.payload_closed_loops(sr.design(sr.paper_model(), 3.0, 90.0), 10.0, n_masses=1), "n_masses"),
-        (lambda: sr.payload_closed_loops("design", 10.0), "design"),
+        (lambda: payload_closed_loops(sr.design(sr.paper_model(), 3.0, 90.0), 0.0), "mass_max"),
+        (lambda: payload_closed_loops(sr.design(sr.paper_model(), 3.0, 90.0), 10.0, n_masses=1), "n_masses"),
+        (lambda: payload_closed_loops("design", 10.0), "design"),
         (lambda: sr.payload_switching_growth(sr.design(sr.paper_model(), 3.0, 90.0), 10.0, 0.0, phase=0.0,
                                              hold_high=1.0, hold_low=0.0), "rate"),
         (lambda: sr.payload_switching_growth(sr.design(sr.paper_model(), 3.0, 90.0), 10.0, 1.0, phase=0.0,

@@ -8,6 +8,7 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.robustness.polytope import box_closed_loops
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 #: The classic quadratically stable triple (autonomous polytope).
@@ -133,7 +134,7 @@ def test_three_matrix_polytope_is_certified_and_its_box_hull_is_not():
         for A in TRIPLE:  # numpy, independently: AᵀP + PA ≺ 0 at every vertex
             assert np.linalg.eigvalsh(A.T @ lmi.P + lmi.P @ A).max() < 0
     hull = poly.box_hull()
-    corners = sr.box_closed_loops(hull, np.zeros((1, 2)))
+    corners = box_closed_loops(hull, np.zeros((1, 2)))
     assert (np.linalg.eigvals(corners).real.max(axis=1) > 0).any()  # the box admits unstable matrices
     cert = sr.polytope_certificate(corners, np.eye(2))
     assert cert.n_unstable > 0 and not cert.certifiable

@@ -9,6 +9,7 @@ from hypothesis.extra.numpy import arrays
 
 import scara_robust as sr
 from scara_robust.lyapunov.theorem1 import positive_part, rank2_positive_part
+from scara_robust.robustness.polytope import box_vertices
 
 seeds = st.integers(min_value=0, max_value=10_000)
 rhos = st.floats(min_value=0.05, max_value=20.0)
@@ -57,7 +58,7 @@ def test_z_bounds_every_vertex(seed, rho, eta, data):
     model = _model(seed, n_elements=5)
     d = sr.design(model, rho, eta)
     cert = sr.certify(model, d)
-    H = sr.box_vertices(model)
+    H = box_vertices(model)
     v = data.draw(st.integers(min_value=0, max_value=len(H) - 1))
     A_h, B_h = model.matrices_at(H[v])
     A_v = A_h - B_h @ d.K

@@ -14,6 +14,7 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.simulation.controllers import PID_LMI_FILE
 
 README = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
 
@@ -76,7 +77,7 @@ def test_synthesis_numbers_of_the_readme(tmp_path, capsys):
     fresh = json.loads(out.read_text())
     assert fresh["status"] == "certified"
     assert fresh["gamma"] == pytest.approx(float(stated.group(1)), rel=int(tolerance.group(1)) / 100)
-    shipped = sr.load_design(Path(sr.__file__).parent / sr.PID_LMI_FILE)
+    shipped = sr.load_design(Path(sr.__file__).parent / PID_LMI_FILE)
     assert round(shipped.info["gain_norm"], 1) == float(norm.group(1))
     assert round(shipped.info["gamma"], 5) == float(stated.group(1))
 

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 import scara_robust as sr
+from scara_robust.plotting import SIGNALS
 from scara_robust.simulation.metrics import METRIC_NAMES
 
 
@@ -87,7 +88,7 @@ def test_plot_signals_one_panel_per_result(short_run, signal):
     assert len(panels) == 2
     t = panels[0].get_lines()[0].get_xdata()
     assert t.min() >= 0.5 and t.max() == pytest.approx(1.0)
-    assert panels[0].get_ylabel() == sr.plotting.SIGNALS[signal]
+    assert panels[0].get_ylabel() == SIGNALS[signal]
     assert len(fig.axes) == (3 if signal == "error" else 2)  # the disturbance on a panel of its own
 
 

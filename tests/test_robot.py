@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
+from scara_robust.model.robot import forward_dynamics_scalar, inertia_coefficients
 
 P = sr.ScaraParams()
 RNG = np.random.default_rng(1)
@@ -20,7 +21,7 @@ def test_mass_matrix_symmetric_positive_definite(q, qd, mp):
 def test_forward_dynamics_matches_paper_closed_form(q, qd, mp):
     """The paper's rewritten Eq. (1) (a1, a2, a3 form) against M⁻¹(T - C)."""
     T = np.array([1.3, -0.7])
-    a1, a2, a3 = sr.model.robot.inertia_coefficients(P, mp)
+    a1, a2, a3 = inertia_coefficients(P, mp)
     s2, c2 = np.sin(q[1]), np.cos(q[1])
     den = a3**2 * (1 + np.cos(2 * q[1])) - 2 * a1 * a2
     w1, w2 = qd
@@ -43,7 +44,7 @@ def test_forward_dynamics_matches_paper_closed_form(q, qd, mp):
     ours = sr.forward_dynamics(P, q, qd, T, mp)
     assert np.allclose(ours, [qdd1, qdd2], rtol=1e-10, atol=1e-12)
     x = np.concatenate([q, qd])
-    assert np.allclose(sr.model.robot.forward_dynamics_scalar(P, x, T[0], T[1], mp), ours, rtol=1e-12, atol=1e-12)
+    assert np.allclose(forward_dynamics_scalar(P, x, T[0], T[1], mp), ours, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("mp", [0.0, 1.5], ids=["empty", "loaded"])

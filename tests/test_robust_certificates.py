@@ -13,6 +13,7 @@ from conftest import random_model
 import scara_robust as sr
 from scara_robust import cli
 from scara_robust.robustness import lmi
+from scara_robust.robustness.polytope import box_closed_loops, box_vertices
 
 needs_cvxpy = pytest.mark.lmi  # skipped without the extra, failed under `make test` (see conftest.py)
 
@@ -29,7 +30,7 @@ def _random_design(seed):
 
 
 def test_box_vertices_are_the_corners(paper):
-    H = sr.box_vertices(paper)
+    H = box_vertices(paper)
     assert H.shape == (1024, 10)
     corners = {tuple(row) for row in itertools.product(*[(e.lower, e.upper) for e in paper.elements])}
     assert {tuple(row) for row in H} == corners
@@ -66,7 +67,7 @@ def test_paper_box_has_unstable_vertices(paper, paper_design):
     assert (cert.n_vertices, cert.n_unstable) == (1024, 320)
     assert not cert.certifiable and not cert.certified
     assert "no certificate can exist" in cert.message
-    A_worst = sr.box_closed_loops(paper, paper_design.K)
+    A_worst = box_closed_loops(paper, paper_design.K)
     assert cert.max_real_pole == pytest.approx(np.linalg.eigvals(A_worst).real.max(), rel=1e-12)
     a_only = sr.vertex_certificate(paper, paper_design, "A")
     assert a_only.certified and a_only.n_vertices == 64
@@ -102,7 +103,7 @@ def test_physical_samples_contained_in_derived_box():
         (lambda d: sr.vertex_certificate(sr.paper_model(), "K"), TypeError, "`design` must be a Design"),
         (lambda d: sr.vertex_certificate(sr.paper_model(), d, "C"), ValueError, "`elements` must be one of"),
         (lambda d: sr.physical_certificate(d, n_times=1), ValueError, "`n_times` must be an integer >= 2"),
-        (lambda d: sr.box_vertices(random_model(0, n=6, n_elements=17)), ValueError, "at most 16 uncertain elements"),
+        (lambda d: box_vertices(random_model(0, n=6, n_elements=17)), ValueError, "at most 16 uncertain elements"),
     ],
     ids=["empty", "not-square", "P-indefinite", "points-rows", "design-type", "elements", "n_times", "too-many"],
 )
@@ -121,7 +122,7 @@ def test_lmi_extra_is_installed():
 
 @needs_cvxpy
 def test_lmi_finds_and_numpy_confirms_a_common_p(paper, paper_design):
-    vertices = sr.box_closed_loops(paper.subset("A"), paper_design.K)
+    vertices = box_closed_loops(paper.subset("A"), paper_design.K)
     result = sr.lmi_certificate(vertices)
     assert result.status == "optimal" and result.certified
     P = result.P
@@ -135,7 +136,7 @@ def test_lmi_finds_and_numpy_confirms_a_common_p(paper, paper_design):
 
 @needs_cvxpy
 def test_lmi_infeasible_when_a_vertex_is_unstable(paper, paper_design):
-    result = sr.lmi_certificate(sr.box_closed_loops(paper, paper_design.K))
+    result = sr.lmi_certificate(box_closed_loops(paper, paper_design.K))
     assert result.status == "infeasible" and result.P is None
     assert not result.certified and np.isnan(result.margin)
 
@@ -155,7 +156,7 @@ def test_verify_lyapunov_rejects_bad_matrices():
 
 def test_lmi_without_cvxpy(monkeypatch, paper, paper_design):
     monkeypatch.setattr(lmi, "cvxpy_available", lambda: False)
-    result = sr.lmi_certificate(sr.box_closed_loops(paper.subset("A"), paper_design.K))
+    result = sr.lmi_certificate(box_closed_loops(paper.subset("A"), paper_design.K))
     assert result.status == "not installed" and result.P is None and not result.certified
     assert "pip install '.[lmi]'" in result.message
     table = sr.certificate_table(paper, paper_design, plant=sr.scara_uncertain_plant(bounds="paper"),
@@ -197,14 +198,14 @@ def test_falsifier_finds_the_unstable_switching():
 
 def test_falsifier_finds_nothing_on_a_certified_set(paper, paper_design):
     assert sr.certify(paper, paper_design, "A").certified
-    vertices = sr.box_closed_loops(paper.subset("A"), paper_design.K)
+    vertices = box_closed_loops(paper.subset("A"), paper_design.K)
     result = sr.falsify(vertices, paper_design.P, n_tries=9)
     assert not result.found and result.growth_factor < 1
     assert "no counterexample found in 9 tries" in result.message
 
 
 def test_falsifier_rate_on_an_unstable_frozen_vertex(paper, paper_design):
-    vertices = sr.box_closed_loops(paper, paper_design.K)
+    vertices = box_closed_loops(paper, paper_design.K)
     result = sr.falsify(vertices, paper_design.P, n_tries=3)
     assert result.found
     assert result.growth_rate == pytest.approx(np.linalg.eigvals(vertices).real.max(), rel=1e-2)
@@ -282,7 +283,7 @@ def test_certificate_table_bad_input(paper, paper_design):
 
 
 def test_falsifier_reports_huge_growth_by_its_order_of_magnitude(paper, paper_design):
-    result = sr.falsify(sr.box_closed_loops(paper, paper_design.K), paper_design.P, n_tries=3)
+    result = sr.falsify(box_closed_loops(paper, paper_design.K), paper_design.P, n_tries=3)
     assert result.found and result.growth_factor == np.inf
     assert "grew by a factor of 10^" in result.message and "inf" not in result.message
     assert float(result.message.split("10^")[1].split()[0]) == pytest.approx(

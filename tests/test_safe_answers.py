@@ -12,6 +12,11 @@ import pytest
 import scara_robust as sr
 from scara_robust.cli import main
 from scara_robust.robustness import margins as margins_module
+from scara_robust.robustness.lmi import lmi_verdict
+from scara_robust.robustness.polytope import box_closed_loops
+from scara_robust.robustness.sampled import interior_grid
+from scara_robust.robustness.synthesis import vertices_of
+from scara_robust.simulation.controllers import PID_LMI_FILE
 
 # A DC motor whose load inertia J varies in [1e-5, 5e-5] kg·m² (b = 1e-4 N·m·s/rad, k_t = 0.05 N·m/A):
 # θ̈ = −(b/J)θ̇ + (k_t/J)u, nominal at J = 5e-5 (the lower corner of both elements).
@@ -60,7 +65,7 @@ def test_export_refuses_a_stable_looking_uncertified_ts_naming_both_limits(motor
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert list(out.iterdir()) == []
-    limit = sr.max_sample_time(model, d, check=sr.interior_grid(model), rtol=1e-2)
+    limit = sr.max_sample_time(model, d, check=interior_grid(model), rtol=1e-2)
     assert 0 < limit.certified_ts < 1e-3 and limit.unstable_ts < 1e-3
     assert f"the largest certified Ts is {limit.certified_ts:.4g} s" in err
     assert f"a frozen plant is unstable from Ts = {limit.unstable_ts:.4g} s" in err
@@ -92,7 +97,7 @@ def test_a_certified_export_records_its_certificate(motor_file, tmp_path):
     assert cert["decay_rate"] > 0 and cert["spectral_radius"] < 1 and "25-plant grid" in cert["set"]
     # the record's P-free claims are re-verified here: every frozen sampled loop on the grid is Schur stable
     model = sr.load_model(motor_file)
-    loops = sr.sampled_closed_loops(*sr.interior_grid(model), sr.design(model, 1, 2).discretize(1e-4))
+    loops = sr.sampled_closed_loops(*interior_grid(model), sr.design(model, 1, 2).discretize(1e-4))
     assert np.abs(np.linalg.eigvals(loops)).max() < 1
 
 
@@ -115,7 +120,7 @@ def test_export_takes_any_design_file(tmp_path, capsys):
     for key in ("K_I", "K_P", "K_D", "A", "B", "C", "D"):
         assert np.allclose(record[key], expected[key], rtol=1e-12, atol=0), key
     assert record["design_file"] == str(design_file) and record["certificate"]["certified"] is True
-    shipped = str(sr.__file__).replace("__init__.py", sr.PID_LMI_FILE)
+    shipped = str(sr.__file__).replace("__init__.py", PID_LMI_FILE)
     assert main(["export", "--design", shipped, "--ts", "0.0005", "--output", str(tmp_path), "--prefix", "lmi"]) == 0
     capsys.readouterr()
 
@@ -178,7 +183,7 @@ def test_check_sample_time_on_a_double_integrator():
     ids=lambda v: str(v),
 )
 def test_lmi_verdicts(status, verified, verdict):
-    assert sr.lmi_verdict(status, verified) == verdict
+    assert lmi_verdict(status, verified) == verdict
 
 
 @pytest.mark.lmi
@@ -232,7 +237,7 @@ def test_synthesis_margin_objective_returns_a_theta_numpy_verified():
                               np.array([[[0.0], [1.0]], [[0.0], [0.6]]]))
     result = sr.synthesize(model, objective="margin", tol=1e-2)
     assert result.certified and result.theta > 0 and result.search
-    A, B = sr.vertices_of(model.scaled(result.theta))
+    A, B = vertices_of(model.scaled(result.theta))
     assert sr.decay_rate(A - B @ result.K, result.P) >= result.decay_floor
 
 
@@ -250,7 +255,7 @@ def test_center_anchored_theorem1_and_vertex_margins_agree_with_direct_certifica
             if method == "theorem1":
                 assert sr.certify(scaled, d).certified is expected
             else:
-                assert sr.polytope_certificate(sr.box_closed_loops(scaled, d.K), d.P).certified is expected
+                assert sr.polytope_certificate(box_closed_loops(scaled, d.K), d.P).certified is expected
 
 
 def test_scaling_anchors_agree_at_one_and_differ_elsewhere():
@@ -317,11 +322,11 @@ def test_motor_sample_time_limits_agree_with_an_independent_derivation(motor_fil
     eigenvalue through z = −1 (K_D·(k_t/J)·Ts ≈ 2); spectral radius 8.998 at Ts = 1 ms."""
     model = sr.load_model(motor_file)
     d = sr.design(model, 1, 2)
-    limit = sr.max_sample_time(model, d, check=sr.interior_grid(model), rtol=1e-4)
+    limit = sr.max_sample_time(model, d, check=interior_grid(model), rtol=1e-4)
     lo, hi = limit.unstable_bracket
     assert lo <= 2.000267e-4 <= hi and hi - lo <= 1e-4 * hi
     assert limit.certified_ts <= lo
-    loops = sr.sampled_closed_loops(*sr.vertices_of(model), d.discretize(1e-3))
+    loops = sr.sampled_closed_loops(*vertices_of(model), d.discretize(1e-3))
     assert np.abs(np.linalg.eigvals(loops)).max() == pytest.approx(8.9976, abs=1e-3)
 
 
@@ -345,5 +350,5 @@ def test_synthesis_margin_counts_only_verified_steps(monkeypatch):
     monkeypatch.setattr(synthesis_module, "_solve", lying)
     result = sr.synthesize(model, objective="margin", tol=1e-2)
     assert result.certified and "inaccurate" in result.search
-    A, B = sr.vertices_of(model.scaled(result.theta))
+    A, B = vertices_of(model.scaled(result.theta))
     assert sr.decay_rate(A - B @ result.K, result.P) >= result.decay_floor > 0

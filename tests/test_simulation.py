@@ -3,6 +3,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import scara_robust as sr
+from scara_robust.simulation.engines import DEFAULT_ENGINE, SAMPLED_ENGINE
 
 P = sr.ScaraParams()
 K = sr.design(sr.paper_model(), 3, 90).K
@@ -168,7 +169,7 @@ def by_engine():
 
 def test_registry_names_algorithms():
     assert set(sr.ENGINES) == {"lsoda", "interconnect", "rk4", "compiled"}
-    assert sr.DEFAULT_ENGINE == "lsoda" and sr.ENGINES[sr.SAMPLED_ENGINE].sampled
+    assert DEFAULT_ENGINE == "lsoda" and sr.ENGINES[SAMPLED_ENGINE].sampled
 
 
 @pytest.mark.parametrize(("method", "tolerance"), [("interconnect", 1e-5), ("rk4", 1e-4)], ids=["interconnect", "rk4"])

@@ -8,6 +8,7 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import main
+from scara_robust.simulation.metrics import run_status
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -59,7 +60,7 @@ def test_a_diverging_run_is_diverged():
 
 
 def test_run_status_covers_failure():
-    status = sr.run_status(None, success=False, diverged=False, message="solver exploded")
+    status = run_status(None, success=False, diverged=False, message="solver exploded")
     assert status == ("failed", "solver exploded")
 
 

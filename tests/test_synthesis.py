@@ -9,6 +9,8 @@ import pytest
 import scipy.linalg
 
 import scara_robust as sr
+from scara_robust.robustness.synthesis import L2_DECAY, error_output, vertices_of
+from scara_robust.simulation.controllers import PID_LMI_FILE
 
 pytestmark = pytest.mark.lmi
 
@@ -109,7 +111,7 @@ def test_paper_design_l2_gain_from_disturbance_torque_to_error():
 
 # ---------------------------------------------------------------- objectives, the shipped gain, the front ends
 
-C_ERROR = sr.error_output(6, 2)
+C_ERROR = error_output(6, 2)
 
 
 def _brl_max_eig(closed, Bw, C, P, gamma):
@@ -127,7 +129,7 @@ def test_l2_objective_on_the_physical_set_is_verified_on_a_finer_set():
     fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 181), n_masses=7)  # 10 times finer in time
     result = sr.synthesize((coarse.A, coarse.B), objective="l2", check=(fine.A, fine.B), nominal=sr.paper_model())
     assert result.certified and result.objective == "l2"
-    assert result.verified_decay >= sr.L2_DECAY * (1 - 1e-6) and result.check_decay > 0
+    assert result.verified_decay >= L2_DECAY * (1 - 1e-6) and result.check_decay > 0
     assert np.isfinite(result.gamma) and np.isfinite(result.check_gamma)
     # the certificate of γ is the bounded-real inequality for P̃ = γP (see the module)
     closed = fine.A - fine.B @ result.K
@@ -156,7 +158,7 @@ def test_margin_objective_stops_where_the_input_matrix_becomes_singular():
     result = sr.synthesize(model, objective="margin", tol=1e-3)
     assert result.certified and result.objective == "margin"
     assert theta_star * (1 - 3e-3) <= result.theta <= theta_star
-    assert sr.decay_rate(sr.PolytopicModel(*sr.vertices_of(model.scaled(result.theta))).closed_loops(result.K),
+    assert sr.decay_rate(sr.PolytopicModel(*vertices_of(model.scaled(result.theta))).closed_loops(result.K),
                          result.P) > 0
 
 
@@ -192,20 +194,20 @@ def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_object
     from scara_robust.cli._synthesize import CHECK_GRID, PHYSICAL_GRID
     from scara_robust.robustness.l2gain import _bounded_real_ok
 
-    shipped = sr.load_design(Path(sr.__file__).parent / sr.PID_LMI_FILE)
+    shipped = sr.load_design(Path(sr.__file__).parent / PID_LMI_FILE)
     assert np.array_equal(shipped.K, sr.pid_lmi_gain())
     assert shipped.info["certified"] is True and shipped.info["objective"] == "l2"
     coarse = sr.physical_samples(times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
     fine = sr.physical_samples(times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
-    C = sr.error_output(6, 2)
+    C = error_output(6, 2)
     K, P, gamma = shipped.K, shipped.P, shipped.info["gamma"]
     for samples, recorded in ((coarse, shipped.info["verified_decay"]), (fine, shipped.info["check_decay"])):
         loops = samples.A - samples.B @ K
         assert sr.decay_rate(loops, P) == pytest.approx(recorded, rel=1e-9)
         assert _bounded_real_ok(loops, samples.B, C, gamma * P, gamma * (1 + 1e-9))
-    assert shipped.info["verified_decay"] >= sr.L2_DECAY * (1 - 1e-6)
+    assert shipped.info["verified_decay"] >= L2_DECAY * (1 - 1e-6)
     again = sr.synthesize((coarse.A, coarse.B), objective="l2", check=(fine.A, fine.B))
-    assert again.certified and again.verified_decay >= sr.L2_DECAY * (1 - 1e-6) and again.check_decay > 0
+    assert again.certified and again.verified_decay >= L2_DECAY * (1 - 1e-6) and again.check_decay > 0
     assert math.isfinite(again.check_gamma) and again.check_gamma >= again.gamma
     for gain in (K, again.K):
         lower = sr.l2_gain(coarse.A - coarse.B @ gain, coarse.B, C).lower

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
+from scara_robust.model.scara import pid_state_matrices
 from scara_robust.paper import PAPER_TABLE1, PAPER_TABLE2
 
 
@@ -45,7 +46,7 @@ def test_derived_bounds_contain_jacobians(derived, seed):
     mp = rng.uniform(0, 0.6 * 3.45)
     ref = sr.paper_reference()
     a_star, g_bar = sr.error_dynamics_jacobians(sr.ScaraParams(), ref.position(t), ref.velocity(t), mp)
-    A, B = sr.pid_state_matrices(a_star, g_bar)
+    A, B = pid_state_matrices(a_star, g_bar)
     lo_A, hi_A = derived.A.copy(), derived.A.copy()
     lo_B, hi_B = derived.B.copy(), derived.B.copy()
     for el in derived.elements:

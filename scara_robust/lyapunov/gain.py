@@ -19,7 +19,7 @@ from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
 from ..model.plant import ModelLike, as_model
 
-__all__ = ["Design", "design", "riccati_solution", "check_stabilizable", "CARE_RTOL"]
+__all__ = ["Design", "design", "riccati_solution"]
 
 Array = NDArray[np.float64]
 

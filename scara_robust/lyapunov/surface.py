@@ -41,7 +41,6 @@ __all__ = [
     "SURFACE_MEASURES",
     "MARGIN_MAP_METHODS",
     "MAX_SURFACE_POINTS",
-    "surface_memory",
 ]
 
 Array = NDArray[np.float64]

@@ -26,16 +26,7 @@ from ..model.plant import ModelLike, as_box
 from ..model.uncertain import ANCHORS, ELEMENT_SETS
 from .gain import Design
 
-__all__ = [
-    "Certificate",
-    "UltimateBound",
-    "certify",
-    "theorem1_z",
-    "positive_part",
-    "rank2_positive_part",
-    "affine_margin",
-    "theorem1_scaling",
-]
+__all__ = ["Certificate", "UltimateBound", "certify"]
 
 Array = NDArray[np.float64]
 

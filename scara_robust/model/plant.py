@@ -39,20 +39,7 @@ from ._expressions import Expression
 from .polytopic import PolytopicModel
 from .uncertain import UncertainElement, UncertainLTVModel, state_space
 
-__all__ = [
-    "Parameter",
-    "Signal",
-    "UncertainPlant",
-    "ParameterSamples",
-    "PLANT_FORMS",
-    "HULL_RTOL",
-    "ModelLike",
-    "is_model",
-    "as_model",
-    "as_plant",
-    "as_box",
-    "require_plant",
-]
+__all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "PLANT_FORMS"]
 
 Array = NDArray[np.float64]
 #: Design forms of a plant (see the module docstring).

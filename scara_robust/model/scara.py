@@ -34,7 +34,6 @@ __all__ = [
     "derived_model",
     "physical_samples",
     "PhysicalSamples",
-    "pid_state_matrices",
 ]
 
 Array = NDArray[np.float64]

@@ -23,14 +23,7 @@ from .._resources import check_memory, corners_bytes
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 
-__all__ = [
-    "state_space",
-    "as_element",
-    "UncertainElement",
-    "UncertainLTVModel",
-    "ELEMENT_SETS",
-    "ANCHORS",
-]
+__all__ = ["UncertainElement", "UncertainLTVModel", "ELEMENT_SETS", "ANCHORS"]
 
 Array = NDArray[np.float64]
 ELEMENT_SETS = ("all", "A", "B")

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_int, check_real, check_symmetric
 
-__all__ = ["FalsifierResult", "FALSIFIER_RULES", "FALSIFIER_OVERFLOW", "falsify"]
+__all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
 Array = NDArray[np.float64]
 NDArrayInt = NDArray[np.integer[Any]]

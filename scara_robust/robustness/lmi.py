@@ -27,8 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice
 
-__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "NOT_INSTALLED", "DECAY_FLOOR_RTOL", "cvxpy_available",
-           "decay_floor", "lmi_certificate", "lmi_verdict", "verify_lyapunov"]
+__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
 
 Array = NDArray[np.float64]
 

@@ -54,15 +54,7 @@ from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
 
-__all__ = [
-    "Margin",
-    "MARGIN_METHODS",
-    "MARGIN_TOL",
-    "robustness_margin",
-    "margin_table",
-    "FROZEN_SCAN_RATIO",
-    "FROZEN_RTOL",
-]
+__all__ = ["Margin", "MARGIN_METHODS", "MARGIN_TOL", "robustness_margin", "margin_table"]
 
 Array = NDArray[np.float64]
 Model = UncertainLTVModel | PolytopicModel

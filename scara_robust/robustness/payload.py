@@ -32,7 +32,6 @@ from .polytope import PolytopeCertificate, polytope_certificate
 __all__ = [
     "PAYLOAD_METHODS",
     "payload_margin",
-    "payload_closed_loops",
     "payload_rate_certificate",
     "payload_switching_growth",
     "physical_certificate",

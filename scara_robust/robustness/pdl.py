@@ -50,14 +50,7 @@ from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
 
-__all__ = [
-    "FEASIBILITY_TOL",
-    "RateCertificate",
-    "RateMargin",
-    "rate_bounded_certificate",
-    "verify_rate_bounded",
-    "max_certified_rate",
-]
+__all__ = ["RateCertificate", "RateMargin", "rate_bounded_certificate", "verify_rate_bounded", "max_certified_rate"]
 
 Array = NDArray[np.float64]
 

@@ -27,14 +27,7 @@ from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 
-__all__ = [
-    "PolytopeCertificate",
-    "MAX_BOX_ELEMENTS",
-    "box_vertices",
-    "box_closed_loops",
-    "polytope_certificate",
-    "vertex_certificate",
-]
+__all__ = ["PolytopeCertificate", "polytope_certificate", "vertex_certificate"]
 
 Array = NDArray[np.float64]
 

@@ -54,7 +54,6 @@ __all__ = [
     "SampleTimeLimit",
     "check_sample_time",
     "SampleTimeCheck",
-    "interior_grid",
 ]
 
 Array = NDArray[np.float64]

@@ -35,8 +35,7 @@ from ..model.plant import ModelLike, as_model, is_model
 from .l2gain import _bounded_real_ok
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "error_output", "GAIN_BOUND", "L2_DECAY",
-           "OBJECTIVES", "MARGIN_DECAY_RTOL", "vertices_of"]
+__all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "OBJECTIVES"]
 
 Array = NDArray[np.float64]
 

@@ -48,18 +48,7 @@ from .controllers import ControlLaw
 from .engines import ENGINES, Engine, output_grid
 from .loop import STATE_LIMIT, ClosedLoop
 
-__all__ = [
-    "numba_available",
-    "pack_loop",
-    "compiled_run",
-    "compiled_batch",
-    "compile_seconds",
-    "CompiledRun",
-    "compiled_support",
-    "N_THETA",
-    "CompiledEngine",
-    "COMPILED_INTEGRATORS",
-]
+__all__ = ["numba_available", "compiled_run", "compiled_batch", "CompiledRun", "COMPILED_INTEGRATORS"]
 
 Array = NDArray[np.float64]
 

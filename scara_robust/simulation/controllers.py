@@ -38,10 +38,7 @@ __all__ = [
     "CONTROLLERS",
     "SAMPLE_TIMES",
     "make_controller",
-    "check_torque_limit",
     "pid_lmi_gain",
-    "ControlLaw",
-    "PID_LMI_FILE",
     "SampledPID",
     "sampled_pid_controller",
 ]

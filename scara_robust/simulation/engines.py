@@ -40,7 +40,7 @@ from scipy.integrate import solve_ivp
 
 from .loop import ClosedLoop
 
-__all__ = ["Trajectory", "Engine", "ENGINES", "DEFAULT_ENGINE", "SAMPLED_ENGINE", "integrate", "output_grid"]
+__all__ = ["ENGINES"]
 
 Array = NDArray[np.float64]
 

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from ..model.robot import PayloadProfile, ScaraParams, forward_dynamics_scalar, paper_payload, scara_plant
 from ..model.signals import Reference, SquareWave, paper_disturbance
 
-__all__ = ["ClosedLoop", "closed_loop", "STATE_LIMIT", "DIVERGENCE_LIMIT", "OUTPUT_LABELS"]
+__all__: list[str] = []
 
 Array = NDArray[np.float64]
 

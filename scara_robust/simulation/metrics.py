@@ -14,15 +14,7 @@ from .._validation import check_array, check_real
 from ..exceptions import ArgumentValueError
 from ..paper import PAPER_TRANSIENT
 
-__all__ = [
-    "TrackingMetrics",
-    "tracking_metrics",
-    "metric_names",
-    "METRIC_NAMES",
-    "STATUSES",
-    "TRACKING_TOLERANCE",
-    "run_status",
-]
+__all__ = ["TrackingMetrics", "tracking_metrics", "METRIC_NAMES", "STATUSES", "TRACKING_TOLERANCE"]
 
 #: The status of a run, one of:
 #: ``tracking`` (the integrator finished and max |e| after the transient is within the

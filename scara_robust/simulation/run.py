@@ -34,7 +34,7 @@ from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
 
-__all__ = ["SimulationResult", "simulate", "run_scenario", "run_scenarios", "ERROR_POLICIES"]
+__all__ = ["SimulationResult", "simulate", "run_scenario", "run_scenarios"]
 
 Array = NDArray[np.float64]
 

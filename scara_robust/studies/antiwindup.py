@@ -23,7 +23,7 @@ from ..simulation.controllers import sampled_pid_controller
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.run import SimulationResult, simulate
 
-__all__ = ["AntiWindupStudy", "anti_windup_study", "ANTI_WINDUP_COLUMNS", "overshoot", "settling_time"]
+__all__ = ["AntiWindupStudy", "anti_windup_study"]
 
 #: Columns of :attr:`AntiWindupStudy.table`.
 ANTI_WINDUP_COLUMNS = (

@@ -25,7 +25,7 @@ from ..simulation.metrics import METRIC_NAMES
 from ..simulation.run import run_scenario
 from .comparison import compare_controllers
 
-__all__ = ["gain_digits_matched", "reproduction_table", "error_sensitivity"]
+__all__ = ["reproduction_table", "error_sensitivity"]
 
 _COLUMNS = ["claim", "source", "paper", "package", "unit", "holds"]
 

@@ -30,7 +30,7 @@ from ...simulation.metrics import TRACKING_TOLERANCE
 from ...simulation.run import SimulationResult, run_scenario
 from .spec import SPEC_FIELDS, CampaignSpec
 
-__all__ = ["FIXED_COLUMNS", "DRAWN_COLUMNS", "fixed_inputs", "run_arguments", "replay_scenario"]
+__all__ = ["replay_scenario"]
 
 #: Robot parameters stored per row, as ``robot_<name>`` (``cp`` is drawn, so it is a drawn column).
 _ROBOT = tuple(f.name for f in fields(ScaraParams) if f.name != "cp")

@@ -23,15 +23,7 @@ from ...exceptions import ArgumentValueError
 from ...simulation.metrics import METRIC_NAMES, STATUSES
 from .inputs import DRAWN_COLUMNS
 
-__all__ = [
-    "campaign_report",
-    "worst_scenarios",
-    "wilson_interval",
-    "bootstrap_quantiles",
-    "BOOTSTRAP_RESAMPLES",
-    "REPORT_CONFIDENCE",
-    "METRIC_UNITS",
-]
+__all__ = ["campaign_report", "worst_scenarios"]
 
 #: Resamples of the percentile bootstrap of :func:`campaign_report`.
 BOOTSTRAP_RESAMPLES = 2000

@@ -34,8 +34,7 @@ from ...simulation.run import run_scenarios
 from .inputs import DRAWN_COLUMNS, FIXED_COLUMNS, fixed_inputs, run_arguments
 from .spec import CampaignSpec, draw_scenario
 
-__all__ = ["SCHEDULERS", "RESULT_COLUMNS", "CAMPAIGN_ENGINES", "COMPILED_CONTROLLERS", "run_draw", "run_draws",
-           "run_campaign", "read_results", "resolve_engine"]
+__all__ = ["run_campaign", "read_results"]
 
 #: Where :func:`run_campaign` can run.
 SCHEDULERS = ("local", "dask")

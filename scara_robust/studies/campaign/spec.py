@@ -34,15 +34,7 @@ from ...paper import (
 )
 from ...simulation.controllers import CONTROLLERS
 
-__all__ = [
-    "Range",
-    "CampaignSpec",
-    "SPEC_FIELDS",
-    "PAYLOAD_PROFILES",
-    "load_spec",
-    "spec_from_dict",
-    "draw_scenario",
-]
+__all__ = ["Range", "CampaignSpec", "PAYLOAD_PROFILES", "load_spec", "spec_from_dict", "draw_scenario"]
 
 _WHERE = "campaign spec"
 
