@@ -13,6 +13,7 @@ import pytest
 import scara_robust as sr
 from scara_robust.cli import main
 from scara_robust.studies import campaign as cp
+from scara_robust.studies.campaign.runner import run_draw
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "campaign.toml"
 
@@ -290,7 +291,7 @@ def test_a_campaign_row_is_run_scenario_on_the_drawn_inputs(tiny_spec):
     # One code path: the row's metrics are those of sr.run_scenario on the same inputs, exactly.
     spec = cp.load_spec(tiny_spec)
     draw = cp.draw_scenario(spec, 7, 1)
-    rows = {r["controller"]: r for r in cp.run_draw(spec, draw)}
+    rows = {r["controller"]: r for r in run_draw(spec, draw)}
     peak = draw["payload_peak"]
     payload = (
         sr.SinusoidalPayload(0.5 * peak, 0.5 * peak, draw["payload_omega"], draw["payload_phase"])

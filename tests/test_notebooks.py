@@ -27,7 +27,7 @@ NOTEBOOKS = {
     ],
     "figure6_pid_small_ic.ipynb": ["figure6_pid_small_ic.png"],
     "comparison.ipynb": ["comparison_metrics.png"],
-    "your_own_plant.ipynb": ["own_plant_margin_map.png"],
+    "your_own_plant.ipynb": ["own_plant_margin_map.png", "own_plant_run.png"],
     "robustness_margins.ipynb": ["margin_bracket.png", "margin_map_published.png"],
     "deployment.ipynb": ["anti_windup.png"],
 }

@@ -38,7 +38,7 @@ def test_one_indexing_convention():
     el = sr.UncertainElement("A", 2, 2, 0.0, 1.0)
     model = sr.UncertainLTVModel(np.eye(3), np.ones((3, 1)), (el,))
     assert el.label == "ΔA[2, 2]"
-    assert model.to_frame()[["label", "row", "col"]].values.tolist() == [["ΔA[2, 2]", 2, 2]]
+    assert model.to_pandas()[["label", "row", "col"]].values.tolist() == [["ΔA[2, 2]", 2, 2]]
 
 
 # ---------------------------------------------------------------- PID and integral forms

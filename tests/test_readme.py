@@ -10,6 +10,8 @@ from __future__ import annotations
 import os
 import re
 import shlex
+import shutil
+import subprocess
 import textwrap
 from pathlib import Path
 
@@ -41,7 +43,7 @@ REDUCED = {
     "margin": ["--tol", "0.3", "--tries", "2"],
 }
 #: Flags added for the same reason (the payload margin has its own tests), and the largest NUM of a range.
-REDUCED_FLAGS = {"margin": ["--no-payload"]}
+REDUCED_FLAGS = {"margin": ["--no-payload"]}  # not with --model: a plant file's margin in its units is quick
 MAX_RANGE_NUM = 12
 
 
@@ -55,7 +57,8 @@ def argv_of(line: str) -> list[str]:
             argv[argv.index(option) + 1] = value
         else:
             argv += [option, value]
-    argv += [flag for flag in REDUCED_FLAGS.get(argv[0], []) if flag not in argv]
+    if "--model" not in argv:
+        argv += [flag for flag in REDUCED_FLAGS.get(argv[0], []) if flag not in argv]
     for i, word in enumerate(argv):
         parts = word.split(":")
         if len(parts) == 3 and parts[2].isdigit() and int(parts[2]) > MAX_RANGE_NUM:
@@ -93,3 +96,25 @@ def test_command_runs(scratch, capsys, line):
     err = capsys.readouterr().err
     assert code == 0, err
     assert "Traceback" not in err and not os.listdir(scratch) == []  # the examples link at least
+
+
+CC = shutil.which("cc")
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler `cc` on this machine: the exported C is not compiled")
+def test_the_readme_export_of_your_own_plant_compiles(scratch):
+    """The README's single-precision export (run above, in this folder) compiles with every warning an error."""
+    source = scratch / "motor_pid.c"
+    assert source.exists(), "the README's export command writes motor_pid.c"
+    assert "float" in source.read_text() and "double" not in source.read_text()
+    assert "u = current [A]" in (scratch / "motor_pid.h").read_text()
+    subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", str(source), "-o",
+                    str(scratch / "motor_pid.o")], check=True, capture_output=True, timeout=120)
+
+
+def test_the_readme_simulation_of_your_own_plant_tracks_at_full_length(scratch, capsys):
+    """The README's motor run, at its own 20-s horizon (the command test above shortens it)."""
+    line = next(c for c in COMMANDS if "simulate" in c and "plant-dc-motor" in c)
+    argv = [w for w in shlex.split(line)[3:] if w not in ("--plot", "motor-run.png")]
+    assert main(argv) == 0
+    assert "status: tracking" in capsys.readouterr().out

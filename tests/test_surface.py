@@ -19,7 +19,7 @@ def test_structured_matches_reference(seed, elements):
 
 def test_paper_surface_structure(paper):
     s = sr.design_surface(paper, np.linspace(0.5, 10, 8), np.linspace(1, 200, 9), "A")
-    frame = s.to_frame()
+    frame = s.to_pandas()
     assert list(frame.columns) == ["rho", "eta", "max_eig_Z", "closed_loop_hurwitz", "certified"]
     assert len(frame) == 72
     assert s.hurwitz.all()

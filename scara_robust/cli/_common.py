@@ -577,12 +577,17 @@ def add_design_option(p: argparse.ArgumentParser) -> None:
                    help="a PID gain from a design file (written by synthesize --output)")
 
 
-def resolve_design(args: argparse.Namespace) -> DesignFile | None:
-    """The design file of ``--design``, checked to hold a SCARA gain of shape (2, 6).
+def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
+                   what: str = "the SCARA's PID (x = [∫e, e, ė])") -> DesignFile | None:
+    """The design file of ``--design``, checked to hold a gain of `shape` (the SCARA's, by default).
 
     Parameters
     ----------
     args : argparse.Namespace
+    shape : (int, int)
+        The gain's shape (m, n).
+    what : str
+        What the gain is for, in the error.
 
     Returns
     -------
@@ -592,9 +597,9 @@ def resolve_design(args: argparse.Namespace) -> DesignFile | None:
     if path is None:
         return None
     loaded = _load_file("--design", path, load_design)
-    if loaded.K.shape != (2, 6):
-        raise CommandLineError(f"`--design` {path!r}: field `K` must have shape (2, 6) for the SCARA's PID "
-                               f"(x = [∫e, e, ė]), found {loaded.K.shape}")
+    if loaded.K.shape != shape:
+        raise CommandLineError(f"`--design` {path!r}: field `K` must have shape {shape} for {what}, found "
+                               f"{loaded.K.shape}")
     return loaded
 
 

@@ -155,11 +155,8 @@ def _compare_plant(args: argparse.Namespace) -> str:
             notes.append(f"synthesized PID left out: {synth.message}")
     n = plant.n_design_states
     for path in args.design or []:
-        loaded = resolve_design(argparse.Namespace(design=path))
+        loaded = resolve_design(argparse.Namespace(design=path), (plant.n_inputs, n), "this plant's design form")
         assert loaded is not None
-        if loaded.K.shape != (plant.n_inputs, n):
-            raise CommandLineError(f"`--design` {path!r}: field `K` must have shape ({plant.n_inputs}, {n}) for this "
-                                   f"plant, found {loaded.K.shape}")
         designs[f"file {os.path.basename(path)}"] = (loaded.K, loaded.P)
     t_final = 20.0 if args.t_final == PAPER_T_FINAL else args.t_final
     name, profiles = plant_profiles(args, plant, t_final)

@@ -183,8 +183,14 @@ def _rate(plant: UncertainPlant, d: Design) -> tuple[dict[str, Any], str]:
     unit = f"{p.unit}/s"
     record = {"parameter": p.name, f"certified rate [{unit}]": result.certified,
               f"growing at [{unit}]": result.unstable, "seconds": result.seconds, "message": result.message}
-    text = (f"rate of {p.name} over [{p.range[0]:.6g}, {p.range[1]:.6g}] {p.unit}: certified for |d{p.name}/dt| <= "
-            f"{result.certified:.6g} {unit}" + (f"; a periodic variation at {result.unstable:.6g} {unit} grows"
-                                                  if math.isfinite(result.unstable) else "")
-            + f"\n  {result.message}")
+    where = f"rate of {p.name} over [{p.range[0]:.6g}, {p.range[1]:.6g}] {p.unit}"
+    if math.isinf(result.certified):
+        text = f"{where}: certified for any |d{p.name}/dt| (it may vary arbitrarily fast within the range)"
+    elif math.isnan(result.certified):
+        text = f"{where}: not certified, not even frozen with an affine P({p.name})"
+    else:
+        text = (f"{where}: certified for |d{p.name}/dt| <= {result.certified:.6g} {unit}"
+                + (f"; a periodic variation at {result.unstable:.6g} {unit} grows" if math.isfinite(result.unstable)
+                   else ""))
+    text += f"\n  {result.message}"
     return record, text

@@ -268,16 +268,12 @@ def _run_plant(args: argparse.Namespace) -> str:
     if plant is None:
         raise CommandLineError("`--model` must have [parameters] to be simulated (a plant file with physical "
                                "parameters); this file describes only the uncertainty set")
-    loaded = resolve_design(args)
+    loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), "this plant's design form")
     if loaded is not None and (args.rho is not None or args.eta is not None):
         raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
     if loaded is None and (args.rho is None or args.eta is None):
         raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
     if loaded is not None:
-        n = plant.n_design_states
-        if loaded.K.shape != (plant.n_inputs, n):
-            raise CommandLineError(f"`--design` {loaded.path!r}: field `K` must have shape ({plant.n_inputs}, {n}) for "
-                                   f"this plant, found {loaded.K.shape}")
         K, gain = loaded.K, f"gain of {loaded.path!r}"
     else:
         d = design(as_model("model", plant), args.rho, args.eta)

@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> str:
         as_box("model", model), args.rho, args.eta, args.elements, measure=args.measure,
         margin_method=args.margin_method,
     )
-    frame = surface.to_frame()
+    frame = surface.to_pandas()
     if args.plot is not None:
         mark = args.mark
         if mark is None and surface.hurwitz.any():

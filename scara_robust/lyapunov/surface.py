@@ -108,7 +108,7 @@ class DesignSurface:
         """Points with ``Ā`` Hurwitz and ``max λ(Z) < 0``, shape (n_rho, n_eta)."""
         return self.hurwitz & (self.max_eig < 0)
 
-    def to_frame(self) -> pd.DataFrame:
+    def to_pandas(self) -> pd.DataFrame:
         """Tidy table, one row per grid point: rho, eta, max_eig_Z, closed_loop_hurwitz, certified (, margin)."""
         rho, eta = np.meshgrid(self.rhos, self.etas, indexing="ij")
         columns = {

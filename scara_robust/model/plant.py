@@ -796,7 +796,7 @@ class UncertainPlant:
         hull = self.interval_model(theta)
         return PolytopicModel(s.A, s.B, nominal=(hull.A, hull.B), name=self.name)
 
-    def to_frame(self) -> pd.DataFrame:
+    def to_pandas(self) -> pd.DataFrame:
         """One row per parameter: name, unit, lower, upper, nominal, rate [unit/s], samples."""
         rows = [(p.name, p.unit, p.range[0], p.range[1], p.nominal, p.rate, p.samples) for p in self.parameters]
         return pd.DataFrame(rows, columns=["name", "unit", "lower", "upper", "nominal", "rate [unit/s]", "samples"])

@@ -463,7 +463,7 @@ class UncertainLTVModel:
             target[..., el.row, el.col] += h[..., j]
         return A, B
 
-    def to_frame(self) -> pd.DataFrame:
+    def to_pandas(self) -> pd.DataFrame:
         """One row per element: label, matrix, 0-based row and column, nominal, lower, upper."""
         rows = []
         for el in self.elements:

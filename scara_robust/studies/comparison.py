@@ -26,6 +26,7 @@ from ..model.plant import UncertainPlant
 from ..paper import PAPER_T_FINAL
 from ..robustness.lmi import lmi_certificate
 from ..robustness.parameters import parameter_margin
+from ..robustness.synthesis import decay_rate
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
@@ -128,8 +129,10 @@ def compare_plant_designs(
     -------
     pandas.DataFrame
         One row per design: ``design``, the gains (``K_I``, ``K_P``, ``K_D`` for the PID
-        form, else ``K``), ``theorem1 max eig`` (NaN without P), ``lmi decay [1/s]`` (a
-        common P on the interval hull's corners for this K, NaN when none verifies),
+        form, else ``K``), ``theorem1 max eig`` (NaN without P), ``decay rate [1/s]`` (the
+        state decay α, ``V̇ <= −2αV``, that a common P certifies on the interval hull's
+        corners for this K: the design's own P checked by numpy, or one found by the LMI,
+        whichever is larger; NaN when none verifies),
         for each varying parameter ``NAME certified high [UNIT]`` (the design-P vertex
         margin, NaN without P) and ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
         beyond), then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
@@ -156,8 +159,11 @@ def compare_plant_designs(
             design = Design(rho=math.nan, eta=math.nan, K=K, P=P, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
                             hurwitz=bool(np.all(poles.real < 0)), care_residual=math.nan, n_joints=hull.n_joints)
         row["theorem1 max eig"] = certify(hull, design).max_eig if design is not None else math.nan
-        lmi = lmi_certificate(hull.vertex_closed_loops(K))
-        row["lmi decay [1/s]"] = lmi.margin if lmi.certified else math.nan
+        loops = hull.vertex_closed_loops(K)
+        own = decay_rate(loops, P) if P is not None else -math.inf  # the design's own P, checked by numpy
+        lmi = lmi_certificate(loops)
+        best = max(own, lmi.margin if lmi.certified else -math.inf)
+        row["decay rate [1/s]"] = best if best > 0 else math.nan
         margins = parameter_margin(plant, design if design is not None else K,
                                    ["vertex", "frozen"] if design is not None else ["frozen"])
         for prm in plant.varying:
