@@ -222,7 +222,8 @@ def test_scara_numbers_are_those_of_the_element_code(bounds):
         assert sr.robustness_margin(plant, d, method).theta == pytest.approx(ref[method], rel=1e-9), method
 
 
-def test_scara_payload_margin_is_that_of_the_element_code():
+def test_scara_payload_margin_through_the_plant_is_that_of_the_element_code():
+    """payload_margin samples the robot as an UncertainPlant over (t_ref, m_p); its numbers are unchanged."""
     ref = REFERENCE["payload"]
     d = sr.design(sr.paper_model(), 3.0, 90.0)
     table = sr.payload_margin(d, methods=("payload-design-P", "payload-frozen")).set_index("method")

@@ -8,6 +8,7 @@ mapped to the option a user typed; :func:`error_message` uses it to render a lib
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -46,6 +47,8 @@ __all__ = [
     "resolve_model",
     "resolve_plant",
     "sampled_plants",
+    "add_range_option",
+    "with_ranges",
     "resolve_setup",
     "RANGE_HELP",
     "save_figure",
@@ -564,6 +567,57 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
     return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
                            f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
                            f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
+
+
+def add_range_option(p: argparse.ArgumentParser, verb: str) -> None:
+    """Add ``--range NAME=LO:HI`` (repeatable) to a sub-command that takes ``--model``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    verb : str
+        What the command does with the plant (for the help).
+    """
+    p.add_argument("--range", action="append", metavar="NAME=LO:HI", default=None,
+                   help=f"with --model: {verb} the plant with this parameter's range replaced (its units; nominal "
+                   "at LO); repeatable")
+
+
+def with_ranges(args: argparse.Namespace, plant: Any) -> Any:
+    """The plant with the ranges of ``--range NAME=LO:HI`` (a plant file with parameters only).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant, UncertainLTVModel or PolytopicModel
+
+    Returns
+    -------
+    The plant, its ranges replaced.
+    """
+    if not args.range:
+        return plant
+    physical = as_plant("model", plant)
+    if physical is None or args.model is None:
+        raise CommandLineError("`--range` changes a parameter of a plant file with [parameters] (--model)")
+    ranges: dict[str, tuple[float, float]] = {}
+    for text in args.range:
+        name, _, bounds = text.partition("=")
+        lo_text, _, hi_text = bounds.partition(":")
+        try:
+            lo, hi = float(lo_text), float(hi_text)
+        except ValueError:
+            raise CommandLineError(f"`--range` must be NAME=LO:HI, found {text!r}") from None
+        if name not in physical.names:
+            raise CommandLineError(f"`--range` names {name!r}, which is not a parameter of {args.model!r} "
+                                   f"({', '.join(physical.names)})")
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise CommandLineError(f"`--range` {name} must have finite LO <= HI, found {lo:g}:{hi:g}")
+        ranges[name] = (lo, hi)
+    try:
+        return physical.with_ranges(ranges)
+    except ArgumentError as err:
+        raise CommandLineError(f"`--range` {err}") from err
 
 
 def add_design_option(p: argparse.ArgumentParser) -> None:

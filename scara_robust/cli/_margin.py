@@ -10,14 +10,22 @@ from typing import Any
 
 import pandas as pd
 
-from ..exceptions import ArgumentError
 from ..lyapunov.gain import Design, design
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, robustness_margin
 from ..robustness.parameters import parameter_margin, rate_bracket
 from ..robustness.payload import payload_margin
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_bounds, resolve_plant, resolve_setup
+from ._common import (
+    CommandLineError,
+    add_range_option,
+    add_setup_options,
+    finite_float,
+    resolve_bounds,
+    resolve_plant,
+    resolve_setup,
+    with_ranges,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -49,9 +57,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-payload", action="store_true",
                    help="skip the physical margin: the robot's payload (kg), or a plant file's parameters in their "
                    "units")
-    p.add_argument("--range", action="append", metavar="NAME=LO:HI", default=None,
-                   help="with --model: analyze the plant with this parameter's range replaced (its units; nominal "
-                   "at LO); repeatable")
+    add_range_option(p, "analyze")
     p.add_argument("--rate", action="store_true",
                    help="also: how fast may the parameter vary (a plant file: its rate-bounded parameter, unit/s; the "
                    "robot: the payload, kg/s); a parameter-dependent Lyapunov certificate below, a growing periodic "
@@ -81,7 +87,7 @@ def run(args: argparse.Namespace) -> str:
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     setup = resolve_setup(args)
-    plant = _with_ranges(args, resolve_plant(args, setup))
+    plant = with_ranges(args, resolve_plant(args, setup))
     model = as_model("model", plant)
     d = design(model, args.rho, args.eta)
     physical = as_plant("model", plant) if args.model is not None else None
@@ -147,33 +153,6 @@ def run(args: argparse.Namespace) -> str:
     if rate_text is not None:
         lines += ["", rate_text]
     return "\n".join(lines)
-
-
-def _with_ranges(args: argparse.Namespace, plant: Any) -> Any:
-    """The plant with the ranges of ``--range NAME=LO:HI`` (a plant file with parameters only)."""
-    if not args.range:
-        return plant
-    physical = as_plant("model", plant)
-    if physical is None or args.model is None:
-        raise CommandLineError("`--range` changes a parameter of a plant file with [parameters] (--model)")
-    ranges: dict[str, tuple[float, float]] = {}
-    for text in args.range:
-        name, _, bounds = text.partition("=")
-        lo_text, _, hi_text = bounds.partition(":")
-        try:
-            lo, hi = float(lo_text), float(hi_text)
-        except ValueError:
-            raise CommandLineError(f"`--range` must be NAME=LO:HI, found {text!r}") from None
-        if name not in physical.names:
-            raise CommandLineError(f"`--range` names {name!r}, which is not a parameter of {args.model!r} "
-                                   f"({', '.join(physical.names)})")
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise CommandLineError(f"`--range` {name} must have finite LO <= HI, found {lo:g}:{hi:g}")
-        ranges[name] = (lo, hi)
-    try:
-        return physical.with_ranges(ranges)
-    except ArgumentError as err:
-        raise CommandLineError(f"`--range` {err}") from err
 
 
 def _rate(plant: UncertainPlant, d: Design) -> tuple[dict[str, Any], str]:

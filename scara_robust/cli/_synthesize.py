@@ -10,12 +10,22 @@ from typing import Any
 import numpy as np
 
 from ..io import design_record, write_design
+from ..model.plant import as_model
 from ..model.scara import physical_samples
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_model, resolve_setup
+from ._common import (
+    CommandLineError,
+    add_range_option,
+    add_setup_options,
+    finite_float,
+    resolve_model,
+    resolve_plant,
+    resolve_setup,
+    with_ranges,
+)
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
 
@@ -43,6 +53,7 @@ def add_parser(sub: Any) -> None:
         "--model)",
     )
     add_setup_options(p, scenario="signals", model=True)
+    add_range_option(p, "synthesize for")
     p.add_argument(
         "--objective",
         choices=OBJECTIVES,
@@ -108,7 +119,9 @@ def run(args: argparse.Namespace) -> str:
     if chosen == "physical" and args.bounds is not None:
         raise CommandLineError("`--bounds` chooses an interval model; it goes with --set box")
     uncertainty_set = chosen or ("box" if args.model is not None or args.bounds is not None else "physical")
-    model = resolve_model(args, setup) if uncertainty_set == "box" else None
+    if args.range and uncertainty_set != "box":
+        raise CommandLineError("`--range` changes a parameter of a plant file (--model); it goes with --set box")
+    model = as_model("model", with_ranges(args, resolve_plant(args, setup))) if uncertainty_set == "box" else None
     if uncertainty_set == "physical":
         nominal = resolve_model(args, setup)
         objective = args.objective or "l2"

@@ -22,7 +22,7 @@ from .._validation import check_choice, check_instance, check_int, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
-from ..model.scara import physical_samples
+from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .margins import MARGIN_TOL, _bisect
@@ -98,9 +98,10 @@ def payload_margin(
         raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
 
     def closed(mass: float, nt: int, nm: int) -> Array:
+        # the robot as a plant over (t_ref, m_p), its payload range [0, mass]: its frozen loops on the grid
         profile: PayloadProfile = SinusoidalPayload(0.5 * mass, 0.5 * mass)
-        s = physical_samples(params, reference, profile, times=np.linspace(0, 2 * np.pi, nt), n_masses=nm)
-        return np.asarray(s.A - s.B @ design.K, dtype=float)
+        plant = scara_uncertain_plant(params, reference, profile, n_times=nt, n_masses=nm)
+        return plant.samples({"t_ref": nt, "m_p": nm}).closed_loops(design.K)
 
     def p_ok(mass: float) -> bool:
         return polytope_certificate(closed(mass, n_times, n_masses), design.P).certified
@@ -225,10 +226,10 @@ def payload_closed_loops(
     mass_max = check_real("mass_max", mass_max, positive=True)
     n_times = check_int("n_times", n_times, 1)
     n_masses = check_int("n_masses", n_masses, 2)
-    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
-                               times=np.linspace(0.0, 2 * np.pi, n_times), n_masses=n_masses)
-    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)
-    return closed, np.asarray(samples.masses, dtype=float), np.asarray(samples.times, dtype=float)
+    plant = scara_uncertain_plant(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
+                                  n_times=n_times, n_masses=n_masses)
+    samples = plant.samples({"t_ref": n_times, "m_p": n_masses})
+    return samples.closed_loops(design.K), samples.column("m_p"), samples.column("t_ref")
 
 
 def payload_rate_certificate(
