@@ -14,8 +14,10 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import control as ct
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 import scara_robust as sr
 from scara_robust.cli import main
@@ -162,8 +164,6 @@ def test_rate_bracket_finds_growth_above_the_certificate():
     assert max(sr.parameter_switching_growth(oscillator, np.zeros((1, 2)), "k", bracket.unstable, hold_high=h,
                                              hold_low=h) for h in (0.0, ramp, 4 * ramp)) > 0
     # and an independent check of that growth: integrate one period of the ramp with scipy
-    from scipy.integrate import solve_ivp
-
     rate = bracket.unstable
     for h in (0.0, ramp, 4 * ramp):
         period = 2 * h + 2 * ramp
@@ -258,8 +258,6 @@ def test_motor_tracks_with_varying_inertia(motor, profile):
 
 def test_simulation_matches_the_frozen_linear_response(motor):
     """With J held, the loop is LTI: python-control's step response of the closed loop is the same run."""
-    import control as ct
-
     d = sr.design(motor, 1.0, 10.0)
     run = sr.simulate_plant(motor, d.K, profiles={"J": lambda t: 4e-4}, t_final=5.0, n_points=501)
     A, B = motor.frozen({"J": 4e-4})

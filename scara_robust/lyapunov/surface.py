@@ -267,7 +267,7 @@ def design_surface(
         ``'margin'`` also computes the robustness margin θ(ρ, η) of every design: the
         largest scaling of every element range about the nominal that `margin_method`
         certifies (exact, no bisection: Z is affine in θ; see
-        :func:`scara_robust.affine_margin`). Structured method only.
+        :func:`scara_robust.lyapunov.theorem1.affine_margin`). Structured method only.
     margin_method : {'theorem1', 'vertex'}
         Theorem 1's Z, or the design's P at every vertex of the box (2^N per point).
 

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._resources import check_memory
 from .._validation import check_array, check_choice, check_int, check_real, describe
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ._expressions import Expression
+from ._expressions import Expression, parse_expression
 from .polytopic import PolytopicModel
 from .uncertain import UncertainElement, UncertainLTVModel, state_space
 
@@ -352,8 +352,6 @@ class UncertainPlant:
             Naming the entry (``A[1][1]``): an unknown name, a construct outside the
             whitelist, a ragged matrix, or an entry undefined on the parameter box.
         """
-        from ._expressions import parse_expression
-
         names = {p.name for p in parameters}
 
         def parse(label: str, rows: Sequence[Sequence[Any]], n_cols: int | None) -> tuple[tuple[Expression, ...], ...]:
@@ -782,9 +780,9 @@ class UncertainPlant:
             # the PID form's input matrix is −B_u: min and max over both ends give its bounds
             stack_A = np.stack([A_from_lo, A_from_hi])
             stack_B = np.stack([B_from_lo, B_from_hi])
-            return _hull(stack_A, stack_B, self.name, self.n_joints, exact=True)
+            return hull_of_stacks(stack_A, stack_B, self.name, self.n_joints, rtol=0.0)
         s = plant.samples()
-        return _hull(s.A, s.B, self.name, self.n_joints, exact=False)
+        return hull_of_stacks(s.A, s.B, self.name, self.n_joints)
 
     def polytope(self, theta: float = 1.0, points: Mapping[str, int] | None = None) -> PolytopicModel:
         """The polytope whose vertices are the sampled design-form plants (nominal: the hull's).
@@ -802,14 +800,31 @@ class UncertainPlant:
         return pd.DataFrame(rows, columns=["name", "unit", "lower", "upper", "nominal", "rate [unit/s]", "samples"])
 
 
-def _hull(A: Array, B: Array, name: str, n_joints: int | None, exact: bool) -> UncertainLTVModel:
-    """Interval model of stacks of design-form matrices (exact: stacks of [lower, upper])."""
+def hull_of_stacks(A: Array, B: Array, name: str, n_joints: int | None, rtol: float = HULL_RTOL) -> UncertainLTVModel:
+    """The interval model of stacks of matrices: nominal at the element-wise minima, ``[0, max − min]``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (k, n, n)
+    B : ndarray, shape (k, n, m)
+    name : str
+    n_joints : int or None
+        As for :class:`UncertainLTVModel`.
+    rtol : float
+        An entry varies when its range exceeds `rtol` times its stack's largest magnitude
+        (0: any difference; the stacks of an enclosure's two ends).
+
+    Returns
+    -------
+    UncertainLTVModel
+        Entries that do not vary keep the first matrix's value.
+    """
     elements: list[UncertainElement] = []
     nominal = {}
     for label, stack in (("A", A), ("B", B)):
         low, high = stack.min(axis=0), stack.max(axis=0)
         scale = max(float(np.abs(stack).max()), 1e-300)
-        varying = high - low > (0.0 if exact else HULL_RTOL * scale)
+        varying = high - low > rtol * scale
         nominal[label] = np.where(varying, low, stack[0])
         for i, j in zip(*np.nonzero(varying)):
             elements.append(UncertainElement("A" if label == "A" else "B", int(i), int(j), 0.0,

@@ -15,14 +15,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
-from .plant import Parameter, Signal, UncertainPlant
+from .plant import Parameter, Signal, UncertainPlant, hull_of_stacks
 from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
 from .signals import Reference, paper_reference
 from .uncertain import UncertainElement, UncertainLTVModel
@@ -306,17 +305,4 @@ def derived_model(
     """
     rtol = check_real("rtol", rtol, nonnegative=True)
     samples = physical_samples(params, reference, payload, times=times, n_masses=n_masses)
-    elements: list[UncertainElement] = []
-    nominal = {}
-    for label, stack in (("A", samples.A), ("B", samples.B)):
-        low, high = stack.min(axis=0), stack.max(axis=0)
-        scale = max(np.abs(stack).max(), 1e-300)
-        nominal[label] = low.copy()
-        for i, j in zip(*np.nonzero(high - low > rtol * scale)):
-            matrix: Literal["A", "B"] = "A" if label == "A" else "B"
-            elements.append(UncertainElement(matrix, int(i), int(j), 0.0, float(high[i, j] - low[i, j])))
-        unchanged = high - low <= rtol * scale
-        nominal[label][unchanged] = stack[0][unchanged]
-    return UncertainLTVModel(
-        nominal["A"], nominal["B"], tuple(elements), name="derived (model-based)", n_joints=2
-    )
+    return hull_of_stacks(samples.A, samples.B, "derived (model-based)", 2, rtol=rtol)

@@ -214,7 +214,7 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     ----------
     closed_loops : array_like, shape (V, n, n)
         Frozen closed-loop matrices at the vertices, e.g. from
-        :func:`scara_robust.box_closed_loops`.
+        :func:`scara_robust.robustness.polytope.box_closed_loops`.
     solver : {'CLARABEL', 'SCS'}
 
     Returns

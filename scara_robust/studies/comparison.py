@@ -20,6 +20,7 @@ from tqdm import tqdm
 
 from .._validation import check_array
 from ..exceptions import ArgumentValueError
+from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant
@@ -137,8 +138,6 @@ def compare_plant_designs(
         margin, NaN without P) and ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
         beyond), then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
     """
-    from ..lyapunov.gain import Design
-
     hull = plant.interval_model()
     rows = []
     for name, (K_raw, P_raw) in designs.items():

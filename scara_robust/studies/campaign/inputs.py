@@ -3,7 +3,7 @@
 A row of a campaign table holds everything that determines its run: the drawn inputs of
 :func:`~scara_robust.draw_scenario` and the campaign's fixed ones (:data:`FIXED_COLUMNS`:
 horizon, PID design point, robot). :func:`run_arguments` turns those inputs into the
-arguments of :func:`scara_robust.run_scenario`; :func:`~scara_robust.run_draw` and
+arguments of :func:`scara_robust.run_scenario`; :func:`~scara_robust.studies.campaign.runner.run_draw` and
 :func:`replay_scenario` both go through it, so a replayed row is the campaign's run.
 """
 
@@ -41,7 +41,7 @@ _ROBOT = tuple(f.name for f in fields(ScaraParams) if f.name != "cp")
 FIXED_COLUMNS = ("t_final", "rho", "eta", *(f"robot_{name}" for name in _ROBOT))
 
 #: Columns of a campaign table that hold the drawn inputs of :func:`~scara_robust.draw_scenario`
-#: (units in :data:`~scara_robust.SPEC_FIELDS`; ``e1_0`` and ``e2_0`` in rad).
+#: (units in :data:`~scara_robust.studies.campaign.spec.SPEC_FIELDS`; ``e1_0`` and ``e2_0`` in rad).
 DRAWN_COLUMNS = ("payload_profile", *[n for n in SPEC_FIELDS if n != "initial_error"], "e1_0", "e2_0")
 
 

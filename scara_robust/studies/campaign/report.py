@@ -267,8 +267,8 @@ def worst_scenarios(results: pd.DataFrame, n: int = 5) -> pd.DataFrame:
     pandas.DataFrame
         One row per run, controllers in sorted order: ``controller``, ``rank`` (1 is the
         worst), ``scenario``, ``status``, the metrics (units in :data:`METRIC_UNITS`) and
-        the drawn inputs (:data:`scara_robust.DRAWN_COLUMNS`, units in
-        :data:`scara_robust.SPEC_FIELDS`) that the table has. Replay one with
+        the drawn inputs (:data:`scara_robust.studies.campaign.inputs.DRAWN_COLUMNS`, units in
+        :data:`scara_robust.studies.campaign.spec.SPEC_FIELDS`) that the table has. Replay one with
         :func:`scara_robust.replay_scenario`.
     """
     _check_table(results)

@@ -65,7 +65,7 @@ def run_draw(spec: CampaignSpec, draw: Mapping[str, Any], engine: str = "scipy")
     -------
     list of dict
         One row per controller: the drawn and fixed inputs (the run's arguments come
-        from :func:`scara_robust.run_arguments`, as for :func:`scara_robust.replay_scenario`),
+        from :func:`scara_robust.studies.campaign.inputs.run_arguments`, as for :func:`scara_robust.replay_scenario`),
         ``controller``, ``success``, ``diverged``, ``error``, ``status``, ``status_reason`` and the metrics of
         :func:`scara_robust.tracking_metrics`.
     """
