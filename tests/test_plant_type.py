@@ -231,17 +231,6 @@ def test_scara_payload_margin_through_the_plant_is_that_of_the_element_code():
     assert table.loc["payload-frozen", "mass [kg]"] == pytest.approx(ref["payload-frozen"], rel=1e-12)
 
 
-def test_scara_certificate_table_through_the_plant(capsys):
-    """The physical rows run on the plant's samples; the verdicts and numbers are the element code's."""
-    ref = REFERENCE["certify"]
-    assert main(["certify", "--rho", "3", "--eta", "90", "--tries", "2", "--format", "json"]) == 0
-    rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
-    for method, (verdict, max_eig) in ref.items():
-        assert rows[method]["verdict"] == verdict, method
-        if max_eig is not None:
-            assert rows[method]["max_eig"] == pytest.approx(max_eig, rel=1e-9), method
-
-
 # --- runs and export -----------------------------------------------------------------------------
 
 @pytest.mark.parametrize("profile", ["sinusoid", "random-walk", "ramp"])

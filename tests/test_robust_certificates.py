@@ -4,6 +4,7 @@ import itertools
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -243,6 +244,11 @@ def test_certify_json_rows(capsys):
     assert by["theorem1-all"]["max_eig"] == pytest.approx(713.90, abs=0.01)
     assert by["vertex-box"]["verdict"] == "no certificate can exist"
     assert by["falsifier-box"]["certified"] is False
+    # the command builds the SCARA as an UncertainPlant; its rows are those of the element-level code
+    reference = json.loads((Path(__file__).parent / "data" / "scara_reference.json").read_text())["certify"]
+    for method, (verdict, max_eig) in reference.items():
+        assert by[method]["verdict"] == verdict, method
+        assert by[method]["max_eig"] == pytest.approx(max_eig, rel=1e-9), method
     if lmi.cvxpy_available():
         assert by["lmi-box"]["certified"] is False and by["lmi-physical"]["certified"] is True
         assert by["lmi-physical"]["decay_rate [1/s]"] > 0

@@ -55,10 +55,12 @@ def test_closed_loop_matches_independent_integration(scenario):
 
 @pytest.mark.parametrize(
     ("controller", "scenario"),
-    [("pid", "large"), ("pid", "small"), ("smc", "large")],
+    [("pid", "large"), pytest.param("pid", "small", marks=pytest.mark.slow),
+     pytest.param("smc", "large", marks=pytest.mark.slow)],
     ids=["pid-large", "pid-small", "smc-large"],
 )
 def test_fast_path_matches_interconnect(controller, scenario):
+    # python-control's interconnect is the slow reference (~20 s a run): one case in `make test`, all in test-slow
     # The fast path (LSODA, lean right-hand side) against python-control's interconnect (RK45).
     fast = sr.run_scenario(controller, scenario, t_final=8.0, method="lsoda")
     ref = sr.run_scenario(controller, scenario, t_final=8.0, method="interconnect")
