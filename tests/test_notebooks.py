@@ -36,8 +36,8 @@ NOTEBOOKS = {
 #: Smaller sizes for the test run (injected after the parameters cell); the notebooks' own
 #: defaults are the full sizes.
 QUICK = {
-    "robustness_margins.ipynb": "N_RHO, N_ETA = 12, 12\nTOL = 0.3",
-    "your_own_plant.ipynb": "N_GRID = 12",
+    "robustness_margins.ipynb": "N_RHO, N_ETA = 8, 8\nTOL = 0.3",
+    "your_own_plant.ipynb": "N_GRID = 8\nT_FINAL = 8.0",
     "deployment.ipynb": "LIMITS = [6.0]\nT_FINAL = 7.0\nN_TIMES, N_MASSES = 31, 3",
 }
 
