@@ -1,6 +1,7 @@
 # make test runs the suite in two processes (pytest-xdist), each test file in one of them, so
 # the tests of a file keep their order (the README's commands read what earlier ones wrote);
-# the longest files start first (tests/conftest.py, LONGEST_FILES).
+# the longest files start first (tests/conftest.py, LONGEST_FILES); one BLAS thread per
+# process, two processes on two cores.
 # Every target creates .venv and installs the package with its test tools and the
 # optional extras (lmi: cvxpy; dask; parquet: pyarrow; compiled: numba) on first use, so their tests run.
 PYTHON ?= python3
@@ -19,7 +20,8 @@ $(STAMP): pyproject.toml
 test: $(STAMP)
 	$(BIN)/ruff check scara_robust tests benchmarks
 	$(BIN)/mypy
-	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 SCARA_ROBUST_REQUIRE_EXTRAS=1 \
+		$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
 
 # the full-size cross-checks (200-scenario campaigns on both engines: about 10 min on 2 cores)
 test-slow: $(STAMP)

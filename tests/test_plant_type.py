@@ -357,3 +357,12 @@ def test_bad_plant_file_is_one_line_and_writes_nothing(capsys, tmp_path, monkeyp
     assert needle in err and str(bad) in err and "Traceback" not in err
     assert list(out_dir.iterdir()) == []  # nothing written, no temporary left
     assert not (out_dir / "pwned").exists()
+
+
+def test_certificate_table_runs_the_rows_asked_for(motor):
+    d = sr.design(motor, 1.0, 10.0)
+    table = sr.certificate_table(motor, d, methods=["lmi-physical", "vertex-box"])
+    assert table["method"].tolist() == ["vertex-box", "lmi-physical"]  # in the table's own order
+    assert table["certified"].tolist() == [True, True]
+    with pytest.raises(sr.ArgumentValueError, match="`methods` must be one of"):
+        sr.certificate_table(motor, d, methods=["vertex"])

@@ -254,6 +254,7 @@ def test_certify_json_rows(capsys):
         assert by["lmi-physical"]["decay_rate [1/s]"] > 0
 
 
+@pytest.mark.slow  # the README's `certify --bounds derived` runs the same command in make test
 def test_certify_text(capsys):
     assert cli.main(["certify", "--rho", "3", "--eta", "90", "--bounds", "derived", "--tries", "2"]) == 0
     out = capsys.readouterr().out
