@@ -78,13 +78,19 @@ def test_robot_changes_the_result(capsys):
     assert np.allclose(outs[0]["K"], d.K)
 
 
-def test_scenario_file_on_simulate_and_certify(capsys):
+def test_scenario_file_on_simulate(capsys):
     scen = str(EXAMPLES / "scenario-light.toml")
     robot = str(EXAMPLES / "robot-light.toml")
     assert main(["simulate", "--robot", robot, "--scenario", scen, "--t-final", "6.5", "--format", "json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["scenario"] == "light-pick-and-place"
     assert out["series"]["e1"][0] == pytest.approx(0.1) and out["series"]["e2"][0] == pytest.approx(-0.1)
+
+
+@pytest.mark.slow  # the README runs the same certify command in make test
+def test_scenario_file_on_certify(capsys):
+    scen = str(EXAMPLES / "scenario-light.toml")
+    robot = str(EXAMPLES / "robot-light.toml")
     assert main(["certify", "--rho", "3", "--eta", "90", "--robot", robot, "--scenario", scen, "--tries", "2"]) == 0
     assert "bounds: derived" in capsys.readouterr().out
 
