@@ -191,7 +191,7 @@ class ParameterSamples:
 MatrixFunction = Callable[[Mapping[str, Array]], tuple[Array, Array]]
 
 
-def _stack(values: Mapping[str, Array], A: Any, B: Any, shape: tuple[int, ...]) -> tuple[Array, Array]:
+def _stack(A: Any, B: Any, shape: tuple[int, ...]) -> tuple[Array, Array]:
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
     if A.ndim == 2:
@@ -582,7 +582,7 @@ class UncertainPlant:
     def _plant_matrices(self, values: Mapping[str, Array]) -> tuple[Array, Array]:
         shape = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
         A, B = self.matrices(values)
-        return _stack(values, A, B, shape)
+        return _stack(A, B, shape)
 
     def plant_matrices(self, values: ArrayLike | Mapping[str, Any]) -> tuple[Array, Array]:
         """``(A(p), B(p))`` in plant coordinates.

@@ -168,13 +168,8 @@ def parameter_margin(
     >>> round(float(table["J high [kg·m²]"].iloc[0]), 4)
     0.174
     """
-    _gain(plant, design)  # the plant's type and K's shape
-    n = plant.n_design_states
+    K = _gain(plant, design)  # the plant's type and K's shape
     found = design if isinstance(design, Design) else None
-    K = found.K if found is not None else check_array("design", design, ndim=2)
-    if K.shape != (plant.n_inputs, n):
-        raise ArgumentValueError("design", f"must have K of shape ({plant.n_inputs}, {n}) for the plant, found "
-                                           f"{K.shape}")
     for method in methods:
         check_choice("methods", method, tuple(PARAMETER_METHODS))
         if found is None and method in ("theorem1", "vertex"):
@@ -409,10 +404,11 @@ def rate_bracket(
     RateBracket
     """
     start = time.perf_counter()
+    K = _gain(plant, design)
     key = _rate_parameter(plant, name)
     scan_ratio = check_real("scan_ratio", scan_ratio, minimum=1.0 + 1e-9)
     scan_span = check_real("scan_span", scan_span, minimum=1.0 + 1e-9)
-    margin = parameter_rate(plant, design, key, tol=tol)
+    margin = parameter_rate(plant, K, key, tol=tol)
     lower = margin.rate
     if margin.certificate is None and not math.isinf(lower):
         return RateBracket(key, math.nan, math.nan, margin, time.perf_counter() - start, margin.message)
@@ -424,7 +420,7 @@ def rate_bracket(
     rate = base * scan_ratio
     while rate <= base * scan_span:
         ramp = (hi - lo) / rate
-        if any(parameter_switching_growth(plant, _gain(plant, design), key, rate, hold_high=h, hold_low=h) > 0
+        if any(parameter_switching_growth(plant, K, key, rate, hold_high=h, hold_low=h) > 0
                for h in (0.0, ramp, 4 * ramp)):
             return RateBracket(key, lower, rate, margin, time.perf_counter() - start,
                                f"{margin.message}; a periodic ramp between {lo:.6g} and {hi:.6g} at the upper rate "

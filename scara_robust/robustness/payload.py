@@ -15,7 +15,6 @@ from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
-import scipy.linalg
 from numpy.typing import NDArray
 
 from .._validation import check_choice, check_instance, check_int, check_real
@@ -26,6 +25,7 @@ from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .margins import MARGIN_TOL, _bisect
+from .parameters import parameter_switching_growth
 from .pdl import RateMargin, max_certified_rate
 from .polytope import PolytopeCertificate, polytope_certificate
 
@@ -344,16 +344,7 @@ def payload_switching_growth(
     hold_high = check_real("hold_high", hold_high, nonnegative=True)
     hold_low = check_real("hold_low", hold_low, nonnegative=True)
     n_ramp = check_int("n_ramp", n_ramp, 1)
-    samples = physical_samples(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max),
-                               times=np.array([phase]), n_masses=2 * n_ramp + 1)
-    closed = np.asarray(samples.A - samples.B @ design.K, dtype=float)  # masses 0, M/2n, ..., M
-    step = scipy.linalg.expm(closed[1::2] * (mass_max / n_ramp / rate))  # midpoints, each held for one step
-    down = np.eye(6)
-    for E in step[::-1]:
-        down = E @ down
-    up = np.eye(6)
-    for E in step:
-        up = E @ up
-    period = up @ scipy.linalg.expm(closed[0] * hold_low) @ down @ scipy.linalg.expm(closed[-1] * hold_high)
-    duration = hold_high + hold_low + 2 * mass_max / rate
-    return float(np.log(np.abs(np.linalg.eigvals(period)).max()) / duration)
+    # the robot as a plant over (t_ref, m_p), payload over [0, M]; the reference phase held
+    plant = scara_uncertain_plant(params, reference, SinusoidalPayload(0.5 * mass_max, 0.5 * mass_max))
+    return parameter_switching_growth(plant, design.K, "m_p", rate, hold_high=hold_high, hold_low=hold_low,
+                                      at={"t_ref": phase}, n_ramp=n_ramp)

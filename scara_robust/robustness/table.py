@@ -151,10 +151,16 @@ def certificate_table(
             row["verdict"] = "no certificate can exist"
         return row
 
+    cache: dict[tuple[tuple[str, int], ...], tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = {}
+
     def sampled(at: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-        assert plant is not None
-        s = plant.samples(at)
-        return s.closed_loops(design.K), s.values, s.names
+        # the physical rows share their grids: each is sampled once
+        key = tuple(sorted(at.items()))
+        if key not in cache:
+            assert plant is not None
+            s = plant.samples(at)
+            cache[key] = (s.closed_loops(design.K), s.values, s.names)
+        return cache[key]
 
     def physical() -> dict[str, Any]:
         (loops, values, names), (loops_f, values_f, _) = sampled(grid), sampled(fine)
