@@ -56,6 +56,7 @@ from numpy.typing import NDArray
 
 from ._validation import describe, field_number, field_table
 from .exceptions import ArgumentError, ArgumentValueError, InputFileError
+from .model.arm import FEEDFORWARDS, ArmSetup, JointSinusoids, RobotArm
 from .model.augment import integral_augment, pid_augment
 from .model.initial import Scenario
 from .model.plant import Parameter, Signal, UncertainPlant
@@ -220,6 +221,153 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
     except ArgumentError as err:  # name the file's field: `robot.m1` [kg]
         field, _, unit = err.argument.partition(" ")
         raise InputFileError(f"{text_path!r}: field `robot.{field}` {unit} {err.problem}") from err
+
+
+#: Keys of a URDF robot file's ``[robot]`` table, with their units.
+ARM_KEYS: dict[str, str] = {
+    "urdf": "path", "joints": "names", "locked": "rad or m", "payload_frame": "name", "payload_mass": "kg",
+    "payload_rate": "kg/s", "payload_nominal": "kg", "payload_com": "m", "payload_inertia_per_kg": "m²",
+    "gravity": "true/false", "feedforward": "/".join(FEEDFORWARDS), "reference_samples": "count",
+    "payload_samples": "count", "prefix": "identifier",
+}
+_REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase": "rad"}
+
+
+def is_arm_file(path: str | os.PathLike[str]) -> bool:
+    """True when `path` is a robot file naming a URDF (``[robot] urdf = ...``), not a SCARA's data.
+
+    A file that cannot be read is not one (its loader then says why).
+    """
+    try:
+        data = read_mapping(path)
+    except (OSError, InputFileError):
+        return False
+    robot = data.get("robot")
+    return isinstance(robot, Mapping) and "urdf" in robot
+
+
+def _numbers(where: str, field: str, value: Any, unit: str, length: int | None = None) -> list[float]:
+    if not isinstance(value, list) or (length is not None and len(value) != length):
+        size = f"{length} numbers" if length is not None else "a list of numbers"
+        raise InputFileError(f"{where} field `{field}` must be {size} in {unit}, found {describe(value)}")
+    return [field_number(where, f"{field}[{k}]", v, unit) for k, v in enumerate(value)]
+
+
+def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
+    """Read a robot file that names a URDF: the arm, its payload, reference and feedforward.
+
+    The format (TOML or JSON; ``examples/robot-arm6.toml`` documents it): ``name``; a
+    ``[robot]`` table with ``urdf`` (a path relative to the file), ``joints`` (the
+    controlled revolute joints, in order), ``locked`` (joint name → position, rad or m;
+    every other joint is locked at 0), ``payload_frame``, ``payload_mass = [lower,
+    upper]`` (kg), optional ``payload_rate`` (kg/s), ``payload_nominal`` (kg, default the
+    lower end), ``payload_com`` (m, in the frame), ``payload_inertia_per_kg`` (m², the
+    diagonal about the payload's centre of mass), ``gravity`` (default true),
+    ``feedforward`` (``"none"``, ``"gravity"`` or ``"computed-torque"``),
+    ``reference_samples`` and ``payload_samples`` (the linearization grid, default 721
+    and 21), ``prefix`` (exported code); a ``[reference]`` table with ``center``,
+    ``amplitude``, ``omega`` and ``phase``, one value per joint:
+    ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    ArmSetup
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        One line naming the file and the field: a URDF that does not parse, a joint or
+        frame it does not have, a prismatic controlled joint, a floating base, a
+        negative mass, a list of the wrong length, ...
+    ModuleNotFoundError
+        If Pinocchio (the extra ``robots``) is not installed.
+    """
+    text_path = os.fspath(path)
+    where = f"{text_path!r}:"
+    data = read_mapping(text_path)
+    name = _top(text_path, data, ("robot", "reference"))
+    robot = field_table(where, data, "robot", ARM_KEYS)
+    for key in ("urdf", "joints", "payload_frame", "payload_mass"):
+        if key not in robot:
+            raise InputFileError(f"{where} missing field `robot.{key}` [{ARM_KEYS[key]}]")
+    urdf = robot["urdf"]
+    if not isinstance(urdf, str) or not urdf:
+        raise InputFileError(f"{where} field `robot.urdf` must be a path to a URDF file, found {describe(urdf)}")
+    urdf_path = os.path.join(os.path.dirname(os.path.abspath(text_path)), urdf)
+    joints = robot["joints"]
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, str) for j in joints):
+        raise InputFileError(f"{where} field `robot.joints` must be a list of joint names, found {describe(joints)}")
+    n = len(joints)
+    locked = robot.get("locked", {})
+    if not isinstance(locked, Mapping):
+        raise InputFileError(f"{where} field `robot.locked` must be a table of joint name = position, found "
+                             f"{describe(locked)}")
+    locked = {str(k): field_number(where, f"robot.locked.{k}", v, "rad or m") for k, v in locked.items()}
+    frame = robot["payload_frame"]
+    if not isinstance(frame, str):
+        raise InputFileError(f"{where} field `robot.payload_frame` must be a frame name, found {describe(frame)}")
+    mass = _numbers(where, "robot.payload_mass", robot["payload_mass"], "kg", 2)
+    if min(mass) < 0 or mass[0] > mass[1]:
+        raise InputFileError(f"{where} field `robot.payload_mass` [kg] must be [lower, upper] with 0 <= lower <= "
+                             f"upper, found {mass}")
+    rate = robot.get("payload_rate")
+    if rate is not None:
+        rate = field_number(where, "robot.payload_rate", rate, "kg/s")
+        if rate < 0:
+            raise InputFileError(f"{where} field `robot.payload_rate` [kg/s] must be >= 0, found {rate:g}")
+        if mass[0] == mass[1]:
+            raise InputFileError(f"{where} field `robot.payload_rate` bounds the change of a payload with a range; "
+                                 f"the payload is fixed at {mass[0]:g} kg")
+    nominal = field_number(where, "robot.payload_nominal", robot.get("payload_nominal", mass[0]), "kg")
+    if not mass[0] <= nominal <= mass[1]:
+        raise InputFileError(f"{where} field `robot.payload_nominal` [kg] must lie in payload_mass {mass}, found "
+                             f"{nominal:g}")
+    com = _numbers(where, "robot.payload_com", robot.get("payload_com", [0.0, 0.0, 0.0]), "m", 3)
+    per_kg = _numbers(where, "robot.payload_inertia_per_kg", robot.get("payload_inertia_per_kg", [0.0, 0.0, 0.0]),
+                      "m²", 3)
+    if min(per_kg) < 0:
+        raise InputFileError(f"{where} field `robot.payload_inertia_per_kg` [m²] must be >= 0, found {per_kg}")
+    gravity = robot.get("gravity", True)
+    if not isinstance(gravity, bool):
+        raise InputFileError(f"{where} field `robot.gravity` must be true or false, found {describe(gravity)}")
+    feedforward = robot.get("feedforward", "none")
+    if feedforward not in FEEDFORWARDS:
+        raise InputFileError(f"{where} field `robot.feedforward` must be one of {', '.join(FEEDFORWARDS)}, found "
+                             f"{describe(feedforward)}")
+    counts = []
+    for key, default in (("reference_samples", 721), ("payload_samples", 21)):
+        value = robot.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise InputFileError(f"{where} field `robot.{key}` must be a positive integer, found {describe(value)}")
+        counts.append(value)
+    prefix = robot.get("prefix", "arm_pid")
+    if not isinstance(prefix, str) or not prefix.isidentifier():
+        raise InputFileError(f"{where} field `robot.prefix` must be a C identifier, found {describe(prefix)}")
+    if "reference" not in data:
+        raise InputFileError(f"{where} missing table `[reference]` (center, amplitude, omega, phase per joint)")
+    ref_table = field_table(where, data, "reference", _REFERENCE_KEYS)
+    values = {}
+    for key, unit in _REFERENCE_KEYS.items():
+        if key not in ref_table:
+            raise InputFileError(f"{where} missing field `reference.{key}` [{unit}], one value per joint")
+        values[key] = tuple(_numbers(where, f"reference.{key}", ref_table[key], unit, n))
+    try:
+        reference = JointSinusoids(values["center"], values["amplitude"], values["omega"], values["phase"])
+        reference.period  # noqa: B018 - commensurate frequencies, checked here to name the file
+        arm = RobotArm(urdf_path, joints, locked=locked, payload_frame=frame, payload_com=com,
+                       payload_inertia_per_kg=per_kg, gravity=gravity, name=name)
+    except ArgumentError as err:
+        raise InputFileError(f"{where} field `robot.{err.argument}`: {err.problem}"
+                             if not err.argument.startswith("reference") else f"{where} field `{err.argument}`: "
+                             f"{err.problem}") from err
+    return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
+                    prefix)
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:

@@ -1,9 +1,11 @@
-"""The plant: the SCARA of Eq. (1), its signals, initial conditions and uncertain models.
+"""The plant: the SCARA of Eq. (1), any arm from its URDF, signals, initial conditions and uncertain models.
 
 The bottom layer of the package; it imports only :mod:`scara_robust.paper` and the
 validation helpers.
 """
 
+from .arm import *  # noqa: F403
+from .arm import __all__ as _arm
 from .augment import *  # noqa: F403
 from .augment import __all__ as _augment
 from .initial import *  # noqa: F403
@@ -21,4 +23,4 @@ from .signals import __all__ as _signals
 from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
-__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara]
+__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm]

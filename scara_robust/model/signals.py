@@ -161,8 +161,8 @@ class SquareWave:
     phase : float
         Phase, rad; 0 means ``+amplitude`` right after t = 0. The paper does not state
         phase or sign at t = 0; 0 is this package's choice.
-    signs : tuple of float, shape (2,)
-        Sign (or scale) per joint; default both ``+1`` (in phase).
+    signs : tuple of float, shape (n,)
+        Sign (or scale) per joint; default ``(+1, +1)``: the SCARA's two joints in phase.
 
     Examples
     --------
@@ -174,13 +174,16 @@ class SquareWave:
     amplitude: float = PAPER_DISTURBANCE_AMPLITUDE
     period: float = PAPER_DISTURBANCE_PERIOD
     phase: float = 0.0
-    signs: tuple[float, float] = (1.0, 1.0)
+    signs: tuple[float, ...] = (1.0, 1.0)
 
     def __post_init__(self) -> None:
         check_real("amplitude [N·m]", self.amplitude, nonnegative=True)
         check_real("period [s]", self.period, positive=True)
         check_real("phase [rad]", self.phase)
-        check_array("signs", self.signs, shape=(2,))
+        signs = check_array("signs", self.signs, ndim=1)
+        if signs.size == 0:
+            raise ValueError("`signs` must hold one sign per joint, found none")
+        object.__setattr__(self, "signs", tuple(float(v) for v in signs))
 
     def level(self, t: ArrayLike) -> Any:
         """The wave's sign ``s(t)`` in {-1, +1}."""
@@ -188,7 +191,7 @@ class SquareWave:
         return np.where(frac < 0.5, 1.0, -1.0)
 
     def __call__(self, t: ArrayLike) -> Array:
-        """Torque at `t`: shape (2,) for scalar t, (2, k) for t of shape (k,)."""
+        """Torque at `t`: shape (n,) for scalar t, (n, k) for t of shape (k,)."""
         s = self.level(t)
         return np.asarray(self.amplitude * np.multiply.outer(np.asarray(self.signs, dtype=float), s), dtype=float)
 

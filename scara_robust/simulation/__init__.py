@@ -4,6 +4,8 @@ Imports :mod:`scara_robust.model` and :mod:`scara_robust.lyapunov` (the PID's de
 gain) below it.
 """
 
+from .arm import *  # noqa: F403
+from .arm import __all__ as _arm
 from .compiled import *  # noqa: F403
 from .compiled import __all__ as _compiled
 from .controllers import *  # noqa: F403
@@ -19,4 +21,4 @@ from .plants import __all__ as _plants
 from .run import *  # noqa: F403
 from .run import __all__ as _run
 
-__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics, *_plants]
+__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics, *_plants, *_arm]

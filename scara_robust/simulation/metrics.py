@@ -40,9 +40,10 @@ class TrackingMetrics:
     Attributes
     ----------
     max_abs_error : float
-        ``max |e_i(t)|`` after the transient, over both joints, rad.
+        ``max |e_i(t)|`` after the transient, over all joints, rad.
     rms_error : float
-        ``sqrt(∫ (e1² + e2²)/2 dt / duration)`` after the transient, rad.
+        ``sqrt(∫ mean_i e_i² dt / duration)`` after the transient, rad (for the SCARA
+        ``(e1² + e2²)/2``).
     peak_torque : float
         ``max |T_ci(t)|`` over the whole run and both joints, N·m.
     max_abs_torque : float
@@ -121,9 +122,9 @@ def tracking_metrics(
     ----------
     t : array_like, shape (k,)
         Increasing sample times, s.
-    e : array_like, shape (2, k)
-        Joint errors, rad.
-    torque : array_like, shape (2, k)
+    e : array_like, shape (n, k)
+        Joint errors, rad (n joints: 2 for the SCARA).
+    torque : array_like, shape (n, k)
         Control torques, N·m.
     t_transient : float
         End of the transient, s (>= 0); at least two samples must follow it.
@@ -146,8 +147,10 @@ def tracking_metrics(
     (1.0, 1.0)
     """
     t = check_array("t", t, ndim=1)
-    e = check_array("e", e, shape=(2, t.size))
-    torque = check_array("torque", torque, shape=(2, t.size))
+    e = check_array("e", e, ndim=2)
+    if e.shape[1] != t.size or e.shape[0] == 0:
+        raise ArgumentValueError("e", f"must have shape (n, {t.size}) (n joints by the samples of t), found {e.shape}")
+    torque = check_array("torque", torque, shape=e.shape)
     t0 = check_real("t_transient", t_transient, nonnegative=True)
     if t.size < 2 or np.any(np.diff(t) <= 0):
         raise ArgumentValueError("t", "must be strictly increasing with at least 2 samples")
@@ -157,7 +160,7 @@ def tracking_metrics(
         raise ArgumentValueError("t", f"must have at least 2 samples at or after t_transient={t0} s, found {found}")
     ta, ea, tqa = t[after], e[:, after], torque[:, after]
     duration = ta[-1] - ta[0]
-    rms = np.sqrt(np.trapezoid(0.5 * (ea**2).sum(axis=0), ta) / duration)
+    rms = np.sqrt(np.trapezoid((ea**2).mean(axis=0), ta) / duration)
     return TrackingMetrics(
         max_abs_error=float(np.abs(ea).max()),
         rms_error=float(rms),

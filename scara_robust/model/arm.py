@@ -1,0 +1,590 @@
+"""Any serial robot arm from its URDF, carrying a payload of varying mass (Pinocchio).
+
+:class:`RobotArm` reads a URDF with Pinocchio (``pin`` on PyPI, the extra ``robots``),
+keeps the controlled revolute joints, locks every other joint at a given position, and
+fixes a payload to a frame: a rigid body of mass ``m_p`` (kg) whose centre of mass sits at
+``payload_com`` in that frame and whose inertia about it is ``m_p · diag(inertia_per_kg)``.
+Its dynamics ``M(q, m_p) q̈ + C(q, q̇, m_p) q̇ + G(q, m_p) = τ`` come from Pinocchio's
+algorithms (ABA, RNEA, CRBA) and their analytical derivatives.
+
+:func:`arm_uncertain_plant` linearizes the tracking-error dynamics along a reference, as
+the paper does for its SCARA (Section 3, Eq. 3): with ``e = r − q`` and the torque
+``τ = τ_ff(t) + u``,
+
+    ë = r̈ − q̈(r − e, ṙ − ė, τ_ff + u, m_p)  ⇒  ë ≈ A_q e + A_v ė − M⁻¹ u,
+    A_q = ∂q̈/∂q,  A_v = ∂q̈/∂q̇  at (r, ṙ, τ_ff(t)),
+
+from ``computeABADerivatives``. ``τ_ff`` is the loop's model feedforward with the nominal
+payload (none, gravity compensation or computed torque), so the certified model is the
+loop that is simulated and exported. As in the paper, the residual
+``r̈ − q̈(r, ṙ, τ_ff, m_p)`` (zero for computed torque at the nominal payload) is left to
+the integral action and the input matrix is frozen at ``e = 0``. The plant's parameters
+are the reference time ``t_ref`` (s, over one period of the reference) and the payload
+mass ``m_p`` (kg); its design form is the paper's PID state ``[∫e, e, ė]`` of 3n states.
+
+Angles in rad, rates in rad/s, torques in N·m, masses in kg, lengths in m.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_choice, check_int, check_real
+from ..exceptions import ArgumentValueError
+from .plant import Parameter, Signal, UncertainPlant
+
+__all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio"]
+
+Array = NDArray[np.float64]
+
+#: Model feedforward of an arm's loop, with the nominal payload: none, gravity
+#: compensation ``G(r, m₀)``, or computed torque ``M(r, m₀) r̈ + C(r, ṙ, m₀) ṙ + G(r, m₀)``.
+FEEDFORWARDS = ("none", "gravity", "computed-torque")
+
+# Pinocchio's names of the one-degree-of-freedom revolute joints (the bounded ones hold the
+# angle, the unbounded ones of a URDF `continuous` joint hold (cos, sin) of it).
+_REVOLUTE = re.compile(r"JointModel(R[XYZ]|RUB[XYZ]|RevoluteUnaligned|RevoluteUnboundedUnaligned)$")
+_PRISMATIC = re.compile(r"JointModel(P[XYZ]|PrismaticUnaligned)$")
+_GRAVITY = 9.81
+
+
+def require_pinocchio() -> Any:
+    """Import Pinocchio, or say how to install it.
+
+    Returns
+    -------
+    module
+        ``pinocchio``.
+
+    Raises
+    ------
+    ModuleNotFoundError
+        Naming the extra ``robots`` (``pip install "scara_robust[robots]"``).
+    """
+    try:
+        import pinocchio
+    except ModuleNotFoundError as err:  # pragma: no cover - exercised where pin is absent
+        raise ModuleNotFoundError(
+            "a robot from a URDF needs Pinocchio: pip install \"scara_robust[robots]\" (the PyPI package `pin`)"
+        ) from err
+    return pinocchio
+
+
+@dataclass(frozen=True)
+class JointSinusoids:
+    """A joint reference ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``.
+
+    Parameters
+    ----------
+    center, amplitude : sequence of float, length n
+        rad.
+    omega : sequence of float, length n
+        rad/s (> 0).
+    phase : sequence of float, length n
+        rad.
+
+    Examples
+    --------
+    >>> from scara_robust.model.arm import JointSinusoids
+    >>> ref = JointSinusoids((0.0, 0.0), (1.0, 1.0), (1.0, 1.0), (0.0, 1.5707963267948966))
+    >>> [round(float(v), 12) for v in ref.sample([0.0])[0][0]]
+    [0.0, 1.0]
+    """
+
+    center: tuple[float, ...]
+    amplitude: tuple[float, ...]
+    omega: tuple[float, ...]
+    phase: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        n = len(self.center)
+        for name in ("center", "amplitude", "omega", "phase"):
+            arr = check_array(f"reference.{name}", getattr(self, name), ndim=1)
+            if arr.size != n or n == 0:
+                raise ArgumentValueError(f"reference.{name}", f"must hold one value per joint ({n}), found {arr.size}")
+            if name == "omega" and np.any(arr <= 0):
+                raise ArgumentValueError("reference.omega", f"must be > 0 rad/s, found {arr.tolist()}")
+            object.__setattr__(self, name, tuple(float(v) for v in arr))
+        object.__setattr__(self, "_c", np.array(self.center))
+        object.__setattr__(self, "_a", np.array(self.amplitude))
+        object.__setattr__(self, "_w", np.array(self.omega))
+        object.__setattr__(self, "_p", np.array(self.phase))
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return len(self.center)
+
+    @property
+    def period(self) -> float:
+        """The reference's common period, s: the least common multiple of the joints' periods.
+
+        Raises
+        ------
+        ArgumentValueError
+            If the frequencies of the moving joints have no common period within 1000
+            periods of the slowest one (their ratios are not rational to 1e-9).
+        """
+        moving = [w for w, a in zip(self.omega, self.amplitude) if a != 0.0] or [self.omega[0]]
+        base = moving[0]
+        multiple = Fraction(1)
+        for w in moving[1:]:
+            ratio = Fraction(base / w).limit_denominator(1000)
+            if abs(float(ratio) - base / w) > 1e-9 * base / w:
+                raise ArgumentValueError("reference.omega", f"must have rational ratios for a common period, found "
+                                                            f"{base:g} and {w:g} rad/s")
+            multiple = Fraction(math.lcm(multiple.numerator, ratio.numerator),
+                                math.gcd(multiple.denominator, ratio.denominator))
+        period = 2 * math.pi / base * float(multiple)
+        if period > 1000 * 2 * math.pi / min(moving):
+            raise ArgumentValueError("reference.omega", f"give a common period of {period:.4g} s, over 1000 periods of "
+                                                        "the slowest joint: choose commensurate frequencies")
+        return period
+
+    def sample(self, times: ArrayLike) -> tuple[Array, Array, Array]:
+        """``r, ṙ, r̈`` at `times`, each of shape (k, n) for `times` of shape (k,) (rad, rad/s, rad/s²)."""
+        t = np.asarray(times, dtype=float).reshape(-1, 1)
+        return self.at(t)  # type: ignore[arg-type]
+
+    def at(self, t: float) -> tuple[Array, Array, Array]:
+        """``r, ṙ, r̈`` at one time, each of shape (n,) (the lean path of the simulators)."""
+        a, w = self._a, self._w  # type: ignore[attr-defined]
+        angle = w * t + self._p  # type: ignore[attr-defined]
+        s = np.sin(angle)
+        return self._c + a * s, a * w * np.cos(angle), -a * w * w * s  # type: ignore[attr-defined]
+
+
+class RobotArm:
+    """A serial arm from its URDF with a payload of variable mass fixed to one frame.
+
+    Parameters
+    ----------
+    urdf : path-like
+        The URDF file (read by Pinocchio, without meshes).
+    joints : sequence of str
+        The controlled joints, in the order of the controller's vectors; each must be
+        revolute (``revolute`` or ``continuous`` in the URDF).
+    locked : mapping of str to float, optional
+        Positions (rad, or m for a prismatic joint) of joints held still; every joint not
+        controlled is locked, at 0 where not given.
+    payload_frame : str
+        The URDF link (or joint frame) the payload is fixed to.
+    payload_com : sequence of 3 float
+        The payload's centre of mass in that frame, m.
+    payload_inertia_per_kg : sequence of 3 float
+        Diagonal of the payload's inertia about its centre of mass per kg of mass, m²,
+        axes of the frame (``(0, 0, 0)``: a point mass).
+    gravity : bool
+        Gravity 9.81 m/s² along −z of the URDF's base frame, or none.
+    name : str, optional
+        Defaults to the URDF's robot name.
+
+    Raises
+    ------
+    ArgumentValueError
+        Naming the argument: a URDF that does not parse, a joint or frame it does not
+        have, a controlled joint that is not revolute, a floating base or another
+        multi-degree-of-freedom joint, a payload frame on the fixed base.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> arm = sr.RobotArm("examples/scara.urdf", ["joint1", "joint2"], payload_frame="tool",
+    ...                   payload_inertia_per_kg=(0, 0, 0.005), gravity=False)  # doctest: +SKIP
+    >>> arm.mass_matrix([0.0, 0.0], 0.0).shape  # doctest: +SKIP
+    (2, 2)
+    """
+
+    def __init__(
+        self,
+        urdf: str | os.PathLike[str],
+        joints: Sequence[str],
+        *,
+        locked: Mapping[str, float] | None = None,
+        payload_frame: str,
+        payload_com: Sequence[float] = (0.0, 0.0, 0.0),
+        payload_inertia_per_kg: Sequence[float] = (0.0, 0.0, 0.0),
+        gravity: bool = True,
+        name: str | None = None,
+    ) -> None:
+        pin = require_pinocchio()
+        path = os.fspath(urdf)
+        if not os.path.isfile(path):
+            raise ArgumentValueError("urdf", f"must be a URDF file, found no file {path!r}")
+        try:
+            full = pin.buildModelFromUrdf(path)
+        except (RuntimeError, ValueError) as err:
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise ArgumentValueError("urdf", f"{path!r} is not a URDF Pinocchio can read: {first}") from None
+        joints = tuple(joints)
+        if not joints or not all(isinstance(j, str) for j in joints):
+            raise ArgumentValueError("joints", f"must name at least one joint, found {joints!r}")
+        if len(set(joints)) != len(joints):
+            raise ArgumentValueError("joints", f"must name each joint once, found {list(joints)}")
+        locked = dict(locked or {})
+        names = list(full.names)[1:]
+        kinds = {n: full.joints[full.getJointId(n)].shortname() for n in names}
+        for joint in joints:
+            if joint not in kinds:
+                raise ArgumentValueError("joints", f"names {joint!r}, which {path!r} does not have; its joints: "
+                                                   f"{', '.join(names)}")
+        for joint in names:
+            model_joint = full.joints[full.getJointId(joint)]
+            if model_joint.nv != 1:
+                raise ArgumentValueError("urdf", f"{path!r}: joint {joint!r} is a {kinds[joint]} of {model_joint.nv} "
+                                                 "degrees of freedom (a floating base or planar joint); only fixed-base "
+                                                 "arms with one-axis joints are supported")
+        for joint in joints:
+            if not _REVOLUTE.match(kinds[joint]):
+                raise ArgumentValueError("joints", f"{joint!r} is a {kinds[joint]}; only revolute joints can be "
+                                                   "controlled (lock it with `locked`)")
+        for joint, value in locked.items():
+            if joint not in kinds:
+                raise ArgumentValueError("locked", f"names {joint!r}, which {path!r} does not have")
+            if joint in joints:
+                raise ArgumentValueError("locked", f"names {joint!r}, which is also a controlled joint")
+            check_real(f"locked[{joint!r}]", value)
+        # the configuration holding the locked joints, then the reduced model of the controlled ones
+        q_full = pin.neutral(full)
+        to_lock = []
+        for joint in names:
+            if joint in joints:
+                continue
+            jid = full.getJointId(joint)
+            _set_angle(q_full, full.joints[jid], float(locked.get(joint, 0.0)))
+            to_lock.append(jid)
+        model = pin.buildReducedModel(full, to_lock, q_full) if to_lock else full
+        if not model.existFrame(payload_frame):
+            frames = sorted({f.name for f in model.frames} - {"universe"})
+            raise ArgumentValueError("payload_frame", f"{payload_frame!r} is not a frame of {path!r}; its frames: "
+                                                      f"{', '.join(frames)}")
+        frame = model.frames[model.getFrameId(payload_frame)]
+        parent = int(frame.parentJoint)
+        if parent == 0:
+            raise ArgumentValueError("payload_frame", f"{payload_frame!r} is fixed to the base: the payload would not "
+                                                      "move with any controlled joint")
+        com = check_array("payload_com [m]", payload_com, shape=(3,))
+        per_kg = check_array("payload_inertia_per_kg [m²]", payload_inertia_per_kg, shape=(3,))
+        if np.any(per_kg < 0):
+            raise ArgumentValueError("payload_inertia_per_kg [m²]", f"must be >= 0, found {per_kg.tolist()}")
+        if not gravity:
+            model.gravity = pin.Motion.Zero()
+        else:
+            model.gravity = pin.Motion(np.array([0.0, 0.0, -_GRAVITY]), np.zeros(3))
+        self._pin = pin
+        self._model = model
+        self._data = model.createData()
+        self._parent = parent
+        self._base_inertia = model.inertias[parent].copy()
+        # the payload of 1 kg in the parent joint's frame
+        unit = frame.placement.act(pin.Inertia(1.0, com, np.diag(per_kg)))
+        self._unit_lever = np.array(unit.lever, dtype=float)
+        self._unit_rot = np.array(unit.inertia, dtype=float)  # about the centre of mass, as Pinocchio holds it
+        self._mass = math.nan
+        self.urdf = path
+        self.joints = joints
+        self.locked = {j: float(locked.get(j, 0.0)) for j in names if j not in joints}
+        self.payload_frame = payload_frame
+        self.payload_com = tuple(float(v) for v in com)
+        self.payload_inertia_per_kg = tuple(float(v) for v in per_kg)
+        self.gravity = bool(gravity)
+        self.name = name or str(model.name)
+        ids = [model.getJointId(j) for j in joints]
+        self._joint_models = [model.joints[i] for i in ids]
+        self._iv = np.array([jm.idx_v for jm in self._joint_models], dtype=int)
+        # the file's joint order, where it differs from the model's (None: the same)
+        self._order = None if np.array_equal(self._iv, np.arange(len(joints))) else np.ix_(self._iv, self._iv)
+        self._upper = np.triu(np.ones((len(joints), len(joints)), dtype=bool))
+        self._q0 = pin.neutral(model)
+        if model.nv != len(joints):  # pragma: no cover - every other joint was locked above
+            raise ArgumentValueError("joints", f"leave {model.nv} free degrees of freedom, expected {len(joints)}")
+
+    def __repr__(self) -> str:
+        return f"RobotArm({self.name!r}, joints={list(self.joints)}, payload_frame={self.payload_frame!r})"
+
+    @property
+    def n_joints(self) -> int:
+        """Number of controlled joints n."""
+        return len(self.joints)
+
+    # --- one state ----------------------------------------------------------------------
+
+    def _set_mass(self, m_p: float) -> None:
+        if m_p == self._mass:
+            return
+        pin = self._pin
+        payload = pin.Inertia(m_p, self._unit_lever, m_p * self._unit_rot)
+        self._model.inertias[self._parent] = self._base_inertia + payload
+        self._mass = m_p
+
+    def configuration(self, q: ArrayLike) -> Array:
+        """Pinocchio's configuration vector for joint angles `q` (n,), rad."""
+        qq = self._q0.copy()
+        for jm, angle in zip(self._joint_models, np.asarray(q, dtype=float)):
+            _set_angle(qq, jm, float(angle))
+        return qq
+
+    def _velocity(self, v: ArrayLike) -> Array:
+        if self._order is None:
+            return np.asarray(v, dtype=float)
+        vv = np.zeros(self.n_joints)
+        vv[self._iv] = np.asarray(v, dtype=float)
+        return vv
+
+    def _ours(self, vec: Any) -> Array:
+        out = np.asarray(vec, dtype=float)
+        return out.copy() if self._order is None else out[self._iv]
+
+    def _ours2(self, mat: Any, symmetric: bool = False) -> Array:
+        """A model-ordered matrix in the file's joint order (upper triangle mirrored if `symmetric`)."""
+        out = np.asarray(mat, dtype=float)
+        if symmetric:  # some Pinocchio versions fill only the upper triangle of M and M⁻¹
+            out = np.where(self._upper, out, out.T)
+        return out.copy() if self._order is None else out[self._order]
+
+    def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, m_p: float) -> Array:
+        """Joint accelerations ``q̈ = M⁻¹(τ − C q̇ − G)`` by ABA, rad/s², shape (n,).
+
+        Parameters
+        ----------
+        q, v : array_like, shape (n,)
+            Joint angles (rad) and rates (rad/s).
+        tau : array_like, shape (n,)
+            Joint torques, N·m.
+        m_p : float
+            Payload mass, kg.
+        """
+        self._set_mass(float(m_p))
+        a = self._pin.aba(self._model, self._data, self.configuration(q), self._velocity(v), self._velocity(tau))
+        return self._ours(a)
+
+    def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike, m_p: float) -> Array:
+        """Joint torques ``τ = M q̈ + C q̇ + G`` by RNEA, N·m, shape (n,)."""
+        self._set_mass(float(m_p))
+        tau = self._pin.rnea(self._model, self._data, self.configuration(q), self._velocity(v), self._velocity(a))
+        return self._ours(tau)
+
+    def gravity_torque(self, q: ArrayLike, m_p: float) -> Array:
+        """``G(q, m_p)``, N·m, shape (n,)."""
+        self._set_mass(float(m_p))
+        return self._ours(self._pin.computeGeneralizedGravity(self._model, self._data, self.configuration(q)))
+
+    def mass_matrix(self, q: ArrayLike, m_p: float) -> Array:
+        """``M(q, m_p)``, kg·m², shape (n, n) (CRBA, symmetrized)."""
+        self._set_mass(float(m_p))
+        return self._ours2(self._pin.crba(self._model, self._data, self.configuration(q)), symmetric=True)
+
+    def kinetic_energy(self, q: ArrayLike, v: ArrayLike, m_p: float) -> float:
+        """``q̇ᵀ M q̇ / 2``, J."""
+        vv = np.asarray(v, dtype=float)
+        return float(0.5 * vv @ self.mass_matrix(q, m_p) @ vv)
+
+    def error_jacobians(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, m_p: float) -> tuple[Array, Array, Array]:
+        """``∂q̈/∂q``, ``∂q̈/∂q̇`` and ``M⁻¹`` at one state, from ``computeABADerivatives``.
+
+        Parameters
+        ----------
+        q, v : array_like, shape (n,)
+            Joint angles (rad) and rates (rad/s).
+        tau : array_like, shape (n,)
+            Joint torque the accelerations are taken at, N·m.
+        m_p : float
+            Payload mass, kg.
+
+        Returns
+        -------
+        dq : ndarray, shape (n, n)
+            1/s².
+        dv : ndarray, shape (n, n)
+            1/s.
+        Minv : ndarray, shape (n, n)
+            1/(kg·m²).
+        """
+        self._set_mass(float(m_p))
+        dq, dv, dtau = self._pin.computeABADerivatives(self._model, self._data, self.configuration(q),
+                                                       self._velocity(v), self._velocity(tau))
+        return self._ours2(dq), self._ours2(dv), self._ours2(dtau, symmetric=True)
+
+    def feedforward(self, kind: str, r: ArrayLike, rd: ArrayLike, rdd: ArrayLike, m_p: float) -> Array:
+        """The model feedforward ``τ_ff`` of :data:`FEEDFORWARDS` at the reference, N·m, shape (n,).
+
+        Parameters
+        ----------
+        kind : {'none', 'gravity', 'computed-torque'}
+        r, rd, rdd : array_like, shape (n,)
+            The reference and its derivatives (rad, rad/s, rad/s²).
+        m_p : float
+            The payload the feedforward assumes, kg (the nominal).
+        """
+        check_choice("feedforward", kind, FEEDFORWARDS)
+        if kind == "none":
+            return np.zeros(self.n_joints)
+        if kind == "gravity":
+            return self.gravity_torque(r, m_p)
+        return self.inverse_dynamics(r, rd, rdd, m_p)
+
+
+def _set_angle(q: Array, joint: Any, angle: float) -> None:
+    """Write one joint's position into a Pinocchio configuration (cos/sin for a continuous joint)."""
+    if joint.nq == 2:
+        q[joint.idx_q] = math.cos(angle)
+        q[joint.idx_q + 1] = math.sin(angle)
+    else:
+        q[joint.idx_q] = angle
+
+
+def arm_uncertain_plant(
+    arm: RobotArm,
+    reference: JointSinusoids,
+    payload_mass: tuple[float, float],
+    *,
+    payload_rate: float | None = None,
+    payload_nominal: float | None = None,
+    feedforward: str = "none",
+    n_times: int = 721,
+    n_masses: int = 21,
+    name: str | None = None,
+    prefix: str = "arm_pid",
+) -> UncertainPlant:
+    """The arm's error dynamics linearized along its reference, over the payload range.
+
+    Parameters
+    ----------
+    arm : RobotArm
+    reference : JointSinusoids
+        One sinusoid per controlled joint.
+    payload_mass : (float, float)
+        The payload's range, kg (>= 0).
+    payload_rate : float, optional
+        Bound on ``|ṁ_p|``, kg/s.
+    payload_nominal : float, optional
+        The payload the feedforward assumes and the margins scale about, kg (default the
+        lower end, the paper's convention).
+    feedforward : {'none', 'gravity', 'computed-torque'}
+        The loop's model feedforward (:data:`FEEDFORWARDS`).
+    n_times, n_masses : int
+        Grid of the samples: reference times over one period and masses over the range.
+    name : str, optional
+    prefix : str
+        Identifier prefix of exported code.
+
+    Returns
+    -------
+    UncertainPlant
+        Parameters ``t_ref`` (s) and ``m_p`` (kg), form 'pid' (3n design states), inputs
+        the joint torques (N·m), outputs the joint angles (rad).
+    """
+    check_choice("feedforward", feedforward, FEEDFORWARDS)
+    if reference.n_joints != arm.n_joints:
+        raise ArgumentValueError("reference", f"must give {arm.n_joints} joints (those of the arm), found "
+                                              f"{reference.n_joints}")
+    lo = check_real("payload_mass[0] [kg]", payload_mass[0], nonnegative=True)
+    hi = check_real("payload_mass[1] [kg]", payload_mass[1], nonnegative=True)
+    n_times = check_int("n_times", n_times, 1)
+    n_masses = check_int("n_masses", n_masses, 1)
+    period = reference.period
+    nominal = lo if payload_nominal is None else payload_nominal
+    parameters = (
+        Parameter("t_ref", "s", (0.0, period) if n_times > 1 else (0.0, 0.0), samples=max(n_times, 2), coarse=37,
+                  description="reference time over one period (the linearization point)"),
+        Parameter("m_p", "kg", (lo, hi), nominal=nominal, rate=payload_rate if hi > lo else None,
+                  samples=max(n_masses, 2), coarse=5, description="payload mass"),
+    )
+    n = arm.n_joints
+    memo: dict[tuple[bytes, bytes], tuple[Array, Array]] = {}
+
+    def matrices(values: Mapping[str, Array]) -> tuple[Array, Array]:
+        t = np.asarray(values["t_ref"], dtype=float)
+        m = np.asarray(values["m_p"], dtype=float)
+        shape = np.broadcast_shapes(t.shape, m.shape)
+        t_flat = np.ascontiguousarray(np.broadcast_to(t, shape).ravel())
+        m_flat = np.ascontiguousarray(np.broadcast_to(m, shape).ravel())
+        key = (t_flat.tobytes(), m_flat.tobytes())
+        if key not in memo:  # the analyses ask for the same grids again: evaluate each once
+            if len(memo) >= 8:
+                memo.pop(next(iter(memo)))
+            memo[key] = _linearize(t_flat, m_flat)
+        A, B = memo[key]
+        return A.reshape(shape + (2 * n, 2 * n)), B.reshape(shape + (2 * n, n))
+
+    def _linearize(t_flat: Array, m_flat: Array) -> tuple[Array, Array]:
+        times, where = np.unique(t_flat, return_inverse=True)
+        r, rd, rdd = reference.sample(times)
+        tau_ff = np.array([arm.feedforward(feedforward, r[i], rd[i], rdd[i], nominal) for i in range(times.size)])
+        A = np.zeros((t_flat.size, 2 * n, 2 * n))
+        A[:, :n, n:] = np.eye(n)
+        B = np.zeros((t_flat.size, 2 * n, n))
+        for mass in np.unique(m_flat):  # one mass at a time: the model's payload is set once for each
+            for k in np.flatnonzero(m_flat == mass):
+                i = where[k]
+                dq, dv, Minv = arm.error_jacobians(r[i], rd[i], tau_ff[i], float(mass))
+                A[k, n:, :n] = dq
+                A[k, n:, n:] = dv
+                B[k, n:, :] = Minv
+        A.setflags(write=False)
+        B.setflags(write=False)
+        return A, B
+
+    return UncertainPlant(
+        parameters, matrices, 2 * n, n, form="pid", name=name or f"{arm.name} (URDF)",
+        inputs=tuple(Signal(f"tau_{j}", "N·m") for j in arm.joints),
+        outputs=tuple(Signal(f"q_{j}", "rad") for j in arm.joints),
+        prefix=prefix,
+    )
+
+
+@dataclass(frozen=True)
+class ArmSetup:
+    """An arm with its payload range, reference and feedforward: what a robot file holds.
+
+    Attributes
+    ----------
+    arm : RobotArm
+    reference : JointSinusoids
+    payload_mass : (float, float)
+        Range, kg.
+    payload_rate : float or None
+        Bound on ``|ṁ_p|``, kg/s.
+    payload_nominal : float
+        The payload the feedforward assumes and the margins scale about, kg.
+    feedforward : str
+        One of :data:`FEEDFORWARDS`.
+    n_times, n_masses : int
+        Sample grid of the linearization.
+    name : str
+    prefix : str
+        Identifier prefix of exported code.
+    """
+
+    arm: RobotArm
+    reference: JointSinusoids
+    payload_mass: tuple[float, float]
+    payload_rate: float | None
+    payload_nominal: float
+    feedforward: str = "none"
+    n_times: int = 721
+    n_masses: int = 21
+    name: str = "arm"
+    prefix: str = "arm_pid"
+
+    @cached_property
+    def plant(self) -> UncertainPlant:
+        """The linearized error dynamics (:func:`arm_uncertain_plant`), built once."""
+        return arm_uncertain_plant(self.arm, self.reference, self.payload_mass, payload_rate=self.payload_rate,
+                                   payload_nominal=self.payload_nominal, feedforward=self.feedforward,
+                                   n_times=self.n_times, n_masses=self.n_masses, name=self.name, prefix=self.prefix)
+
+    def tau_ff(self, t: float) -> Array:
+        """The loop's feedforward at time `t` (s), N·m, shape (n,)."""
+        r, rd, rdd = self.reference.at(t)
+        return self.arm.feedforward(self.feedforward, r, rd, rdd, self.payload_nominal)

@@ -1,0 +1,274 @@
+"""The nonlinear closed loop of an arm from its URDF: Pinocchio's ABA under the paper's PID.
+
+The loop is ``τ = τ_ff(t) − K [∫e, e, ė] + τ_d(t)`` with ``e = r − q`` on the arm's
+forward dynamics ``q̈ = ABA(q, q̇, τ, m_p(t))``; its state is ``[q, q̇, ∫e]`` (3n). It runs
+through the same segment loop and engines as the SCARA (:mod:`scara_robust.simulation.engines`:
+LSODA by default, fixed-step RK4, RK4 with a sampled and held controller), and is judged by
+the same metrics and statuses (:func:`scara_robust.tracking_metrics`, :data:`scara_robust.STATUSES`).
+
+Angles in rad, rates in rad/s, torques in N·m, masses in kg, times in s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_callable, check_choice, check_real
+from ..exceptions import ArgumentValueError
+from ..model.arm import ArmSetup
+from ..model.signals import SquareWave
+from ..paper import PAPER_TRANSIENT
+from .engines import ENGINES, integrate
+from .loop import DIVERGENCE_LIMIT, STATE_LIMIT
+from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
+
+__all__ = ["simulate_arm", "ArmRun", "ARM_ENGINES"]
+
+Array = NDArray[np.float64]
+#: Engines an arm runs on (names of :data:`scara_robust.ENGINES`).
+ARM_ENGINES = ("lsoda", "rk4")
+
+
+class _NoDisturbance:
+    """Zero disturbance torque on n joints, with no switching instants."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+
+    def __call__(self, t: Any) -> Array:
+        return np.zeros(self.n) if np.ndim(t) == 0 else np.zeros((self.n, np.size(t)))
+
+    def switching_times(self, t0: float, t1: float) -> Array:
+        return np.zeros(0)
+
+
+@dataclass(frozen=True)
+class ArmLoop:
+    """One arm loop for the engines: state ``[q, q̇, ∫e]``, shape (3n,).
+
+    Attributes
+    ----------
+    setup : ArmSetup
+        The arm, its reference and feedforward.
+    K : ndarray, shape (n, 3n)
+        The PID gain on ``[∫e, e, ė]``.
+    payload : callable
+        ``m_p(t)`` in kg.
+    disturbance : SquareWave or None
+        Disturbance torque (one sign per joint), or none.
+    sample_time : float or None
+        Period (s) of a sampled PID, held between samples; None if continuous.
+    """
+
+    setup: ArmSetup
+    K: Array
+    payload: Callable[[float], Any]
+    disturbance: Any
+    sample_time: float | None = None
+
+    discrete = False
+
+    @property
+    def n(self) -> int:
+        """Joints n."""
+        return self.setup.arm.n_joints
+
+    @property
+    def n_states(self) -> int:
+        """``3n``: joint angles, rates and the integral of the error."""
+        return 3 * self.n
+
+    @cached_property
+    def torque(self) -> Callable[[float, Array], Array]:
+        """``torque(t, x) -> τ_ff(t) − K [∫e, e, ė]``, shape (n,), N·m."""
+        n, K, ref, setup = self.n, self.K, self.setup.reference, self.setup
+        constant_ff = setup.feedforward == "none"
+        zero = np.zeros(n)
+
+        def torque(t: float, x: Array) -> Array:
+            r, rd, _ = ref.at(t)
+            err = np.concatenate([x[2 * n:], r - x[:n], rd - x[n:2 * n]])
+            return (zero if constant_ff else setup.tau_ff(t)) - K @ err
+
+        return torque
+
+    @cached_property
+    def rhs(self) -> Callable[[float, Array, Array, Array], Array]:
+        """``rhs(t, x, tc, td) -> ẋ``: ABA with the payload of time t; a state beyond the limits is frozen."""
+        n, arm, ref, payload = self.n, self.setup.arm, self.setup.reference, self.payload
+
+        def rhs(t: float, x: Array, tc: Array, td: Array) -> Array:
+            if not np.abs(x[:2 * n]).max() <= STATE_LIMIT:
+                return np.zeros_like(x)
+            dx = np.empty_like(x)
+            dx[:n] = x[n:2 * n]
+            dx[n:2 * n] = arm.forward_dynamics(x[:n], x[n:2 * n], tc + td, float(payload(t)))
+            dx[2 * n:] = ref.at(t)[0] - x[:n]
+            return dx
+
+        return rhs
+
+    def jump(self, t: float, x: Array) -> Array:  # pragma: no cover - the PID here is continuous or held
+        raise NotImplementedError
+
+    def divergence(self, t: float, x: Array, limit: float) -> str | None:
+        """Why the run counts as diverged at (t, x), or None."""
+        n = self.n
+        beyond = not np.all(np.isfinite(x[:2 * n])) or np.abs(x[:2 * n]).max() > STATE_LIMIT
+        if beyond or np.abs(self.setup.reference.at(t)[0] - x[:n]).max() > limit:
+            return f"diverged by t = {t:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
+        return None
+
+
+@dataclass(frozen=True)
+class ArmRun:
+    """One closed-loop run of an arm.
+
+    Attributes
+    ----------
+    t : ndarray, shape (k,)
+        Sample times, s.
+    q, e, edot : ndarray, shape (n, k)
+        Joint angles, errors ``r − q`` (rad) and their rates (rad/s).
+    torque : ndarray, shape (n, k)
+        The applied joint torque ``τ_ff − K x`` (without the disturbance), N·m.
+    feedforward : ndarray, shape (n, k)
+        Its feedforward part, N·m.
+    payload : ndarray, shape (k,)
+        m_p(t), kg.
+    joints : tuple of str
+    success, diverged : bool
+    message, method, status, status_reason : str
+    t_transient, tracking_tolerance : float
+        s and rad.
+    """
+
+    t: Array
+    q: Array
+    e: Array
+    edot: Array
+    torque: Array
+    feedforward: Array
+    payload: Array
+    joints: tuple[str, ...]
+    success: bool
+    diverged: bool
+    message: str
+    method: str
+    status: str
+    status_reason: str
+    t_transient: float = PAPER_TRANSIENT
+    tracking_tolerance: float = TRACKING_TOLERANCE
+    _metrics: TrackingMetrics | None = field(default=None, repr=False, compare=False)
+
+    def metrics(self, t_transient: float | None = None) -> TrackingMetrics:
+        """:func:`scara_robust.tracking_metrics` after `t_transient` (s; default the run's)."""
+        t0 = self.t_transient if t_transient is None else t_transient
+        if self._metrics is not None and t0 == self.t_transient:
+            return self._metrics
+        return tracking_metrics(self.t, self.e, self.torque, t_transient=t0)
+
+    def to_pandas(self) -> pd.DataFrame:
+        """One row per sample: ``t [s]``, ``m_p [kg]``, then ``e_<joint> [rad]`` and ``tau_<joint> [N·m]``."""
+        cols: dict[str, Any] = {"t [s]": self.t, "m_p [kg]": self.payload}
+        for i, j in enumerate(self.joints):
+            cols[f"e_{j} [rad]"] = self.e[i]
+        for i, j in enumerate(self.joints):
+            cols[f"tau_{j} [N·m]"] = self.torque[i]
+        return pd.DataFrame(cols)
+
+
+def simulate_arm(
+    setup: ArmSetup,
+    K: ArrayLike,
+    payload: Callable[[float], Any] | None = None,
+    *,
+    e0: ArrayLike | None = None,
+    edot0: ArrayLike | None = None,
+    disturbance: SquareWave | None = None,
+    t_final: float = 20.0,
+    dt: float = 1e-3,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    method: str = "lsoda",
+    sample_time: float | None = None,
+    divergence_limit: float = DIVERGENCE_LIMIT,
+    t_transient: float = PAPER_TRANSIENT,
+    tracking_tolerance: float = TRACKING_TOLERANCE,
+) -> ArmRun:
+    """Simulate the arm under the PID ``τ = τ_ff − K [∫e, e, ė]`` with a varying payload.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+        The arm, reference and feedforward (:func:`scara_robust.load_arm`).
+    K : array_like, shape (n, 3n)
+        PID gain (a :class:`~scara_robust.Design`'s ``K``).
+    payload : callable, optional
+        ``m_p(t)`` in kg (default: constant at the setup's nominal payload).
+    e0, edot0 : array_like, shape (n,), optional
+        Initial errors (rad) and error rates (rad/s); default 0. ``∫e`` starts at 0.
+    disturbance : SquareWave, optional
+        Disturbance torque with one sign per joint (default none).
+    t_final : float
+        Horizon, s (> 0).
+    dt : float
+        Output spacing, s (and the RK4 step of a continuous PID).
+    rtol, atol : float
+        Tolerances of LSODA.
+    method : {'lsoda', 'rk4'}
+        The engine.
+    sample_time : float, optional
+        Run the PID sampled with this period and held (zero-order hold), integrated by
+        RK4 with that step.
+    divergence_limit : float
+        ``max |e|`` (rad) beyond which the run stops as diverged.
+    t_transient, tracking_tolerance : float
+        The status looks at ``t >= t_transient`` (s): tracking when ``max |e|`` is at most
+        `tracking_tolerance` (rad) there.
+
+    Returns
+    -------
+    ArmRun
+    """
+    n = setup.arm.n_joints
+    gain = check_array("K", K, shape=(n, 3 * n))
+    load = check_callable("payload", payload) if payload is not None else (lambda t: setup.payload_nominal)
+    t_final = check_real("t_final", t_final, positive=True)
+    dt = check_real("dt", dt, positive=True)
+    check_choice("method", method, ARM_ENGINES)
+    if sample_time is not None:
+        sample_time = check_real("sample_time", sample_time, positive=True)
+        method = "rk4"
+    if disturbance is not None and len(disturbance.signs) != n:
+        raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
+    loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), sample_time)
+    r0, rd0, _ = setup.reference.at(0.0)
+    e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
+    ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))
+    x0 = np.concatenate([r0 - e_init, rd0 - ed_init, np.zeros(n)])
+    traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
+                     divergence_limit=divergence_limit)
+    t, X = traj.t, traj.x
+    r, rd, _ = setup.reference.sample(t)
+    q, qd = X[:n], X[n:2 * n]
+    torque_fn = loop.torque
+    tau = np.array([torque_fn(float(tk), X[:, k]) for k, tk in enumerate(t)]).reshape(t.size, n).T
+    ff = np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
+    masses = np.array([float(load(float(tk))) for tk in t])
+    metrics = None
+    if int((t >= t_transient).sum()) >= 2 and not traj.diverged:
+        metrics = tracking_metrics(t, r.T - q, tau, t_transient=t_transient)
+    status, reason = run_status(metrics, success=traj.success, diverged=traj.diverged, message=traj.message,
+                                tolerance=tracking_tolerance, t_transient=t_transient)
+    return ArmRun(t=t, q=q, e=r.T - q, edot=rd.T - qd, torque=tau, feedforward=ff, payload=masses,
+                  joints=setup.arm.joints, success=traj.success and not traj.diverged, diverged=traj.diverged,
+                  message=traj.message, method=method, status=status, status_reason=reason,
+                  t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)
