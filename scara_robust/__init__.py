@@ -36,8 +36,8 @@ Model (:mod:`scara_robust.model`)
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
     ParameterSamples, PLANT_FORMS   -- its frozen plants on a grid; its design forms; the sampled hull's rtol
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
-    RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a payload of varying mass (Pinocchio, extra ``robots``)
-    arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; the loop's feedforward
+    RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
+    arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install
 The controller on a board (:mod:`scara_robust.controller`)
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup

@@ -83,6 +83,9 @@ __all__ = [
     "MODEL_FORMS",
     "ScenarioFile",
     "load_robot",
+    "load_arm",
+    "is_arm_file",
+    "ARM_KEYS",
     "load_scenario",
     "DesignFile",
     "write_design",
@@ -227,8 +230,8 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
 ARM_KEYS: dict[str, str] = {
     "urdf": "path", "joints": "names", "locked": "rad or m", "payload_frame": "name", "payload_mass": "kg",
     "payload_rate": "kg/s", "payload_nominal": "kg", "payload_com": "m", "payload_inertia_per_kg": "m²",
-    "gravity": "true/false", "feedforward": "/".join(FEEDFORWARDS), "reference_samples": "count",
-    "payload_samples": "count", "prefix": "identifier",
+    "gravity": "true/false", "armature": "kg·m²", "feedforward": "/".join(FEEDFORWARDS), "reference_samples": "count",
+    "payload_samples": "count", "prefix": "identifier", "design_plant": "center/lower",
 }
 _REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase": "rad"}
 
@@ -262,10 +265,13 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     every other joint is locked at 0), ``payload_frame``, ``payload_mass = [lower,
     upper]`` (kg), optional ``payload_rate`` (kg/s), ``payload_nominal`` (kg, default the
     lower end), ``payload_com`` (m, in the frame), ``payload_inertia_per_kg`` (m², the
-    diagonal about the payload's centre of mass), ``gravity`` (default true),
+    diagonal about the payload's centre of mass), ``gravity`` (default true), ``armature``
+    (kg·m², the reflected rotor inertia of each controlled joint, default 0),
     ``feedforward`` (``"none"``, ``"gravity"`` or ``"computed-torque"``),
     ``reference_samples`` and ``payload_samples`` (the linearization grid, default 721
-    and 21), ``prefix`` (exported code); a ``[reference]`` table with ``center``,
+    and 21), ``prefix`` (exported code), ``design_plant`` (``"center"``, the default, or
+    ``"lower"``: the nominal of the interval model, see :func:`scara_robust.arm_uncertain_plant`);
+    a ``[reference]`` table with ``center``,
     ``amplitude``, ``omega`` and ``phase``, one value per joint:
     ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``.
 
@@ -333,6 +339,9 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
                       "m²", 3)
     if min(per_kg) < 0:
         raise InputFileError(f"{where} field `robot.payload_inertia_per_kg` [m²] must be >= 0, found {per_kg}")
+    armature = _numbers(where, "robot.armature", robot["armature"], "kg·m²", n) if "armature" in robot else None
+    if armature is not None and min(armature) < 0:
+        raise InputFileError(f"{where} field `robot.armature` [kg·m²] must be >= 0, found {armature}")
     gravity = robot.get("gravity", True)
     if not isinstance(gravity, bool):
         raise InputFileError(f"{where} field `robot.gravity` must be true or false, found {describe(gravity)}")
@@ -349,6 +358,10 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     prefix = robot.get("prefix", "arm_pid")
     if not isinstance(prefix, str) or not prefix.isidentifier():
         raise InputFileError(f"{where} field `robot.prefix` must be a C identifier, found {describe(prefix)}")
+    design_plant = robot.get("design_plant", "center")
+    if design_plant not in ("center", "lower"):
+        raise InputFileError(f"{where} field `robot.design_plant` must be 'center' or 'lower', found "
+                             f"{describe(design_plant)}")
     if "reference" not in data:
         raise InputFileError(f"{where} missing table `[reference]` (center, amplitude, omega, phase per joint)")
     ref_table = field_table(where, data, "reference", _REFERENCE_KEYS)
@@ -361,13 +374,13 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
         reference = JointSinusoids(values["center"], values["amplitude"], values["omega"], values["phase"])
         reference.period  # noqa: B018 - commensurate frequencies, checked here to name the file
         arm = RobotArm(urdf_path, joints, locked=locked, payload_frame=frame, payload_com=com,
-                       payload_inertia_per_kg=per_kg, gravity=gravity, name=name)
+                       payload_inertia_per_kg=per_kg, gravity=gravity, armature=armature, name=name)
     except ArgumentError as err:
         raise InputFileError(f"{where} field `robot.{err.argument}`: {err.problem}"
                              if not err.argument.startswith("reference") else f"{where} field `{err.argument}`: "
                              f"{err.problem}") from err
     return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
-                    prefix)
+                    prefix, design_plant)
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
@@ -601,7 +614,8 @@ def load_model(path: str | os.PathLike[str]) -> UncertainPlant | UncertainLTVMod
     """Read a plant file: physical parameters, an interval model (A, B and elements) or a polytope.
 
     A file with ``[parameters]`` is a plant with named physical parameters
-    (:func:`load_plant`); the two formats below describe the uncertainty set directly.
+    (:func:`load_plant`); a robot file naming a URDF is the arm's linearized error
+    dynamics (:func:`load_arm`); the two formats below describe the uncertainty set directly.
 
     The format (TOML or JSON; ``examples/plant-dc-motor.toml`` and
     ``examples/plant-polytope.toml`` document it): ``name``; either ``A``, ``B`` (lists
@@ -634,6 +648,8 @@ def load_model(path: str | os.PathLike[str]) -> UncertainPlant | UncertainLTVMod
     data = read_mapping(text_path)
     if "parameters" in data:
         return _plant_from_mapping(where, text_path, data)
+    if isinstance(data.get("robot"), Mapping) and "urdf" in data["robot"]:
+        return load_arm(text_path).plant
     for key in data:
         if key not in _MODEL_KEYS:
             raise InputFileError(f"{where} unknown field `{key}`; valid: {', '.join(_MODEL_KEYS)}")

@@ -20,6 +20,7 @@ from .paper import PAPER_TRANSIENT
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
     from .model.plant import UncertainPlant
+    from .simulation.arm import ArmRun
     from .simulation.plants import PlantRun
     from .simulation.run import SimulationResult
     from .studies.antiwindup import AntiWindupStudy
@@ -35,6 +36,7 @@ __all__ = [
     "plot_margin_bracket",
     "plot_anti_windup",
     "plot_plant_run",
+    "plot_arm_run",
 ]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
@@ -867,4 +869,52 @@ def plot_plant_run(run: PlantRun, plant: UncertainPlant, *, title: str | None = 
     axes[-1].set_xlabel("time [s]")
     axes[-1].set_xlim(t[0], t[-1])
     fig.suptitle(title or f"{plant.name}: {run.status}")
+    return fig
+
+
+def plot_arm_run(run: ArmRun, *, title: str | None = None) -> Any:
+    """The joint errors, the joint torques and the payload of one arm run, over time.
+
+    Parameters
+    ----------
+    run : ArmRun
+        From :func:`scara_robust.simulate_arm`.
+    title : str, optional
+        Figure title (default: the run's status and its max |e| after the transient).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels sharing the time axis: errors ``e_i = r_i − q_i`` [rad] (the window
+        after the transient inset as its own scale), torques ``τ_i`` [N·m], payload
+        ``m_p`` [kg].
+    """
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8.4), sharex=True, layout="constrained",
+                             gridspec_kw={"height_ratios": [3, 3, 1.3]})
+    err_ax, tau_ax, m_ax = axes
+    t = run.t
+    for i, joint in enumerate(run.joints):
+        err_ax.plot(t, run.e[i], lw=1.1, label=f"e {joint} [rad]")
+        tau_ax.plot(t, run.torque[i], lw=1.1, label=f"τ {joint} [N·m]")
+    err_ax.axhline(0.0, color="0.6", lw=0.8)
+    after = t >= run.t_transient
+    if after.sum() >= 2:
+        err_ax.axvline(run.t_transient, color="0.5", ls=":", lw=1.0)
+        worst = float(np.abs(run.e[:, after]).max())
+        err_ax.set_ylim(-1.6 * worst, 1.6 * worst)
+        err_ax.text(run.t_transient, 1.45 * worst, f"  max |e| after {run.t_transient:g} s = {_plain(worst)} rad",
+                    va="top", fontsize=_LEGEND_SIZE)
+        err_ax.set_ylabel("joint error [rad]\n(scale of the tracking phase)")
+    else:
+        err_ax.set_ylabel("joint error [rad]")
+    tau_ax.set_ylabel("joint torque [N·m]")
+    m_ax.plot(t, run.payload, color="k", lw=1.1, label="m_p [kg]")
+    m_ax.set_ylabel("payload [kg]")
+    for ax in axes:
+        _legend_right(ax)
+    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlim(t[0], t[-1])
+    fig.suptitle(title or f"{run.status}: {run.status_reason}")
     return fig

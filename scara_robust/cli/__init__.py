@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..exceptions import ScaraRobustError
 from . import _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
-from ._common import CommandLineError, Parser, check_outputs, emit, error_message
+from ._common import CommandLineError, Parser, check_outputs, emit, error_message, route_arm_file
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
@@ -139,10 +139,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         if extras:
             _refuse_unknown(parser, args.command, extras)
+        route_arm_file(args)
         check_outputs(args)
         text = args.func(args)
         emit(text, getattr(args, "output", None))
-    except (CommandLineError, ScaraRobustError, ValueError, TypeError, OSError) as err:
+    except (CommandLineError, ScaraRobustError, ValueError, TypeError, OSError, ImportError) as err:
         sys.stderr.write(f"scara_robust: error: {error_message(err)}\n")
         return 2
     except KeyboardInterrupt:

@@ -18,7 +18,7 @@ from typing import Any, NoReturn, TypeVar
 import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
-from ..io import DesignFile, load_design, load_model, load_robot, load_scenario, write_atomic
+from ..io import DesignFile, is_arm_file, load_design, load_model, load_robot, load_scenario, write_atomic
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.polytopic import PolytopicModel
@@ -45,6 +45,7 @@ __all__ = [
     "parse_range",
     "resolve_bounds",
     "resolve_model",
+    "route_arm_file",
     "resolve_plant",
     "sampled_plants",
     "add_range_option",
@@ -429,6 +430,36 @@ def _load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loade
         raise CommandLineError(f"`{option}` {err}") from err
 
 
+#: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
+ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export")
+
+
+def route_arm_file(args: argparse.Namespace) -> None:
+    """Send ``--robot F`` to the plant path when F names a URDF (an arm, not the SCARA's data).
+
+    Sets ``args.arm_file`` (the file, or None) and, for an arm, ``args.model`` to it.
+
+    Raises
+    ------
+    CommandLineError
+        If the command does not take an arm, or an option of the built-in SCARA goes with one.
+    """
+    robot = getattr(args, "robot", None)
+    args.arm_file = None
+    if robot is None or not is_arm_file(robot):
+        return
+    if args.command not in ARM_COMMANDS:
+        raise CommandLineError(f"`--robot` {robot!r} names a URDF; `{args.command}` runs on the built-in SCARA only "
+                               f"(a URDF robot goes with {', '.join(ARM_COMMANDS)})")
+    if getattr(args, "model", None) is not None:
+        raise CommandLineError("`--robot` and `--model` each name the plant; give one")
+    for option in ("bounds", "scenario"):
+        if getattr(args, option, None) is not None:
+            raise CommandLineError(f"`--{option}` describes the built-in SCARA; a URDF robot's reference, payload "
+                                   f"and linearization are in its file {robot!r}")
+    args.arm_file, args.model, args.robot = robot, robot, None
+
+
 def resolve_setup(args: argparse.Namespace) -> Setup:
     """Load the files named by ``--robot`` and ``--scenario``.
 
@@ -517,7 +548,7 @@ def resolve_plant(args: argparse.Namespace, setup: Setup) -> UncertainPlant | Un
             raise CommandLineError(
                 f"`--model` is your own plant; {', '.join(robot_options)} describe the SCARA and cannot go with it"
             )
-        return _load_file("--model", model_file, load_model)
+        return _load_file("--robot" if getattr(args, "arm_file", None) else "--model", model_file, load_model)
     if resolve_bounds(args, setup) == "paper":
         if setup.robot_file:
             raise CommandLineError(
@@ -548,7 +579,8 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
     name : str
     """
     physical = as_plant("model", plant)
-    if args.model is not None and physical is not None:
+    arm = getattr(args, "arm_file", None)
+    if args.model is not None and physical is not None and arm is None:
         on, fine = physical.samples(), physical.samples(physical.fine_points())
         return (on.A, on.B), (fine.A, fine.B), (
             f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
@@ -563,7 +595,7 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
     coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
     fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
     plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
-    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
+    robot = f"the robot of {(arm or args.robot)!r}" if (arm or args.robot) is not None else "the paper's robot"
     return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
                            f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
                            f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")

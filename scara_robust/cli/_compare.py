@@ -18,6 +18,7 @@ from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
 from ..studies.comparison import compare_controllers, compare_plant_designs
+from ._arm_run import compare_arm
 from ._common import (
     CommandLineError,
     add_setup_options,
@@ -135,6 +136,20 @@ def run(args: argparse.Namespace) -> str:
 
 def _compare_plant(args: argparse.Namespace) -> str:
     """``compare --model F``: the Riccati PID, the synthesized PID and design files for the plant file."""
+    if args.arm_file is not None:
+        rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
+        eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
+        if args.payload is not None:
+            raise CommandLineError("`--payload` is the SCARA's; an arm's payload follows --profile")
+        args.t_final = None if args.t_final == PAPER_T_FINAL else args.t_final
+        arm_table = compare_arm(args, rho, eta)
+        if args.format == "json":
+            return json.dumps(arm_table.to_dict(orient="records"), indent=2, default=str)
+        if args.format == "csv":
+            return str(arm_table.to_csv(index=False))
+        head = f"{args.arm_file}: designs side by side on the arm; runs of the nonlinear arm, payload {args.profile}"
+        return "\n".join([head, str(arm_table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")),
+                          *arm_table.attrs.get("notes", [])])
     if args.payload is not None:
         raise CommandLineError("`--payload` is the robot's; it cannot go with --model")
     setup = resolve_setup(args)

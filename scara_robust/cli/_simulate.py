@@ -22,6 +22,7 @@ from ..simulation.plants import PLANT_TRACKING_RTOL
 from ..simulation.run import SimulationResult, run_scenario
 from ..studies.campaign.inputs import replay_scenario
 from ..studies.campaign.runner import read_results
+from ._arm_run import run_arm
 from ._common import (
     CommandLineError,
     add_design_option,
@@ -258,6 +259,8 @@ def _replay(args: argparse.Namespace) -> SimulationResult:
 
 def _run_plant(args: argparse.Namespace) -> str:
     """``simulate --model F``: the plant file's closed loop under the chosen parameter profile."""
+    if args.arm_file is not None:
+        return run_arm(args)
     robot_only = [o for o in ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
                   if getattr(args, o, None) is not None]
     if robot_only:

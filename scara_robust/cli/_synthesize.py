@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..io import design_record, write_design
-from ..model.plant import as_model
+from ..model.plant import as_model, as_plant
 from ..model.scara import physical_samples
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
@@ -114,7 +114,10 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--output` {args.output!r}: a design file is .json")
     setup = resolve_setup(args)
     chosen = args.uncertainty_set
-    if args.model is not None and chosen == "physical":
+    arm = getattr(args, "arm_file", None)
+    if arm is not None and chosen != "box":
+        chosen = "physical"  # an arm's interval box has too many corners for an LMI over them
+    if args.model is not None and chosen == "physical" and arm is None:
         raise CommandLineError("`--set physical` is the SCARA's own variation; with --model use --set box")
     if chosen == "physical" and args.bounds is not None:
         raise CommandLineError("`--bounds` chooses an interval model; it goes with --set box")
@@ -122,7 +125,18 @@ def run(args: argparse.Namespace) -> str:
     if args.range and uncertainty_set != "box":
         raise CommandLineError("`--range` changes a parameter of a plant file (--model); it goes with --set box")
     model = as_model("model", with_ranges(args, resolve_plant(args, setup))) if uncertainty_set == "box" else None
-    if uncertainty_set == "physical":
+    if uncertainty_set == "physical" and arm is not None:
+        plant = as_plant("model", resolve_plant(args, setup))
+        assert plant is not None
+        objective = args.objective or "decay"
+        if objective == "margin":
+            raise CommandLineError("`--objective margin` scales an interval box; it goes with --set box")
+        on, check_on = plant.samples(plant.coarse_points()), plant.samples()
+        result = synthesize((on.A, on.B), objective=objective, decay=args.decay, gain_bound=args.gain_bound,
+                            check=(check_on.A, check_on.B), nominal=as_model("model", plant))
+        what = (f"the arm of {arm!r} on its samples, {on.n_samples} (checked on {check_on.n_samples}), "
+                f"objective {objective}")
+    elif uncertainty_set == "physical":
         nominal = resolve_model(args, setup)
         objective = args.objective or "l2"
         if objective == "margin":

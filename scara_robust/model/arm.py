@@ -32,8 +32,8 @@ import os
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import cached_property
 from fractions import Fraction
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -186,6 +186,10 @@ class RobotArm:
         axes of the frame (``(0, 0, 0)``: a point mass).
     gravity : bool
         Gravity 9.81 m/s² along −z of the URDF's base frame, or none.
+    armature : sequence of float, optional
+        Rotor inertia reflected through the gearbox of each controlled joint, kg·m²
+        (``J_rotor · N²``; >= 0, default 0): a URDF does not hold it, and on a geared arm
+        it often dominates the wrist's inertia.
     name : str, optional
         Defaults to the URDF's robot name.
 
@@ -215,6 +219,7 @@ class RobotArm:
         payload_com: Sequence[float] = (0.0, 0.0, 0.0),
         payload_inertia_per_kg: Sequence[float] = (0.0, 0.0, 0.0),
         gravity: bool = True,
+        armature: Sequence[float] | None = None,
         name: str | None = None,
     ) -> None:
         pin = require_pinocchio()
@@ -242,8 +247,8 @@ class RobotArm:
             model_joint = full.joints[full.getJointId(joint)]
             if model_joint.nv != 1:
                 raise ArgumentValueError("urdf", f"{path!r}: joint {joint!r} is a {kinds[joint]} of {model_joint.nv} "
-                                                 "degrees of freedom (a floating base or planar joint); only fixed-base "
-                                                 "arms with one-axis joints are supported")
+                                                 "degrees of freedom (a floating base or planar joint); only "
+                                                 "fixed-base arms with one-axis joints are supported")
         for joint in joints:
             if not _REVOLUTE.match(kinds[joint]):
                 raise ArgumentValueError("joints", f"{joint!r} is a {kinds[joint]}; only revolute joints can be "
@@ -306,6 +311,12 @@ class RobotArm:
         self._order = None if np.array_equal(self._iv, np.arange(len(joints))) else np.ix_(self._iv, self._iv)
         self._upper = np.triu(np.ones((len(joints), len(joints)), dtype=bool))
         self._q0 = pin.neutral(model)
+        arm_inertia = np.zeros(len(joints)) if armature is None else check_array("armature [kg·m²]", armature,
+                                                                                   shape=(len(joints),))
+        if np.any(arm_inertia < 0):
+            raise ArgumentValueError("armature [kg·m²]", f"must be >= 0, found {arm_inertia.tolist()}")
+        model.armature[self._iv] = arm_inertia
+        self.armature = tuple(float(v) for v in arm_inertia)
         if model.nv != len(joints):  # pragma: no cover - every other joint was locked above
             raise ArgumentValueError("joints", f"leave {model.nv} free degrees of freedom, expected {len(joints)}")
 
@@ -329,7 +340,7 @@ class RobotArm:
 
     def configuration(self, q: ArrayLike) -> Array:
         """Pinocchio's configuration vector for joint angles `q` (n,), rad."""
-        qq = self._q0.copy()
+        qq: Array = np.array(self._q0, dtype=float)
         for jm, angle in zip(self._joint_models, np.asarray(q, dtype=float)):
             _set_angle(qq, jm, float(angle))
         return qq
@@ -455,6 +466,7 @@ def arm_uncertain_plant(
     n_masses: int = 21,
     name: str | None = None,
     prefix: str = "arm_pid",
+    design_plant: str = "center",
 ) -> UncertainPlant:
     """The arm's error dynamics linearized along its reference, over the payload range.
 
@@ -477,6 +489,10 @@ def arm_uncertain_plant(
     name : str, optional
     prefix : str
         Identifier prefix of exported code.
+    design_plant : {'center', 'lower'}
+        The nominal of the interval model, where the gain is designed: the centre of the
+        box (default) or its lower corner (the paper's convention, which the SCARA's
+        built-in model follows). See :class:`~scara_robust.UncertainPlant`.
 
     Returns
     -------
@@ -495,10 +511,11 @@ def arm_uncertain_plant(
     period = reference.period
     nominal = lo if payload_nominal is None else payload_nominal
     parameters = (
-        Parameter("t_ref", "s", (0.0, period) if n_times > 1 else (0.0, 0.0), samples=max(n_times, 2), coarse=37,
-                  description="reference time over one period (the linearization point)"),
+        Parameter("t_ref", "s", (0.0, period) if n_times > 1 else (0.0, 0.0), samples=max(n_times, 2),
+                  coarse=min(19, max(n_times, 2)), scales=False,
+                  description="reference time over one period (the linearization point; margins keep it whole)"),
         Parameter("m_p", "kg", (lo, hi), nominal=nominal, rate=payload_rate if hi > lo else None,
-                  samples=max(n_masses, 2), coarse=5, description="payload mass"),
+                  samples=max(n_masses, 2), coarse=5, description="payload mass", limits=(0.0, math.inf)),
     )
     n = arm.n_joints
     memo: dict[tuple[bytes, bytes], tuple[Array, Array]] = {}
@@ -539,7 +556,7 @@ def arm_uncertain_plant(
         parameters, matrices, 2 * n, n, form="pid", name=name or f"{arm.name} (URDF)",
         inputs=tuple(Signal(f"tau_{j}", "N·m") for j in arm.joints),
         outputs=tuple(Signal(f"q_{j}", "rad") for j in arm.joints),
-        prefix=prefix,
+        prefix=prefix, design_plant=design_plant,
     )
 
 
@@ -564,6 +581,8 @@ class ArmSetup:
     name : str
     prefix : str
         Identifier prefix of exported code.
+    design_plant : {'center', 'lower'}
+        Nominal of the interval model (:func:`arm_uncertain_plant`).
     """
 
     arm: RobotArm
@@ -576,13 +595,15 @@ class ArmSetup:
     n_masses: int = 21
     name: str = "arm"
     prefix: str = "arm_pid"
+    design_plant: str = "center"
 
     @cached_property
     def plant(self) -> UncertainPlant:
         """The linearized error dynamics (:func:`arm_uncertain_plant`), built once."""
         return arm_uncertain_plant(self.arm, self.reference, self.payload_mass, payload_rate=self.payload_rate,
                                    payload_nominal=self.payload_nominal, feedforward=self.feedforward,
-                                   n_times=self.n_times, n_masses=self.n_masses, name=self.name, prefix=self.prefix)
+                                   n_times=self.n_times, n_masses=self.n_masses, name=self.name, prefix=self.prefix,
+                                   design_plant=self.design_plant)
 
     def tau_ff(self, t: float) -> Array:
         """The loop's feedforward at time `t` (s), N·m, shape (n,)."""

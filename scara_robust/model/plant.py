@@ -37,7 +37,7 @@ from .._validation import check_array, check_choice, check_int, check_real, desc
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ._expressions import Expression, parse_expression
 from .polytopic import PolytopicModel
-from .uncertain import UncertainElement, UncertainLTVModel, state_space
+from .uncertain import ANCHORS, UncertainElement, UncertainLTVModel, state_space
 
 __all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "PLANT_FORMS"]
 
@@ -75,6 +75,12 @@ class Parameter:
         Grid points of the coarser grid on which LMIs are solved (their answer is then
         verified with numpy on ``samples``); default ``min(samples, 5)``.
     description : str
+    limits : (float, float)
+        The physical limits no scaled range crosses (a mass >= 0 kg); default none.
+    scales : bool
+        Whether margins scale its range (default True). False for a coordinate that is
+        not an uncertainty, such as the reference time of a robot's linearization: its
+        range stays whole at every scale.
 
     Examples
     --------
@@ -91,6 +97,8 @@ class Parameter:
     samples: int = 5
     coarse: int | None = None
     description: str = ""
+    limits: tuple[float, float] = (-math.inf, math.inf)
+    scales: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -130,10 +138,16 @@ class Parameter:
         return self.range[0] < self.range[1]
 
     def scaled_range(self, theta: float) -> tuple[float, float]:
-        """The range scaled by θ about the nominal: ``[p₀ − θ(p₀ − lower), p₀ + θ(upper − p₀)]``."""
+        """The range scaled by θ about the nominal: ``[p₀ − θ(p₀ − lower), p₀ + θ(upper − p₀)]``.
+
+        A parameter that does not `scales` keeps its whole range; a scaled range stops at
+        the `limits`.
+        """
         lo, hi = self.range
+        if not self.scales:
+            return (lo, hi)
         p0 = float(self.nominal)  # type: ignore[arg-type]
-        return (p0 - theta * (p0 - lo), p0 + theta * (hi - p0))
+        return (max(p0 - theta * (p0 - lo), self.limits[0]), min(p0 + theta * (hi - p0), self.limits[1]))
 
 
 @dataclass(frozen=True)
@@ -235,6 +249,12 @@ class UncertainPlant:
         the computed one (the SCARA's Tables 1–2).
     prefix : str
         Identifier prefix of exported code.
+    design_plant : {'lower', 'center'}
+        Where :meth:`interval_model` puts its nominal (the plant ``design`` uses): the
+        lower corner of the box (the paper's convention) or its centre. The box is the
+        same; for a plant of many coupled entries (an arm of six joints) the lower corner
+        of every entry is far from any real plant, and a gain designed there can
+        destabilize the real ones.
 
     Examples
     --------
@@ -261,9 +281,11 @@ class UncertainPlant:
         default=None, repr=False)
     hull: Callable[[float], UncertainLTVModel] | None = field(default=None, repr=False)
     prefix: str = "plant_pid"
+    design_plant: str = "lower"
 
     def __post_init__(self) -> None:
         check_choice("form", self.form, PLANT_FORMS)
+        check_choice("design_plant", self.design_plant, ANCHORS)
         params = tuple(self.parameters)
         for k, p in enumerate(params):
             if not isinstance(p, Parameter):
@@ -760,6 +782,10 @@ class UncertainPlant:
         theta = check_real("theta", theta, nonnegative=True)
         if self.hull is not None:
             return self.hull(theta)
+        box = self._interval_box(theta)
+        return box.centered() if self.design_plant == "center" else box
+
+    def _interval_box(self, theta: float) -> UncertainLTVModel:
         plant = self if theta == 1.0 else self.scaled(theta)
         if self.entries is not None:
             box = plant.box()

@@ -315,6 +315,31 @@ class UncertainLTVModel:
         return UncertainLTVModel(self.A, self.B, els, name=f"{self.name} x {theta:g} ({anchor})",
                                  n_joints=self.n_joints)
 
+    def centered(self) -> UncertainLTVModel:
+        """The same box with the nominal at its centre: elements ``[−w/2, w/2]`` about ``A + ΔA(c)``.
+
+        The set of matrices is unchanged; the design plant (``design`` uses the nominal)
+        moves from the lower corner (the paper's convention) to the centre of the box.
+
+        Returns
+        -------
+        UncertainLTVModel
+
+        Examples
+        --------
+        >>> import scara_robust as sr
+        >>> m = sr.paper_model().centered()
+        >>> m.elements[0].lower == -m.elements[0].upper
+        True
+        """
+        A, B = self.A.copy(), self.B.copy()
+        els = []
+        for el in self.elements:
+            c, half = 0.5 * (el.lower + el.upper), 0.5 * (el.upper - el.lower)
+            (A if el.matrix == "A" else B)[el.row, el.col] += c
+            els.append(UncertainElement(el.matrix, el.row, el.col, -half, half))
+        return UncertainLTVModel(A, B, tuple(els), name=self.name, n_joints=self.n_joints)
+
     # --- the interface every uncertainty set shares with PolytopicModel -------------------
 
     @property

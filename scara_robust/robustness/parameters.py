@@ -40,9 +40,9 @@ from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant, require_plant
-from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .pdl import RateMargin, max_certified_rate
-from .polytope import polytope_certificate
+from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
 
 __all__ = [
     "PARAMETER_METHODS",
@@ -55,7 +55,8 @@ __all__ = [
 
 Array = NDArray[np.float64]
 #: Methods of :func:`parameter_margin` and the kind of bound each gives.
-PARAMETER_METHODS: dict[str, str] = {"theorem1": "lower", "vertex": "lower", "lmi": "lower", "frozen": "upper"}
+PARAMETER_METHODS: dict[str, str] = {"theorem1": "lower", "vertex": "lower", "lmi": "lower", "physical": "lower",
+                                     "lmi-physical": "lower", "frozen": "upper"}
 _SCALE_MAX = 1e6
 _FROZEN_RATIO = 1.02
 _FROZEN_RTOL = 1e-9
@@ -86,6 +87,17 @@ def _ok(plant: UncertainPlant, design: Design | None, K: Array, method: str) -> 
         hull = _hull(plant, s)
         return bool(lmi_certificate(hull.vertex_closed_loops(K)).certified)  # type: ignore[attr-defined]
 
+    def physical(s: float) -> bool:
+        assert design is not None
+        loops = plant.samples(theta=s).closed_loops(K)
+        return bool(polytope_certificate(loops, design.P).certified)
+
+    def lmi_physical(s: float) -> bool:
+        result = lmi_certificate(plant.samples(plant.coarse_points(), theta=s).closed_loops(K))
+        if not result.certified or result.P is None:
+            return False
+        return bool(verify_lyapunov(plant.samples(theta=s).closed_loops(K), result.P)[1] > 0)
+
     def stable(s: float) -> bool:
         try:
             loops = plant.samples(theta=s).closed_loops(K)
@@ -93,7 +105,8 @@ def _ok(plant: UncertainPlant, design: Design | None, K: Array, method: str) -> 
             raise _Undefined(str(err)) from err
         return bool(np.linalg.eigvals(loops).real.max() < 0)
 
-    return {"theorem1": theorem1, "vertex": vertex, "lmi": lmi, "frozen": stable}[method]
+    return {"theorem1": theorem1, "vertex": vertex, "lmi": lmi, "physical": physical, "lmi-physical": lmi_physical,
+            "frozen": stable}[method]
 
 
 def _bisect(ok: Callable[[float], bool], lo: float, hi: float, rtol: float) -> tuple[float, float]:
@@ -145,9 +158,14 @@ def parameter_margin(
     plant : UncertainPlant
     design : Design or array_like, shape (m, n)
         A design for the plant's design form, or a plain gain K of ``u = −Kx`` (then only
-        the methods that need no Lyapunov matrix: 'lmi' and 'frozen').
+        the methods that need no Lyapunov matrix: 'lmi', 'lmi-physical' and 'frozen').
     methods : sequence of str
-        From :data:`PARAMETER_METHODS`.
+        From :data:`PARAMETER_METHODS`: 'theorem1' (Z on the interval hull), 'vertex'
+        (the design's P at the hull's corners), 'lmi' (a common P at the corners),
+        'physical' (the design's P on the plant's own samples), 'lmi-physical' (a common P
+        found on the coarse samples, verified by numpy on the samples), 'frozen' (every
+        sample stable: an upper bound). The corner methods need at most
+        2^``MAX_BOX_ELEMENTS`` corners.
     tol : float
         Relative width of the bisections on the scale (the frozen bound is bisected to
         1e-9 whatever `tol`: eigenvalues are cheap).
@@ -172,9 +190,13 @@ def parameter_margin(
     found = design if isinstance(design, Design) else None
     for method in methods:
         check_choice("methods", method, tuple(PARAMETER_METHODS))
-        if found is None and method in ("theorem1", "vertex"):
+        if found is None and method in ("theorem1", "vertex", "physical"):
             raise ArgumentValueError("methods", f"{method!r} tests the design's Lyapunov matrix P: pass a Design, or "
-                                                "use 'lmi' and 'frozen' with a plain K")
+                                                "use 'lmi', 'lmi-physical' and 'frozen' with a plain K")
+        if method in ("vertex", "lmi") and plant.interval_model().n_elements > MAX_BOX_ELEMENTS:
+            raise ArgumentValueError("methods", f"{method!r} enumerates the 2^{plant.interval_model().n_elements} "
+                                                f"corners of the interval box; use 'theorem1', 'physical', "
+                                                "'lmi-physical' and 'frozen'")
     tol = check_real("tol", tol, positive=True)
     varying = plant.varying
     if not varying:

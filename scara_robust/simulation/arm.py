@@ -95,7 +95,8 @@ class ArmLoop:
         def torque(t: float, x: Array) -> Array:
             r, rd, _ = ref.at(t)
             err = np.concatenate([x[2 * n:], r - x[:n], rd - x[n:2 * n]])
-            return (zero if constant_ff else setup.tau_ff(t)) - K @ err
+            out: Array = (zero if constant_ff else setup.tau_ff(t)) - K @ err
+            return out
 
         return torque
 
@@ -174,6 +175,11 @@ class ArmRun:
         if self._metrics is not None and t0 == self.t_transient:
             return self._metrics
         return tracking_metrics(self.t, self.e, self.torque, t_transient=t0)
+
+    @property
+    def has_metrics(self) -> bool:
+        """True if at least two samples follow the transient (so :meth:`metrics` exists)."""
+        return int((self.t >= self.t_transient).sum()) >= 2
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per sample: ``t [s]``, ``m_p [kg]``, then ``e_<joint> [rad]`` and ``tau_<joint> [N·m]``."""

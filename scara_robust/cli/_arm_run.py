@@ -1,0 +1,174 @@
+"""``simulate --robot F`` and ``compare --robot F`` for a robot file naming a URDF: runs of the arm."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..io import load_arm
+from ..lyapunov.gain import design
+from ..model.arm import ArmSetup
+from ..model.plant import as_model
+from ..plotting import plot_arm_run
+from ..robustness.parameters import parameter_margin
+from ..robustness.synthesis import synthesize
+from ..robustness.table import certificate_table
+from ..simulation.arm import ArmRun, simulate_arm
+from ..simulation.metrics import TRACKING_TOLERANCE
+from ._common import CommandLineError, _load_file, resolve_design, save_figure, write_text
+from ._plant_run import plant_profiles
+
+__all__ = ["run_arm", "compare_arm"]
+
+#: Options of the SCARA's or a plant file's runs that mean nothing for an arm.
+_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "method", "torque_limit", "disturbance")
+
+
+def _refuse(args: argparse.Namespace) -> None:
+    given = [o for o in _NOT_FOR_ARMS if getattr(args, o, None) is not None]
+    if getattr(args, "reference", "1") != "1":
+        given.append("reference")
+    if given:
+        raise CommandLineError(f"`--{given[0].replace('_', '-')}` is not an option of a URDF robot's runs (its "
+                               f"reference and payload range are in {args.arm_file!r}; --profile drives the payload)")
+    if getattr(args, "parameter", None) not in (None, "m_p"):
+        raise CommandLineError(f"`--parameter` of an arm's run is its payload m_p, found {args.parameter!r}")
+    args.parameter = "m_p"
+
+
+def _setup(args: argparse.Namespace) -> ArmSetup:
+    return _load_file("--robot", args.arm_file, load_arm)
+
+
+def _payload(args: argparse.Namespace, setup: ArmSetup, t_final: float) -> Any:
+    if not setup.plant.parameter("m_p").varies:
+        return None
+    return plant_profiles(args, setup.plant, t_final)[1]["m_p"]
+
+
+def _lines(run: ArmRun, elapsed: float) -> list[str]:
+    worst = run.metrics().max_abs_error if run.has_metrics else float("nan")
+    lines = [f"status: {run.status} ({run.status_reason})",
+             f"  max |e| after {run.t_transient:g} s = {worst:.4g} rad; peak |τ| = {np.abs(run.torque).max():.4g} N·m",
+             f"  payload in [{run.payload.min():.4g}, {run.payload.max():.4g}] kg",
+             f"  run: {elapsed:.2f} s of computing for {run.t[-1]:g} s simulated ({run.method})"]
+    for i, joint in enumerate(run.joints):
+        after = run.t >= run.t_transient
+        e_i = float(np.abs(run.e[i, after]).max()) if after.sum() else float("nan")
+        lines.append(f"    {joint}: max |e| after = {e_i:.4g} rad, peak |τ| = {np.abs(run.torque[i]).max():.4g} N·m")
+    return lines
+
+
+def run_arm(args: argparse.Namespace) -> str:
+    """``simulate --robot F`` on an arm: the nonlinear loop (Pinocchio's ABA) under the PID.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    _refuse(args)
+    setup = _setup(args)
+    plant = setup.plant
+    n = setup.arm.n_joints
+    loaded = resolve_design(args, (n, 3 * n), f"this arm's PID form ({n} joints)")
+    if loaded is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if loaded is None and (args.rho is None or args.eta is None):
+        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
+    if loaded is not None:
+        K, gain = loaded.K, f"gain of {loaded.path!r}"
+    else:
+        d = design(as_model("model", plant), args.rho, args.eta)
+        K, gain = d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
+    t_final = 20.0 if args.t_final is None else args.t_final
+    start = time.perf_counter()
+    run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
+                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance)
+    elapsed = time.perf_counter() - start
+    files = []
+    if args.plot is not None:
+        save_figure("--plot", args.plot, plot_arm_run(run, title=f"{setup.name}, {gain}: {run.status}"))
+        files.append(f"figure: {args.plot}")
+    frame = run.to_pandas()
+    if args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json")):
+        series = json.dumps({"robot": setup.name, "status": run.status, "status_reason": run.status_reason,
+                             "max_abs_error": run.metrics().max_abs_error if run.has_metrics else None,
+                             "series": frame.to_dict(orient="list")})
+    else:
+        series = str(frame.to_csv(index=False))
+    if args.series_output is not None:
+        write_text("--output", args.series_output, series)
+        files.append(f"time series: {args.series_output}")
+    elif args.format != "text":
+        return series
+    head = f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
+    return "\n".join([head, *_lines(run, elapsed),
+                      *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
+
+
+def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFrame:
+    """``compare --robot F`` on an arm: the Riccati PID, the synthesized PID and design files side by side.
+
+    Each row: the gains' size, Theorem 1 on the interval box, the LMI certificate on the
+    arm's samples, the certified payload range (kg) and a run of the nonlinear arm.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    rho, eta : float
+        The Riccati design point.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    _refuse(args)
+    setup = _setup(args)
+    plant = setup.plant
+    model = plant.interval_model()
+    n = setup.arm.n_joints
+    d = design(model, rho, eta)
+    designs: dict[str, Any] = {f"riccati (rho={d.rho:g}, eta={d.eta:g})": d}
+    notes: list[str] = []
+    if not args.no_synthesis:
+        samples = plant.samples(plant.coarse_points())
+        synth = synthesize((samples.A, samples.B))
+        if synth.design is not None and synth.certified:
+            designs["synthesized (LMI on samples, decay)"] = synth.design
+        else:
+            notes.append(f"synthesized PID left out: {synth.message}")
+    for path in args.design or []:
+        loaded = resolve_design(argparse.Namespace(design=path), (n, 3 * n), f"this arm's PID form ({n} joints)")
+        assert loaded is not None
+        designs[f"file {path}"] = loaded.K
+    t_final = 20.0 if args.t_final is None else args.t_final
+    payload = _payload(args, setup, t_final)
+    rows = []
+    for name, des in designs.items():
+        K = des.K if hasattr(des, "K") else des
+        row: dict[str, Any] = {"design": name, "max |K|": float(np.abs(K).max())}
+        if hasattr(des, "P"):
+            tab = certificate_table(model, des, plant=plant, methods=("theorem1-all", "lmi-physical"))
+            row["theorem1 max eig"] = float(tab["max_eig"].iloc[0])
+            row["lmi-physical decay [1/s]"] = float(tab["decay_rate [1/s]"].iloc[1])
+            margin = parameter_margin(plant, des, ["frozen"])
+            row["m_p frozen limit [kg]"] = float(margin["high [kg]"].iloc[-1]) if "high [kg]" in margin else np.nan
+        start = time.perf_counter()
+        run = simulate_arm(setup, K, payload, t_final=t_final)
+        row.update({"status": run.status,
+                    "max |e| after 6 s [rad]": run.metrics().max_abs_error if run.has_metrics else np.nan,
+                    "peak |τ| [N·m]": float(np.abs(run.torque).max()),
+                    "run [s]": time.perf_counter() - start})
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    table.attrs["notes"] = notes
+    return table
