@@ -21,7 +21,8 @@ settings.load_profile("ci")
 
 
 #: Optional extras by marker: the module each one installs.
-EXTRAS = {"lmi": "cvxpy", "dask": "distributed", "parquet": "pyarrow", "compiled": "numba"}
+EXTRAS = {"lmi": "cvxpy", "dask": "distributed", "parquet": "pyarrow", "compiled": "numba", "robots": "pinocchio",
+          "mujoco": "mujoco"}
 #: `make test` sets this, so that a missing extra fails the run instead of skipping its tests.
 REQUIRE_EXTRAS = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
 

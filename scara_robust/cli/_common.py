@@ -585,7 +585,7 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
         return (on.A, on.B), (fine.A, fine.B), (
             f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
             f"{fine.n_samples})")
-    if args.model is not None:
+    if args.model is not None and arm is None:
         if model.kind == "box":
             grid = interior_grid(model)
             return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "

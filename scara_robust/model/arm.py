@@ -30,7 +30,8 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cached_property
@@ -227,7 +228,8 @@ class RobotArm:
         if not os.path.isfile(path):
             raise ArgumentValueError("urdf", f"must be a URDF file, found no file {path!r}")
         try:
-            full = pin.buildModelFromUrdf(path)
+            with _quiet_stderr():  # urdfdom prints its parse errors to the C stderr; the error below says it once
+                full = pin.buildModelFromUrdf(path)
         except (RuntimeError, ValueError) as err:
             first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             raise ArgumentValueError("urdf", f"{path!r} is not a URDF Pinocchio can read: {first}") from None
@@ -251,8 +253,9 @@ class RobotArm:
                                                  "fixed-base arms with one-axis joints are supported")
         for joint in joints:
             if not _REVOLUTE.match(kinds[joint]):
-                raise ArgumentValueError("joints", f"{joint!r} is a {kinds[joint]}; only revolute joints can be "
-                                                   "controlled (lock it with `locked`)")
+                kind = "prismatic" if _PRISMATIC.match(kinds[joint]) else "not revolute"
+                raise ArgumentValueError("joints", f"{joint!r} is {kind} ({kinds[joint]}); only revolute joints can "
+                                                   "be controlled (lock it with `locked`, position in m)")
         for joint, value in locked.items():
             if joint not in kinds:
                 raise ArgumentValueError("locked", f"names {joint!r}, which {path!r} does not have")
@@ -443,6 +446,23 @@ class RobotArm:
         if kind == "gravity":
             return self.gravity_torque(r, m_p)
         return self.inverse_dynamics(r, rd, rdd, m_p)
+
+
+@contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence what C libraries write to file descriptor 2 (Python's own stderr is untouched)."""
+    try:
+        saved = os.dup(2)
+    except OSError:  # pragma: no cover - no descriptor 2 to silence
+        yield
+        return
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _set_angle(q: Array, joint: Any, angle: float) -> None:
