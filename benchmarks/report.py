@@ -65,6 +65,12 @@ def main(argv: list[str]) -> int:
         if name in mean:
             ratio = f"{mean[name] / plain:.1f}x the plain surface" if plain and "map" in name else ""
             lines.append(f"| {label} | {mean[name]:.4g} | | {ratio} |")
+    arm = "test_arm6_run_20s"
+    if arm in mean:
+        info = extra[arm]
+        share = info["pinocchio_seconds"] / info["timed_seconds"]
+        lines.append(f"| 6-joint arm, 20-s run ({info['pinocchio_calls']} Pinocchio calls; {share:.0%} of the time "
+                     f"in Pinocchio, the rest in Python and scipy) | {mean[arm]:.4g} | | |")
     print("\n".join(lines))
     return 0
 

@@ -122,3 +122,64 @@ def test_margin_map_vertex(benchmark, model):
         sr.design_surface, (model, rhos, etas, "all"), {"measure": "margin", "margin_method": "vertex"}, rounds=1
     )
     assert surface.margin.shape == (rhos.size, etas.size)
+
+
+class _TimedPinocchio:
+    """Pinocchio with every call timed: the seconds a run spends inside its functions."""
+
+    def __init__(self, module):
+        self._module, self.seconds, self.calls = module, 0.0, 0
+
+    def __getattr__(self, name):
+        import time
+
+        target = getattr(self._module, name)
+        if not callable(target) or name in ("Motion",):
+            return target
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return target(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+                self.calls += 1
+
+        return timed
+
+
+def _arm_run_split(setup, K, payload, t_final):
+    """One arm run with Pinocchio's calls timed: (seconds in Pinocchio, seconds in all, Pinocchio calls)."""
+    import time
+
+    timed = _TimedPinocchio(setup.arm._pin)
+    original, setup.arm._pin = setup.arm._pin, timed
+    try:
+        start = time.perf_counter()
+        sr.simulate_arm(setup, K, payload, t_final=t_final)
+        total = time.perf_counter() - start
+    finally:
+        setup.arm._pin = original
+    return timed.seconds, total, timed.calls
+
+
+def test_arm6_run_20s(benchmark, tmp_path):
+    """The 6-joint arm of examples/ (Pinocchio's ABA, gravity feedforward), a 20-s run with a varying payload."""
+    pytest.importorskip("pinocchio")
+    import os
+
+    benchmark.group = "arm: 6 joints, 20 s"
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "robot-arm6.toml")
+    urdf = os.path.join(os.path.dirname(path), "arm6.urdf")
+    text = open(path, encoding="utf-8").read().replace('urdf = "arm6.urdf"', f'urdf = "{urdf}"')
+    text = text.replace("[reference]", "reference_samples = 13\npayload_samples = 3\n\n[reference]", 1)
+    (tmp_path / "arm.toml").write_text(text, encoding="utf-8")
+    setup = sr.load_arm(tmp_path / "arm.toml")
+    K = sr.design(setup.plant, 1000, 10).K
+    t_final = 20.0 if not benchmark.disabled else 1.0
+    payload = sr.parameter_profile(setup.plant, "m_p", "sinusoid", t_final=t_final)
+    run = benchmark.pedantic(sr.simulate_arm, (setup, K, payload), {"t_final": t_final}, rounds=2)
+    assert run.success and run.t[-1] == pytest.approx(t_final)
+    pin_time, total, calls = _arm_run_split(setup, K, payload, t_final)
+    benchmark.extra_info.update(pinocchio_seconds=pin_time, timed_seconds=total, pinocchio_calls=calls)
+    assert 0 < pin_time < total

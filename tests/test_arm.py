@@ -292,8 +292,8 @@ def test_urdf_robot_refuses_the_scara_options(tmp_path):
     path = small_arm_file(tmp_path)
     proc = cli("design", "--rho", "1", "--eta", "10", "--robot", path, "--bounds", "paper", check=False)
     assert proc.returncode == 2 and "--bounds" in proc.stderr
-    proc = cli("surface", "--robot", path, check=False)
-    assert proc.returncode == 2 and "URDF" in proc.stderr
+    proc = cli("campaign", os.path.join(EXAMPLES, "campaign.toml"), "--robot", path, check=False)
+    assert proc.returncode == 2 and "URDF" in proc.stderr and "campaign" in proc.stderr
 
 
 def test_copied_robot_file_finds_its_urdf_next_to_it(tmp_path):

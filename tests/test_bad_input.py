@@ -30,7 +30,10 @@ API_CASES = [
     ("payload-negative", lambda: sr.ConstantPayload(-0.5), ValueError, r"mass"),
     ("payload-omega", lambda: sr.SinusoidalPayload(1.0, 0.5, omega=0.0), ValueError, r"`omega \[rad/s\]`"),
     ("square-period", lambda: sr.SquareWave(period=-1.0), ValueError, r"`period \[s\]`"),
-    ("square-signs-shape", lambda: sr.SquareWave(signs=(1.0, 1.0, 1.0)), ValueError, r"`signs`"),
+    ("square-signs-shape", lambda: sr.SquareWave(signs=()), ValueError, r"`signs`"),
+    ("square-signs-joints",
+     lambda: sr.simulate("pid", "small", t_final=0.1, disturbance=sr.SquareWave(signs=(1, 1, 1))),
+     ValueError, r"`disturbance`"),
     ("reference-not-callable", lambda: sr.Reference(1.0, np.sin, np.cos), TypeError, r"`position`"),
     ("mass-matrix-shape", lambda: sr.mass_matrix(sr.ScaraParams(), np.zeros(3), 0.0), ValueError, r"`q` must"),
     # uncertain model

@@ -431,7 +431,7 @@ def _load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loade
 
 
 #: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
-ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export")
+ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface")
 
 
 def route_arm_file(args: argparse.Namespace) -> None:

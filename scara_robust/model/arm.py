@@ -313,7 +313,11 @@ class RobotArm:
         # the file's joint order, where it differs from the model's (None: the same)
         self._order = None if np.array_equal(self._iv, np.arange(len(joints))) else np.ix_(self._iv, self._iv)
         self._upper = np.triu(np.ones((len(joints), len(joints)), dtype=bool))
-        self._q0 = pin.neutral(model)
+        self._q0 = np.array(pin.neutral(model), dtype=float)
+        nq = np.array([jm.nq for jm in self._joint_models])
+        idx_q = np.array([jm.idx_q for jm in self._joint_models], dtype=int)
+        self._bounded, self._unbounded = np.flatnonzero(nq == 1), np.flatnonzero(nq == 2)
+        self._bounded_q, self._unbounded_q = idx_q[self._bounded], idx_q[self._unbounded]
         arm_inertia = np.zeros(len(joints)) if armature is None else check_array("armature [kg·m²]", armature,
                                                                                    shape=(len(joints),))
         if np.any(arm_inertia < 0):
@@ -343,9 +347,12 @@ class RobotArm:
 
     def configuration(self, q: ArrayLike) -> Array:
         """Pinocchio's configuration vector for joint angles `q` (n,), rad."""
-        qq: Array = np.array(self._q0, dtype=float)
-        for jm, angle in zip(self._joint_models, np.asarray(q, dtype=float)):
-            _set_angle(qq, jm, float(angle))
+        angles = np.asarray(q, dtype=float)
+        qq: Array = self._q0.copy()
+        qq[self._bounded_q] = angles[self._bounded]
+        if self._unbounded.size:  # continuous joints hold (cos, sin) of the angle
+            qq[self._unbounded_q] = np.cos(angles[self._unbounded])
+            qq[self._unbounded_q + 1] = np.sin(angles[self._unbounded])
         return qq
 
     def _velocity(self, v: ArrayLike) -> Array:

@@ -43,7 +43,7 @@ from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
 
 __all__ = [
     "sampled_closed_loops",
@@ -293,6 +293,7 @@ def sampled_certificate(
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     solver: str = "CLARABEL",
+    candidate: ArrayLike | None = None,
 ) -> SampledCertificate:
     """The frozen and common-P sampled-data tests of `pid` on the plants of `model`.
 
@@ -306,6 +307,14 @@ def sampled_certificate(
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
     solver : {'CLARABEL', 'SCS'}
+    candidate : array_like, shape (3p, 3p), optional
+        A common Lyapunov matrix of the continuous-time loops in the PID form
+        ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``). Where the
+        discrete LMI finds no P whose verified decay clears the floor, this P, carried to
+        the sampled loop's state ``[e, ė, w]`` (``w = K_I ∫e``, the measured-derivative
+        PID's accumulator), is tried: for a small Ts the sampled loop is close to the
+        continuous one and the continuous P often proves it where the LMI's numerics do
+        not. Either way only what numpy verifies at this Ts counts.
 
     Returns
     -------
@@ -329,17 +338,47 @@ def sampled_certificate(
         return SampledCertificate(pid.Ts, radius, "skipped", None, -np.inf, Ad.shape[0])
     if not cvxpy_available():
         return SampledCertificate(pid.Ts, radius, NOT_INSTALLED, None, np.nan, Ad.shape[0])
-    status, P = _solve_lmi(Ad, pid.Ts, solver)
-    if P is None:
-        return SampledCertificate(pid.Ts, radius, status, None, -np.inf, Ad.shape[0])
-    rate = discrete_lyapunov_check(Ad, P, pid.Ts)[1]
+    extra = None
     if check is not None:
         Ac, Bc = _plants(check)
         extra = sampled_closed_loops(Ac, Bc, pid)
         radius = max(radius, float(np.abs(np.linalg.eigvals(extra)).max()))
-        rate = min(rate, discrete_lyapunov_check(extra, P, pid.Ts)[1])
     floor = decay_floor((Ad - np.eye(Ad.shape[1])) / pid.Ts)
+
+    def verified(P: Array) -> float:
+        rate = discrete_lyapunov_check(Ad, P, pid.Ts)[1]
+        return rate if extra is None else min(rate, discrete_lyapunov_check(extra, P, pid.Ts)[1])
+
+    status, P = _solve_lmi(Ad, pid.Ts, solver)
+    rate = verified(P) if P is not None else -np.inf
+    mapped = _to_sampled_coordinates(candidate, pid, Ad.shape[1]) if candidate is not None else None
+    if mapped is not None and not (rate > 0 and rate >= floor):
+        mapped_rate = verified(mapped)
+        if mapped_rate > rate:
+            status, P, rate = "continuous-time P, verified at this Ts", mapped, mapped_rate
+    if P is None:
+        return SampledCertificate(pid.Ts, radius, status, None, -np.inf, Ad.shape[0])
     return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0], floor)
+
+
+def _to_sampled_coordinates(P: ArrayLike, pid: DiscretePID, n: int) -> Array | None:
+    """A P of the PID form ``x = [∫e, e, ė]`` in the sampled loop's state ``ξ = [e, ė, w]``, ``w = K_I ∫e``.
+
+    ``ξ = T x`` gives ``P_ξ = T⁻ᵀ P T⁻¹``; None where the map does not exist (a filtered
+    derivative, or K_I not square and invertible).
+    """
+    P = np.asarray(P, dtype=float)
+    m, p = pid.K_I.shape
+    if pid.derivative != "measured" or m != p or P.shape != (3 * p, 3 * p) or n != 3 * p:
+        return None
+    if np.linalg.matrix_rank(pid.K_I) < p:
+        return None
+    T = np.zeros((3 * p, 3 * p))
+    T[:2 * p, p:] = np.eye(2 * p)
+    T[2 * p:, :p] = pid.K_I
+    T_inv = np.linalg.inv(T)
+    out = T_inv.T @ P @ T_inv
+    return np.asarray(0.5 * (out + out.T), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -476,9 +515,13 @@ def max_sample_time(
         return SampleTimeLimit(np.nan, (np.nan, np.nan), hi, unstable, None, A.shape[0],
                                f"frozen instability at Ts = {hi:.4g} s; cvxpy not installed, no certificate")
     certs: dict[float, SampledCertificate] = {}
+    candidate = None
+    if isinstance(design, Design):  # the continuous loops' common P: a second candidate at every Ts
+        continuous = lmi_certificate(A - B @ design.K, solver=solver)
+        candidate = continuous.P if continuous.certified else None
 
     def certified(ts: float) -> bool:
-        certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver)
+        certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver, candidate=candidate)
         return certs[ts].certified
 
     top = lo if math.isfinite(hi) else ts_max

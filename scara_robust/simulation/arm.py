@@ -265,9 +265,13 @@ def simulate_arm(
     t, X = traj.t, traj.x
     r, rd, _ = setup.reference.sample(t)
     q, qd = X[:n], X[n:2 * n]
-    torque_fn = loop.torque
-    tau = np.array([torque_fn(float(tk), X[:, k]) for k, tk in enumerate(t)]).reshape(t.size, n).T
-    ff = np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
+    ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
+        np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
+    if sample_time is None:  # the continuous law at the samples, all at once
+        tau = ff - gain @ np.vstack([X[2 * n:], r.T - q, rd.T - qd])
+    else:  # the held law: the loop's own torque at each sample instant
+        torque_fn = loop.torque
+        tau = np.array([torque_fn(float(tk), X[:, k]) for k, tk in enumerate(t)]).reshape(t.size, n).T
     masses = np.array([float(load(float(tk))) for tk in t])
     metrics = None
     if int((t >= t_transient).sum()) >= 2 and not traj.diverged:

@@ -384,6 +384,9 @@ def _prepare(
 ) -> _Prepared:
     params = params or ScaraParams()
     reference = reference or paper_reference()
+    if disturbance is not None and len(disturbance.signs) != 2:
+        raise ArgumentValueError("disturbance", f"must have one sign per joint of the SCARA (2), found "
+                                                f"{len(disturbance.signs)}")
     if isinstance(controller, str):
         name = check_choice("controller", controller, tuple(CONTROLLERS))
         if sample_time is None:
