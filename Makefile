@@ -3,7 +3,8 @@
 # the longest files start first (tests/conftest.py, LONGEST_FILES); one BLAS thread per
 # process, two processes on two cores.
 # Every target creates .venv and installs the package with its test tools and the
-# optional extras (lmi: cvxpy; dask; parquet: pyarrow; compiled: numba) on first use, so their tests run.
+# optional extras (lmi: cvxpy; dask; parquet: pyarrow; compiled: numba; robots: Pinocchio; mujoco) on first use,
+# so their tests run (robot-data, the 130-MB example-robot-data, is not installed: its tests skip).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -14,7 +15,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet,compiled]"
+	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet,compiled,robots,mujoco]"
 	touch $(STAMP)
 
 test: $(STAMP)

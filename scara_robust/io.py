@@ -42,6 +42,7 @@ Scenario file (every table optional; a missing one is the paper's)::
 from __future__ import annotations
 
 import errno
+import importlib.metadata
 import json
 import os
 import sys
@@ -256,11 +257,31 @@ def _numbers(where: str, field: str, value: Any, unit: str, length: int | None =
     return [field_number(where, f"{field}[{k}]", v, unit) for k, v in enumerate(value)]
 
 
+def _resolve_urdf(where: str, folder: str, urdf: str) -> str:
+    """A robot file's ``urdf``: relative to its folder, or ``package://NAME/PATH`` in an installed package's data.
+
+    ``package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf`` is the UR5 of
+    the ``example-robot-data`` package (the extra ``robot-data``), which installs its files
+    under ``cmeel.prefix/share/example-robot-data``.
+    """
+    if not urdf.startswith("package://"):
+        return os.path.join(folder, urdf)
+    package, _, rest = urdf[len("package://"):].partition("/")
+    try:
+        dist = importlib.metadata.distribution(package)
+    except importlib.metadata.PackageNotFoundError:
+        hint = ' (pip install "scara_robust[robot-data]")' if package == "example-robot-data" else ""
+        raise InputFileError(f"{where} field `robot.urdf` names {urdf!r}, but the package {package!r} is not "
+                             f"installed{hint}") from None
+    return os.path.join(str(dist.locate_file(f"cmeel.prefix/share/{package}")), rest)
+
+
 def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     """Read a robot file that names a URDF: the arm, its payload, reference and feedforward.
 
     The format (TOML or JSON; ``examples/robot-arm6.toml`` documents it): ``name``; a
-    ``[robot]`` table with ``urdf`` (a path relative to the file), ``joints`` (the
+    ``[robot]`` table with ``urdf`` (a path relative to the file, or
+    ``package://NAME/PATH`` inside an installed package such as ``example-robot-data``), ``joints`` (the
     controlled revolute joints, in order), ``locked`` (joint name → position, rad or m;
     every other joint is locked at 0), ``payload_frame``, ``payload_mass = [lower,
     upper]`` (kg), optional ``payload_rate`` (kg/s), ``payload_nominal`` (kg, default the
@@ -305,7 +326,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     urdf = robot["urdf"]
     if not isinstance(urdf, str) or not urdf:
         raise InputFileError(f"{where} field `robot.urdf` must be a path to a URDF file, found {describe(urdf)}")
-    urdf_path = os.path.join(os.path.dirname(os.path.abspath(text_path)), urdf)
+    urdf_path = _resolve_urdf(where, os.path.dirname(os.path.abspath(text_path)), urdf)
     joints = robot["joints"]
     if not isinstance(joints, list) or not joints or not all(isinstance(j, str) for j in joints):
         raise InputFileError(f"{where} field `robot.joints` must be a list of joint names, found {describe(joints)}")

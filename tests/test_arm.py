@@ -341,3 +341,37 @@ def test_mujoco_reproduces_the_six_joint_run(arm_setup):
     assert run.metrics().max_abs_error == pytest.approx(float(np.abs(mj["e"][:, after]).max()), abs=1e-4)
     assert np.abs(run.e[:, run.t >= 6.0] - mj["e"][:, after]).max() <= 1e-4
     np.testing.assert_allclose(run.torque[:, run.t >= 6.0], mj["tau"][:, after], atol=1e-2 * np.abs(mj["tau"]).max())
+
+
+def _installed(distribution):
+    import importlib.metadata
+
+    try:
+        importlib.metadata.distribution(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not _installed("example-robot-data"), reason="the `robot-data` extra (example-robot-data) is "
+                    "not installed: pip install '.[robot-data]'")
+def test_ur5_of_example_robot_data_designs_and_runs(tmp_path):
+    text = open(os.path.join(EXAMPLES, "robot-ur5.toml"), encoding="utf-8").read()
+    text = text.replace("reference_samples = 181", "reference_samples = 13").replace("payload_samples = 7",
+                                                                                      "payload_samples = 3")
+    (tmp_path / "ur5.toml").write_text(text, encoding="utf-8")
+    setup = sr.load_arm(tmp_path / "ur5.toml")
+    assert setup.arm.name == "UR5" and setup.arm.n_joints == 6
+    d = sr.design(setup.plant, 1000, 3)
+    loops = setup.plant.samples().closed_loops(d.K)
+    assert np.linalg.eigvals(loops).real.max() < 0  # every frozen plant of the payload range is stable
+    run = sr.simulate_arm(setup, d.K, sr.parameter_profile(setup.plant, "m_p", "sinusoid", t_final=8.0), t_final=8.0)
+    assert run.status == "tracking"
+
+
+def test_missing_package_of_a_urdf_is_named(tmp_path):
+    text = open(os.path.join(EXAMPLES, "robot-ur5.toml"), encoding="utf-8").read().replace(
+        "package://example-robot-data/", "package://no-such-robot-package/")
+    (tmp_path / "robot.toml").write_text(text, encoding="utf-8")
+    with pytest.raises(sr.InputFileError, match="no-such-robot-package.*not installed"):
+        sr.load_arm(tmp_path / "robot.toml")

@@ -592,6 +592,11 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
                                  f"(verified on a {len(grid[0])}-plant grid of the box)")
         return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
     assert physical is not None
+    if arm is not None:  # the arm's own grids: the LMI's coarse one, verified on the file's
+        on, fine = physical.samples(physical.coarse_points()), physical.samples()
+        return (on.A, on.B), (fine.A, fine.B), (
+            f"the arm of {arm!r}: its error dynamics linearized along the reference at e = 0, payload over its "
+            f"range ({on.n_samples} samples, verified on {fine.n_samples})")
     coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
     fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
     plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
