@@ -102,7 +102,18 @@ def test_python_block_runs(scratch, index):
     exec(compile(PYTHON[index], f"README.md python block {index}", "exec"), {"__name__": "readme"})
 
 
-@pytest.mark.parametrize("line", COMMANDS, ids=[" ".join(shlex.split(c)[2:5]) for c in COMMANDS])
+#: The arm's LMI-heavy commands (a minute or more each even on the coarse grid) run in `make test-slow`;
+#: tests/test_arm.py checks the same answers at test sizes in `make test`.
+ARM_SLOW = ("certify", "margin", "synthesize", "compare", "export")
+
+
+def _command_param(line: str) -> object:
+    words = shlex.split(line)
+    slow = ARM_FILE in words and words[3] in ARM_SLOW
+    return pytest.param(line, id=" ".join(words[2:5]), marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("line", [_command_param(c) for c in COMMANDS])
 def test_command_runs(scratch, capsys, line):
     code = main(argv_of(line))
     err = capsys.readouterr().err

@@ -14,7 +14,6 @@ from ..io import load_arm
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.arm import ArmSetup
-from ..model.plant import as_model
 from ..plotting import plot_arm_run
 from ..robustness.lmi import lmi_certificate
 from ..robustness.parameters import parameter_margin
@@ -22,7 +21,7 @@ from ..robustness.synthesis import decay_rate, synthesize
 from ..simulation.arm import ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ._common import CommandLineError, _load_file, resolve_design, save_figure, write_text
-from ._plant_run import plant_profiles
+from ._plant_run import plant_gain, plant_profiles
 
 __all__ = ["run_arm", "compare_arm"]
 
@@ -80,16 +79,7 @@ def run_arm(args: argparse.Namespace) -> str:
     setup = _setup(args)
     plant = setup.plant
     n = setup.arm.n_joints
-    loaded = resolve_design(args, (n, 3 * n), f"this arm's PID form ({n} joints)")
-    if loaded is not None and (args.rho is not None or args.eta is not None):
-        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
-    if loaded is None and (args.rho is None or args.eta is None):
-        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
-    if loaded is not None:
-        K, gain = loaded.K, f"gain of {loaded.path!r}"
-    else:
-        d = design(as_model("model", plant), args.rho, args.eta)
-        K, gain = d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
+    K, gain = plant_gain(args, plant, f"this arm's PID form ({n} joints)")
     t_final = 20.0 if args.t_final is None else args.t_final
     start = time.perf_counter()
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,

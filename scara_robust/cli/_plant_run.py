@@ -8,11 +8,12 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
-from ..model.plant import UncertainPlant
+from ..lyapunov.gain import design
+from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
-from ._common import CommandLineError
+from ._common import CommandLineError, resolve_design
 
-__all__ = ["add_plant_run_options", "plant_profiles", "plant_run", "run_inputs", "summary"]
+__all__ = ["add_plant_run_options", "plant_gain", "plant_profiles", "plant_run", "run_inputs", "summary"]
 
 
 def add_plant_run_options(p: argparse.ArgumentParser) -> None:
@@ -34,6 +35,32 @@ def add_plant_run_options(p: argparse.ArgumentParser) -> None:
                    "OMEGA 0 or absent: a step of height A (default 1)")
     p.add_argument("--disturbance", default=None, metavar="D[,D2,...]",
                    help="with --model: constant input disturbance from t_final/4 on, in the inputs' units")
+
+
+def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tuple[Any, str]:
+    """The gain of a run: from ``--design`` or designed at ``--rho``/``--eta``, and how to name it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    plant : UncertainPlant
+    what : str
+        The design form, as an error message names it.
+
+    Returns
+    -------
+    K : ndarray, shape (m, n)
+    label : str
+    """
+    loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), what)
+    if loaded is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if loaded is None and (args.rho is None or args.eta is None):
+        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
+    if loaded is not None:
+        return loaded.K, f"gain of {loaded.path!r}"
+    d = design(as_model("model", plant), args.rho, args.eta)
+    return d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
 
 
 def _floats(option: str, text: str) -> list[float]:

@@ -12,7 +12,7 @@ import numpy as np
 from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
-from ..model.plant import as_model, as_plant
+from ..model.plant import as_plant
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_plant_run, plot_response
 from ..simulation.controllers import CONTROLLERS
@@ -36,7 +36,7 @@ from ._common import (
     save_figure,
     write_text,
 )
-from ._plant_run import add_plant_run_options, plant_run, summary
+from ._plant_run import add_plant_run_options, plant_gain, plant_run, summary
 
 __all__ = ["add_parser", "run"]
 
@@ -271,16 +271,7 @@ def _run_plant(args: argparse.Namespace) -> str:
     if plant is None:
         raise CommandLineError("`--model` must have [parameters] to be simulated (a plant file with physical "
                                "parameters); this file describes only the uncertainty set")
-    loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), "this plant's design form")
-    if loaded is not None and (args.rho is not None or args.eta is not None):
-        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
-    if loaded is None and (args.rho is None or args.eta is None):
-        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
-    if loaded is not None:
-        K, gain = loaded.K, f"gain of {loaded.path!r}"
-    else:
-        d = design(as_model("model", plant), args.rho, args.eta)
-        K, gain = d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
+    K, gain = plant_gain(args, plant, "this plant's design form")
     t_final = 20.0 if args.t_final is None else args.t_final
     run_ = plant_run(args, plant, K, t_final)
     files = []
