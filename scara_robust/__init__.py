@@ -74,6 +74,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     check_sample_time, SampleTimeCheck -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
     simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)
+    simulate_arm, ArmRun, ARM_ENGINES -- an arm from its URDF (Pinocchio's ABA) under the PID, with a varying payload
     parameter_profile, PROFILES     -- p(t): constant, sinusoid, ramp, random walk within the rate bound, CSV column
     pid_controller, sliding_mode_controller, SlidingModeGains -- the controllers
     pid_lmi_gain                    -- the synthesized gain the ``pid-lmi`` controller runs
@@ -90,6 +91,7 @@ Simulation (:mod:`scara_robust.simulation`)
 Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile -- robot and scenario files
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
+    load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
@@ -110,6 +112,7 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_margin_map, plot_margin_bracket -- the margin θ(ρ, η) map and the bounds at one design
     plot_anti_windup                -- errors and torques under a torque limit, with and without anti-windup
     plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
+    plot_arm_run                    -- an arm run: joint errors, torques and payload over time
 """
 
 from .controller import *  # noqa: F403

@@ -240,7 +240,14 @@ _REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase
 def is_arm_file(path: str | os.PathLike[str]) -> bool:
     """True when `path` is a robot file naming a URDF (``[robot] urdf = ...``), not a SCARA's data.
 
-    A file that cannot be read is not one (its loader then says why).
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    bool
+        False also for a file that cannot be read (its loader then says why).
     """
     try:
         data = read_mapping(path)

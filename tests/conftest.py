@@ -1,5 +1,7 @@
 import importlib.util
 import os
+import subprocess
+import sys
 
 import matplotlib
 
@@ -36,6 +38,29 @@ def _installed(module: str) -> bool:
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
 LONGEST_FILES = ("test_readme.py", "test_notebooks.py", "test_simulation.py", "test_synthesis.py",
                  "test_robust_certificates.py", "test_compiled.py", "test_plant_type.py", "test_arm.py")
+
+
+def pytest_configure(config):
+    """Under ``-n`` (make test), warm numba's disk cache of the compiled engine in the background.
+
+    Each process that needs the compiled engine compiles it (about a minute) unless the disk
+    cache already holds it; in a fresh clone it does not. One compile started here, while
+    the first, long files (which do not use it) run, leaves the cache for every process.
+    """
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None) or not _installed("numba"):
+        return
+    config._numba_warmup = subprocess.Popen(
+        [sys.executable, "-c", "from scara_robust.simulation.compiled import compile_seconds; compile_seconds()"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def pytest_unconfigure(config):
+    warmup = getattr(config, "_numba_warmup", None)
+    if warmup is not None:
+        try:
+            warmup.wait(timeout=300)
+        except subprocess.TimeoutExpired:
+            warmup.kill()
 
 
 def pytest_collection_modifyitems(config, items):
