@@ -69,7 +69,13 @@ def test_notebook_has_one_parameters_cell_first(name):
     assert all(c.cell_type == "markdown" for c in nb.cells[: tagged[0]])
 
 
-@pytest.mark.parametrize("name", sorted(NOTEBOOKS), ids=sorted(NOTEBOOKS))
+#: The notebooks that take longest even at their test sizes: executed by `make test-slow` and
+#: `make notebooks`; their numbers are checked in make test by the tests of the code they call.
+SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb")
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, id=n, marks=[pytest.mark.slow] if n in SLOW_NOTEBOOKS else [])
+                                  for n in sorted(NOTEBOOKS)])
 def test_notebook_executes_and_writes_its_figures(name, tmp_path):
     nb = _read(name)
     index = next(i for i, c in enumerate(nb.cells) if "parameters" in c.metadata.get("tags", []))

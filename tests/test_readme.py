@@ -107,9 +107,15 @@ def test_python_block_runs(scratch, index):
 ARM_SLOW = ("certify", "margin", "synthesize", "compare", "export")
 
 
+#: SCARA certificates the README shows twice over (each about 10 s: the LMI over 1024 corners):
+#: the light robot's (tests/test_inputs.py runs that robot end to end) and the derived bounds'
+#: (tests/test_arm.py and tests/test_robust_certificates.py check them); run in `make test-slow`.
+SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "certify --rho 3 --eta 90 --bounds derived")
+
+
 def _command_param(line: str) -> object:
     words = shlex.split(line)
-    slow = ARM_FILE in words and words[3] in ARM_SLOW
+    slow = (ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
     return pytest.param(line, id=" ".join(words[2:5]), marks=[pytest.mark.slow] if slow else [])
 
 

@@ -542,7 +542,8 @@ def arm_uncertain_plant(
                   coarse=min(19, max(n_times, 2)), scales=False,
                   description="reference time over one period (the linearization point; margins keep it whole)"),
         Parameter("m_p", "kg", (lo, hi), nominal=nominal, rate=payload_rate if hi > lo else None,
-                  samples=max(n_masses, 2), coarse=5, description="payload mass", limits=(0.0, math.inf)),
+                  samples=max(n_masses, 2), coarse=min(5, max(n_masses, 2)), description="payload mass",
+                  limits=(0.0, math.inf)),
     )
     n = arm.n_joints
     memo: dict[tuple[bytes, bytes], tuple[Array, Array]] = {}
