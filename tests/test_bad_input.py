@@ -360,6 +360,7 @@ def test_output_files_get_the_mode_of_a_normal_file(tmp_path, capsys):
         os.umask(old)
 
 
+@pytest.mark.slow  # a whole certify table in a process of its own (make test-slow)
 def test_no_warning_reaches_the_user_on_overflow():
     # K of (3, 1e9) makes the box's frozen vertices grow at 2e9 1/s: an overflow is a result.
     import subprocess

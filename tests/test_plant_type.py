@@ -305,6 +305,7 @@ def test_second_plant_has_another_shape(carts):
     assert (samples.B >= lo[1] - 1e-12).all() and (samples.B <= hi[1] + 1e-12).all()
 
 
+@pytest.mark.slow  # eight 7-s runs against the element code's table (make test-slow)
 def test_scara_compare_table_is_that_of_the_element_code(capsys):
     """The compare command designs its PID through the plant type; every run is the element code's."""
     assert main(["compare", "--t-final", "7", "--format", "json"]) == 0

@@ -231,6 +231,7 @@ def test_falsifier_bad_input(kwargs, match):
 # ---------------------------------------------------------------- table and CLI
 
 
+@pytest.mark.slow  # the whole certify table (LMI over 1024 corners); the README runs the text form
 def test_certify_json_rows(capsys):
     code = cli.main(["certify", "--rho", "3", "--eta", "90", "--format", "json", "--tries", "3"])
     rows = json.loads(capsys.readouterr().out)
