@@ -904,8 +904,8 @@ def plot_arm_run(run: ArmRun, *, title: str | None = None) -> Any:
         err_ax.axvline(run.t_transient, color="0.5", ls=":", lw=1.0)
         worst = float(np.abs(run.e[:, after]).max())
         err_ax.set_ylim(-1.6 * worst, 1.6 * worst)
-        err_ax.text(run.t_transient, 1.45 * worst, f"  max |e| after {run.t_transient:g} s = {_plain(worst)} rad",
-                    va="top", fontsize=_LEGEND_SIZE)
+        err_ax.text(0.01, 0.97, f"max |e| after {run.t_transient:g} s (dotted line) = {_plain(worst)} rad",
+                    transform=err_ax.transAxes, va="top", fontsize=_LEGEND_SIZE)
         err_ax.set_ylabel("joint error [rad]\n(scale of the tracking phase)")
     else:
         err_ax.set_ylabel("joint error [rad]")

@@ -30,6 +30,7 @@ NOTEBOOKS = {
     "your_own_plant.ipynb": ["own_plant_margin_map.png", "own_plant_run.png"],
     "robustness_margins.ipynb": ["margin_bracket.png", "margin_map_published.png"],
     "deployment.ipynb": ["anti_windup.png"],
+    "robot_arm.ipynb": ["arm_run.png"],
 }
 
 
@@ -39,6 +40,7 @@ QUICK = {
     "robustness_margins.ipynb": "N_RHO, N_ETA = 8, 8\nTOL = 0.3",
     "your_own_plant.ipynb": "N_GRID = 8\nT_FINAL = 8.0",
     "deployment.ipynb": "LIMITS = [6.0]\nT_FINAL = 7.0\nN_TIMES, N_MASSES = 31, 3",
+    "robot_arm.ipynb": "N_TIMES, N_MASSES = 13, 3\nT_FINAL = 8.0",
 }
 
 
@@ -71,7 +73,7 @@ def test_notebook_has_one_parameters_cell_first(name):
 
 #: The notebooks that take longest even at their test sizes: executed by `make test-slow` and
 #: `make notebooks`; their numbers are checked in make test by the tests of the code they call.
-SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb")
+SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb", "robot_arm.ipynb")
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, id=n, marks=[pytest.mark.slow] if n in SLOW_NOTEBOOKS else [])
