@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from typing import Any
 
@@ -20,8 +19,8 @@ from ..robustness.parameters import parameter_margin
 from ..robustness.synthesis import decay_rate, synthesize
 from ..simulation.arm import ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
-from ._common import CommandLineError, _load_file, resolve_design, save_figure, write_text
-from ._plant_run import plant_gain, plant_profiles
+from ._common import CommandLineError, _load_file, resolve_design, save_figure
+from ._plant_run import plant_gain, plant_profiles, series_output
 
 __all__ = ["run_arm", "compare_arm"]
 
@@ -89,18 +88,12 @@ def run_arm(args: argparse.Namespace) -> str:
     if args.plot is not None:
         save_figure("--plot", args.plot, plot_arm_run(run, title=f"{setup.name}, {gain}: {run.status}"))
         files.append(f"figure: {args.plot}")
-    frame = run.to_pandas()
-    if args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json")):
-        series = json.dumps({"robot": setup.name, "status": run.status, "status_reason": run.status_reason,
-                             "max_abs_error": run.metrics().max_abs_error if run.has_metrics else None,
-                             "series": frame.to_dict(orient="list")})
-    else:
-        series = str(frame.to_csv(index=False))
-    if args.series_output is not None:
-        write_text("--output", args.series_output, series)
-        files.append(f"time series: {args.series_output}")
-    elif args.format != "text":
-        return series
+    text, written = series_output(args, run.to_pandas(), {
+        "robot": setup.name, "status": run.status, "status_reason": run.status_reason,
+        "max_abs_error": run.metrics().max_abs_error if run.has_metrics else None})
+    if text is not None:
+        return text
+    files += [written] if written else []
     head = f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
     return "\n".join([head, *_lines(run, elapsed),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
@@ -133,9 +126,9 @@ def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFram
     d = design(model, rho, eta)
     designs: dict[str, Any] = {f"riccati (rho={d.rho:g}, eta={d.eta:g})": d}
     notes: list[str] = []
+    on, check = plant.samples(plant.coarse_points()), plant.samples()
     if not args.no_synthesis:
-        samples = plant.samples(plant.coarse_points())
-        synth = synthesize((samples.A, samples.B))
+        synth = synthesize((on.A, on.B))
         if synth.design is not None and synth.certified:
             designs["synthesized (LMI on samples, decay)"] = synth.design
         else:
@@ -147,7 +140,6 @@ def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFram
     t_final = 20.0 if args.t_final is None else args.t_final
     payload = _payload(args, setup, t_final)
     rows = []
-    on, check = plant.samples(plant.coarse_points()), plant.samples()
     for name, des in designs.items():
         K, P_file = des if isinstance(des, tuple) else (des.K, None)
         row: dict[str, Any] = {"design": name, "max |K|": float(np.abs(K).max())}

@@ -600,7 +600,7 @@ def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[An
     coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
     fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
     plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
-    robot = f"the robot of {(arm or args.robot)!r}" if (arm or args.robot) is not None else "the paper's robot"
+    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
     return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
                            f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
                            f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")

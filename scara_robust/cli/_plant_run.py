@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 from typing import Any
 
 import numpy as np
@@ -11,9 +12,10 @@ from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
-from ._common import CommandLineError, resolve_design
+from ._common import CommandLineError, resolve_design, write_text
 
-__all__ = ["add_plant_run_options", "plant_gain", "plant_profiles", "plant_run", "run_inputs", "summary"]
+__all__ = ["add_plant_run_options", "plant_gain", "plant_profiles", "plant_run", "run_inputs", "series_output",
+           "summary"]
 
 
 def add_plant_run_options(p: argparse.ArgumentParser) -> None:
@@ -61,6 +63,34 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
         return loaded.K, f"gain of {loaded.path!r}"
     d = design(as_model("model", plant), args.rho, args.eta)
     return d.K, f"K(rho={d.rho:g}, eta={d.eta:g})"
+
+
+def series_output(args: argparse.Namespace, frame: Any, record: dict[str, Any]) -> tuple[str | None, str | None]:
+    """A run's time series as ``--format`` and ``--output`` ask: JSON (`record` with the series) or CSV.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    frame : pandas.DataFrame
+        The run's samples.
+    record : dict
+        What the JSON holds beside the series (name, status, ...).
+
+    Returns
+    -------
+    text : str or None
+        The series to print instead of the summary (``--format csv|json`` without ``--output``).
+    line : str or None
+        The summary's line naming the file written.
+    """
+    if args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json")):
+        series = json.dumps({**record, "series": frame.to_dict(orient="list")})
+    else:
+        series = str(frame.to_csv(index=False))
+    if args.series_output is not None:
+        write_text("--output", args.series_output, series)
+        return None, f"time series: {args.series_output}"
+    return (series if args.format != "text" else None), None
 
 
 def _floats(option: str, text: str) -> list[float]:

@@ -36,7 +36,7 @@ from ._common import (
     save_figure,
     write_text,
 )
-from ._plant_run import add_plant_run_options, plant_gain, plant_run, summary
+from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
 
 __all__ = ["add_parser", "run"]
 
@@ -278,17 +278,12 @@ def _run_plant(args: argparse.Namespace) -> str:
     if args.plot is not None:
         save_figure("--plot", args.plot, plot_plant_run(run_, plant))
         files.append(f"figure: {args.plot}")
-    frame = run_.to_pandas()
-    if args.format == "json" or (args.format == "text" and str(args.series_output).lower().endswith(".json")):
-        series = json.dumps({"plant": plant.name, "status": run_.status, "status_reason": run_.reason,
-                             "max_abs_error": run_.max_abs_error, "series": frame.to_dict(orient="list")})
-    else:
-        series = str(frame.to_csv(index=False))
-    if args.series_output is not None:
-        write_text("--output", args.series_output, series)
-        files.append(f"time series: {args.series_output}")
-    elif args.format != "text":
-        return series
+    text, written = series_output(args, run_.to_pandas(), {"plant": plant.name, "status": run_.status,
+                                                           "status_reason": run_.reason,
+                                                           "max_abs_error": run_.max_abs_error})
+    if text is not None:
+        return text
+    files += [written] if written else []
     head = f"{plant.name}, {gain}, {t_final:g} s, profile {args.profile}"
     return "\n".join([*summary(run_, plant, head),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])

@@ -265,20 +265,18 @@ def simulate_arm(
     t, X = traj.t, traj.x
     r, rd, _ = setup.reference.sample(t)
     q, qd = X[:n], X[n:2 * n]
+    e, edot = r.T - q, rd.T - qd
     ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
         np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
-    if sample_time is None:  # the continuous law at the samples, all at once
-        tau = ff - gain @ np.vstack([X[2 * n:], r.T - q, rd.T - qd])
-    else:  # the held law: the loop's own torque at each sample instant
-        torque_fn = loop.torque
-        tau = np.array([torque_fn(float(tk), X[:, k]) for k, tk in enumerate(t)]).reshape(t.size, n).T
+    # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
+    tau = ff - gain @ np.vstack([X[2 * n:], e, edot])
     masses = np.array([float(load(float(tk))) for tk in t])
     metrics = None
     if int((t >= t_transient).sum()) >= 2 and not traj.diverged:
-        metrics = tracking_metrics(t, r.T - q, tau, t_transient=t_transient)
+        metrics = tracking_metrics(t, e, tau, t_transient=t_transient)
     status, reason = run_status(metrics, success=traj.success, diverged=traj.diverged, message=traj.message,
                                 tolerance=tracking_tolerance, t_transient=t_transient)
-    return ArmRun(t=t, q=q, e=r.T - q, edot=rd.T - qd, torque=tau, feedforward=ff, payload=masses,
+    return ArmRun(t=t, q=q, e=e, edot=edot, torque=tau, feedforward=ff, payload=masses,
                   joints=setup.arm.joints, success=traj.success and not traj.diverged, diverged=traj.diverged,
                   message=traj.message, method=method, status=status, status_reason=reason,
                   t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)
