@@ -3,23 +3,24 @@
 # the longest files start first (tests/conftest.py, LONGEST_FILES); one BLAS thread per
 # process, two processes on two cores.
 # Every target creates .venv and installs the package with its test tools and the
-# optional extras (lmi: cvxpy; dask; parquet: pyarrow; compiled: numba; robots: Pinocchio; mujoco) on first use,
+# optional extras (docs: Sphinx and Playwright; lmi: cvxpy; dask; parquet: pyarrow; compiled: numba;
+# robots: Pinocchio; mujoco) on first use,
 # so their tests run (robot-data, the 130-MB example-robot-data, is not installed: its tests skip).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test test-slow compare lint bench notebooks docs-figures clean
+.PHONY: test test-slow compare lint bench notebooks docs docs-figures clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,lmi,dask,parquet,compiled,robots,mujoco]"
+	$(BIN)/python -m pip install --quiet -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco]"
 	touch $(STAMP)
 
 test: $(STAMP)
-	$(BIN)/ruff check scara_robust tests benchmarks
+	$(BIN)/ruff check scara_robust tests benchmarks docs
 	$(BIN)/mypy
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 SCARA_ROBUST_REQUIRE_EXTRAS=1 \
 		$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
@@ -32,12 +33,17 @@ compare: $(STAMP)
 	$(BIN)/python -m scara_robust.compare
 
 lint: $(STAMP)
-	$(BIN)/ruff check scara_robust tests benchmarks
+	$(BIN)/ruff check scara_robust tests benchmarks docs
 	$(BIN)/mypy
 
 bench: $(STAMP)
 	$(BIN)/python -m pytest benchmarks --benchmark-enable --benchmark-json=benchmark.json -q
 	$(BIN)/python benchmarks/report.py benchmark.json
+
+# The documentation site, warnings as errors; the gallery's notebooks are executed and cached in
+# docs/_build/.jupyter_cache (a rebuild without changes executes nothing). Open docs/_build/html/index.html.
+docs: $(STAMP)
+	$(BIN)/sphinx-build -b html -W --keep-going docs docs/_build/html
 
 # Executes every notebook (outputs are not saved); PNGs land in notebooks/figures/.
 notebooks: $(STAMP)
@@ -50,4 +56,4 @@ docs-figures: notebooks
 	   notebooks/figures/anti_windup.png docs/
 
 clean:
-	rm -rf $(VENV) .pytest_cache benchmark.json
+	rm -rf $(VENV) .pytest_cache benchmark.json docs/_build docs/api/generated

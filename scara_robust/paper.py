@@ -63,6 +63,7 @@ PAPER_CP = 0.005
 
 #: Square-wave disturbance on both joints: amplitude, N·m, and period, s (Section 4).
 PAPER_DISTURBANCE_AMPLITUDE = 5.0
+#: Period of the square-wave disturbance, s (π/5, Section 4).
 PAPER_DISTURBANCE_PERIOD = math.pi / 5
 
 #: The two initial conditions as ``(e(0) [rad], ė(0) [rad/s])``: ``large`` is Figure 3's

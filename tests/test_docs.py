@@ -3,6 +3,8 @@
 import importlib
 import inspect
 import pkgutil
+import re
+from pathlib import Path
 
 import pytest
 
@@ -73,3 +75,21 @@ def test_every_subpackage_reexports_its_modules():
             module = importlib.import_module(f"scara_robust.{name}.{child.name}")
             assert set(module.__all__) <= set(package.__all__), f"{name}.{child.name}"
             assert set(module.__all__) <= set(scara_robust.__all__), f"{name}.{child.name}"
+
+
+API_PAGES = sorted((Path(__file__).resolve().parents[1] / "docs" / "api").glob("*.md"))
+
+
+def _api_reference_names() -> list[str]:
+    listing = re.compile(r"\.\. autosummary::\n(?:   :[^\n]*\n)*\n((?:   \S+\n)+)")
+    names = []
+    for page in API_PAGES:
+        for block in listing.findall(page.read_text(encoding="utf-8")):
+            names += block.split()
+    return names
+
+
+def test_the_api_reference_lists_every_public_name_once():
+    names = _api_reference_names()
+    assert sorted(names) == sorted(scara_robust.__all__)
+    assert len(names) == len(set(names))

@@ -1,8 +1,9 @@
-"""The README runs: every ```python block, and every `python -m scara_robust` line of its ```sh blocks.
+"""The README and the guide run: every ```python block, every `python -m scara_robust` line of a ```sh block.
 
-```text blocks (the command synopsis) are not run. Commands run in a scratch folder that
-sees the repository's `examples/`, at reduced sizes where a flag allows (shorter
-horizons, fewer campaign runs and falsifier tries), so the README cannot go stale.
+```text blocks (synopses, install lines) are not run. Commands run in one scratch folder that
+sees the repository's `examples/`, page after page in the order of `PAGES`, at reduced sizes
+where a flag allows (shorter horizons, fewer campaign runs and falsifier tries), so neither
+the README nor the guide can go stale.
 """
 
 from __future__ import annotations
@@ -20,19 +21,49 @@ import pytest
 from scara_robust.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text(encoding="utf-8")
+#: The pages whose code runs, in the order their commands may read what earlier ones wrote.
+PAGES = (
+    "README.md",
+    "docs/guide/conventions.md",
+    "docs/guide/own-robot.md",
+    "docs/guide/own-plant.md",
+    "docs/guide/robust.md",
+    "docs/guide/variation.md",
+    "docs/guide/synthesis.md",
+    "docs/performance.md",
+    "docs/guide/deployment.md",
+    "docs/guide/campaigns.md",
+    "docs/reproduction.md",
+    "docs/development.md",
+)
+#: The pages that carry no code of their own (they include the README's, or only link).
+PROSE = ("docs/index.md", "docs/getting-started.md", "docs/guide/index.md", "docs/gallery.md", "docs/cli.md",
+         "docs/architecture.md")
+FENCE = re.compile(r"^[ \t]*```(\w*)\n(.*?)^[ \t]*```", flags=re.S | re.M)
 BLOCKS = [
-    (lang, textwrap.dedent(code))
-    for lang, code in re.findall(r"^[ \t]*```(\w*)\n(.*?)^[ \t]*```", README, flags=re.S | re.M)
+    (page, lang, textwrap.dedent(code))
+    for page in PAGES
+    for lang, code in FENCE.findall((ROOT / page).read_text(encoding="utf-8"))
 ]
-PYTHON = [code for lang, code in BLOCKS if lang == "python"]
+PYTHON = [(page, code) for page, lang, code in BLOCKS if lang == "python"]
 COMMANDS = [
-    line.strip()
-    for lang, code in BLOCKS
+    (page, line.strip())
+    for page, lang, code in BLOCKS
     if lang == "sh"
     for line in code.splitlines()
     if line.strip().startswith("python -m scara_robust")
 ]
+
+
+def test_every_page_with_code_is_run():
+    """A page of the site with a ```python or ```sh block is in PAGES; the others are in PROSE."""
+    pages = {str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md")
+             if not {"_build", "api"} & set(p.parts) and p.parent.name != "gallery"}
+    assert pages | {"README.md"} == set(PAGES) | set(PROSE)
+    for page in PROSE:
+        langs = {lang for lang, _ in FENCE.findall((ROOT / page).read_text(encoding="utf-8"))}
+        assert not langs & {"python", "sh"}, f"{page} has code to run: list it in PAGES"
+
 
 #: Options set (added, or their value replaced) to keep each command short; the rest runs as written.
 REDUCED = {
@@ -76,7 +107,7 @@ def argv_of(line: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory):
-    """One folder for the whole README, so a command can read what an earlier one wrote."""
+    """One folder for every page, so a command can read what an earlier one wrote."""
     path = tmp_path_factory.mktemp("readme")
     (path / "examples").symlink_to(ROOT / "examples")
     text = (ROOT / ARM_FILE).read_text(encoding="utf-8").replace('urdf = "arm6.urdf"', 'urdf = "examples/arm6.urdf"')
@@ -92,14 +123,21 @@ def scratch(folder, monkeypatch):
     return folder
 
 
-def test_the_readme_has_code_to_run():
+def test_the_pages_have_code_to_run():
     assert len(PYTHON) >= 2 and len(COMMANDS) >= 10
-    assert all(lang in {"python", "sh", "text"} for lang, _ in BLOCKS), "every block says what it is"
+    assert all(lang in {"python", "sh", "text", "toml", "json", "c", "csv"} or lang.startswith("{")
+               for _, lang, _ in BLOCKS), "every block says what it is"
 
 
-@pytest.mark.parametrize("index", range(len(PYTHON)), ids=[f"python-{i}" for i in range(len(PYTHON))])
+def _page_id(page: str) -> str:
+    return Path(page).stem
+
+
+@pytest.mark.parametrize("index", range(len(PYTHON)),
+                         ids=[f"{_page_id(page)}-python-{i}" for i, (page, _) in enumerate(PYTHON)])
 def test_python_block_runs(scratch, index):
-    exec(compile(PYTHON[index], f"README.md python block {index}", "exec"), {"__name__": "readme"})
+    page, code = PYTHON[index]
+    exec(compile(code, f"{page} python block {index}", "exec"), {"__name__": "readme"})
 
 
 #: The arm's LMI-heavy commands (a minute or more each even on the coarse grid) run in `make test-slow`;
@@ -107,19 +145,19 @@ def test_python_block_runs(scratch, index):
 ARM_SLOW = ("certify", "margin", "synthesize", "compare", "export")
 
 
-#: SCARA certificates the README shows twice over (each about 10 s: the LMI over 1024 corners):
+#: SCARA certificates the guide shows twice over (each about 10 s: the LMI over 1024 corners):
 #: the light robot's (tests/test_inputs.py runs that robot end to end) and the derived bounds'
 #: (tests/test_arm.py and tests/test_robust_certificates.py check them); run in `make test-slow`.
 SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "certify --rho 3 --eta 90 --bounds derived")
 
 
-def _command_param(line: str) -> object:
+def _command_param(page: str, line: str) -> object:
     words = shlex.split(line)
     slow = (ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
-    return pytest.param(line, id=" ".join(words[2:5]), marks=[pytest.mark.slow] if slow else [])
+    return pytest.param(line, id=f"{_page_id(page)}: " + " ".join(words[2:5]), marks=[pytest.mark.slow] if slow else [])
 
 
-@pytest.mark.parametrize("line", [_command_param(c) for c in COMMANDS])
+@pytest.mark.parametrize("line", [_command_param(page, c) for page, c in COMMANDS])
 def test_command_runs(scratch, capsys, line):
     code = main(argv_of(line))
     err = capsys.readouterr().err
@@ -132,9 +170,9 @@ CC = shutil.which("cc")
 
 @pytest.mark.skipif(CC is None, reason="no C compiler `cc` on this machine: the exported C is not compiled")
 def test_the_readme_export_of_your_own_plant_compiles(scratch):
-    """The README's single-precision export (run above, in this folder) compiles with every warning an error."""
+    """The own-plant guide's single-precision export (run above, here) compiles with every warning an error."""
     source = scratch / "motor_pid.c"
-    assert source.exists(), "the README's export command writes motor_pid.c"
+    assert source.exists(), "the guide's export command writes motor_pid.c"
     assert "float" in source.read_text() and "double" not in source.read_text()
     assert "u = current [A]" in (scratch / "motor_pid.h").read_text()
     subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", str(source), "-o",
@@ -142,8 +180,8 @@ def test_the_readme_export_of_your_own_plant_compiles(scratch):
 
 
 def test_the_readme_simulation_of_your_own_plant_tracks_at_full_length(scratch, capsys):
-    """The README's motor run, at its own 20-s horizon (the command test above shortens it)."""
-    line = next(c for c in COMMANDS if "simulate" in c and "plant-dc-motor" in c)
+    """The guide's motor run, at its own 20-s horizon (the command test above shortens it)."""
+    line = next(c for _, c in COMMANDS if "simulate" in c and "plant-dc-motor" in c)
     argv = [w for w in shlex.split(line)[3:] if w not in ("--plot", "motor-run.png")]
     assert main(argv) == 0
     assert "status: tracking" in capsys.readouterr().out

@@ -1,7 +1,7 @@
-"""The README's numbers are what the commands print: each is read from the README and compared with a fresh run.
+"""The documentation's numbers are what the commands print: each is read from its page and compared with a fresh run.
 
 Exact computations (Theorem 1, the vertex test, the frozen bisection) are compared to the
-digits the README prints; optimizer outputs to the tolerance the README states for them.
+digits the page prints; optimizer outputs to the tolerance the page states for them.
 """
 
 from __future__ import annotations
@@ -16,12 +16,18 @@ import scara_robust as sr
 from scara_robust.cli import main
 from scara_robust.simulation.controllers import PID_LMI_FILE
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+#: The guide pages that print these numbers.
+ROBUST, VARIATION, SYNTHESIS, GETTING_STARTED = (
+    (DOCS / page).read_text(encoding="utf-8")
+    for page in ("guide/robust.md", "guide/variation.md", "guide/synthesis.md", "getting-started.md")
+)
 
 
-def _row(label: str) -> list[str]:
-    """The cells of the README table row that starts with `label`."""
-    line = next(line for line in README.splitlines() if line.startswith(f"| {label}"))
+def _row(label: str, page: str) -> list[str]:
+    """The cells of the table row of `page` that starts with `label`."""
+    line = next(line for line in page.splitlines() if line.startswith(f"| {label}"))
     return [cell.strip() for cell in line.strip().strip("|").split("|")]
 
 
@@ -45,8 +51,8 @@ def _digits(text: str) -> int:
     ],
     ids=["theorem1-paper", "theorem1-derived", "vertex-paper", "vertex-derived", "frozen-paper", "frozen-derived"],
 )
-def test_margin_table_of_the_readme(label, method, column, bounds):
-    printed = _row(label)[column]
+def test_margin_table_of_the_guide(label, method, column, bounds):
+    printed = _row(label, VARIATION)[column]
     model = sr.paper_model() if bounds == "paper" else sr.derived_model()
     design = sr.design(model, 3, 90)
     # the frozen bound is bisected from the best certified θ, as `margin` does (its lower bound)
@@ -56,8 +62,8 @@ def test_margin_table_of_the_readme(label, method, column, bounds):
 
 
 @pytest.mark.parametrize(("column", "bounds"), [(2, "paper"), (3, "derived")], ids=["paper", "derived"])
-def test_centre_scaled_margins_of_the_readme(column, bounds):
-    vertex, frozen = (float(v) for v in _row("about the centre")[column].split(" / "))
+def test_centre_scaled_margins_of_the_guide(column, bounds):
+    vertex, frozen = (float(v) for v in _row("about the centre", VARIATION)[column].split(" / "))
     model = sr.paper_model() if bounds == "paper" else sr.derived_model()
     design = sr.design(model, 3, 90)
     assert round(sr.robustness_margin(model, design, "vertex", anchor="center").theta, 4) == vertex
@@ -65,11 +71,11 @@ def test_centre_scaled_margins_of_the_readme(column, bounds):
 
 
 @pytest.mark.lmi
-def test_synthesis_numbers_of_the_readme(tmp_path, capsys):
-    """``synthesize`` prints the README's γ to the 5 % the README states, and the shipped ‖K‖ to its digits."""
-    stated = re.search(r"a worst-case L2 gain γ ≤ (\d\.\d+) rad/\(N·m\)", README)
-    tolerance = re.search(r"whose γ is within (\d+) % of (\d\.\d+)", README)
-    norm = re.search(r"the `l2` gain is certified with ‖K‖₂ = (\d+\.\d)", README)
+def test_synthesis_numbers_of_the_guide(tmp_path, capsys):
+    """``synthesize`` prints the guide's γ to the 5 % the guide states, and the shipped ‖K‖ to its digits."""
+    stated = re.search(r"a worst-case L2 gain γ ≤ (\d\.\d+) rad/\(N·m\)", SYNTHESIS)
+    tolerance = re.search(r"whose γ is within (\d+) % of (\d\.\d+)", SYNTHESIS)
+    norm = re.search(r"the `l2` gain is certified with ‖K‖₂ = (\d+\.\d)", SYNTHESIS)
     assert stated and tolerance and norm and tolerance.group(2) == stated.group(1)
     out = tmp_path / "k.json"
     assert main(["synthesize", "--output", str(out)]) == 0
@@ -83,10 +89,24 @@ def test_synthesis_numbers_of_the_readme(tmp_path, capsys):
 
 
 @pytest.mark.lmi
-def test_lmi_physical_decay_of_the_readme():
-    printed = _row("lmi-physical")[2]
+def test_lmi_physical_decay_of_the_guide():
+    printed = _row("lmi-physical", ROBUST)[2]
     alpha = float(re.search(r"α ≥ (\d\.\d+) 1/s", printed).group(1))
     plant = sr.scara_uncertain_plant(bounds="paper")  # the robot's samples make the physical rows
     table = sr.certificate_table(plant, sr.design(plant, 3, 90), methods=["lmi-physical"])
     row = table.set_index("method").loc["lmi-physical"]
     assert row["certified"] and round(row["decay_rate [1/s]"], 3) == alpha
+
+
+def test_first_design_numbers_of_getting_started():
+    """The first design's Theorem 1 values, to the digits the getting-started page prints."""
+    a_only = re.search(r"max λ\(Z\) = −(\d\.\d+) over the ΔA elements", GETTING_STARTED)
+    all_ten = re.search(r"\+(\d+\.\d) over all ten", GETTING_STARTED)
+    assert a_only and all_ten
+    plant = sr.scara_uncertain_plant(bounds="paper")
+    design = sr.design(plant, 3, 90)
+    assert round(sr.certify(plant, design, elements="A").max_eig, 3) == -float(a_only.group(1))
+    assert round(sr.certify(plant, design).max_eig, 1) == float(all_ten.group(1))
+    error = re.search(r"max \|e\| = (\d\.\d+) rad after the 6-s transient", GETTING_STARTED)
+    run = sr.run_scenario("pid", "large")
+    assert error and run.status == "tracking" and round(run.metrics().max_abs_error, 4) == float(error.group(1))

@@ -44,6 +44,7 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+#: How the surface is computed: ``Z = Z₀(ρ) + η Z₁(ρ)`` per ρ, or design and certify point by point.
 SURFACE_METHODS = ("structured", "reference")
 #: What a surface holds besides max λ(Z): nothing more, or the robustness margin θ.
 SURFACE_MEASURES = ("max_eig", "margin")
@@ -267,7 +268,7 @@ def design_surface(
         ``'margin'`` also computes the robustness margin θ(ρ, η) of every design: the
         largest scaling of every element range about the nominal that `margin_method`
         certifies (exact, no bisection: Z is affine in θ; see
-        :func:`scara_robust.lyapunov.theorem1.affine_margin`). Structured method only.
+        ``scara_robust.lyapunov.theorem1.affine_margin``). Structured method only.
     margin_method : {'theorem1', 'vertex'}
         Theorem 1's Z, or the design's P at every vertex of the box (2^N per point).
 

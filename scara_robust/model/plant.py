@@ -352,7 +352,7 @@ class UncertainPlant:
     ) -> UncertainPlant:
         """A plant whose entries are numbers or arithmetic in the parameters (``"-b/J"``).
 
-        Each string is parsed by whitelist (the whitelist parser of :mod:`scara_robust.model._expressions`);
+        Each string is parsed by whitelist (the whitelist parser of ``scara_robust.model._expressions``);
         nothing is executed.
 
         Parameters

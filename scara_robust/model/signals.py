@@ -127,8 +127,9 @@ def sinusoidal_reference(amplitude: float = 1.0, omega: float = 1.0) -> Referenc
     Examples
     --------
     >>> import scara_robust as sr
-    >>> sr.sinusoidal_reference(2.0, 0.5).velocity(0.0).tolist()
-    [1.0, 0.0]
+    >>> ref = sr.sinusoidal_reference(2.0, 0.5)   # q_d = (2 sin 0.5t, 2 cos 0.5t) rad
+    >>> ref.position(0.0).tolist(), [float(v) + 0.0 for v in ref.velocity(0.0)]   # + 0.0 drops -0.0
+    ([0.0, 2.0], [1.0, 0.0])
     """
     a = check_real("amplitude [rad]", amplitude, nonnegative=True)
     w = check_real("omega [rad/s]", omega, positive=True)

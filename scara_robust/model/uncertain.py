@@ -26,6 +26,7 @@ from ..exceptions import ArgumentTypeError, ArgumentValueError
 __all__ = ["UncertainElement", "UncertainLTVModel", "ELEMENT_SETS", "ANCHORS"]
 
 Array = NDArray[np.float64]
+#: Which uncertain elements vary: all of them, those of A only, or those of B only.
 ELEMENT_SETS = ("all", "A", "B")
 #: Points a box or polytope is scaled about (:meth:`UncertainLTVModel.scaled`): the design
 #: plant at the lower corner (the paper's convention, the default) or the set's centre.

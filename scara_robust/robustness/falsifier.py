@@ -144,7 +144,7 @@ def falsify(
     Parameters
     ----------
     closed_loops : array_like, shape (V, n, n)
-        Vertices Ā_v of the uncertainty set (e.g. :func:`scara_robust.robustness.polytope.box_closed_loops`).
+        Vertices Ā_v of the uncertainty set (e.g. ``scara_robust.robustness.polytope.box_closed_loops``).
     P : array_like, shape (n, n), optional
         Lyapunov matrix for the ``'lyapunov'`` rule (skipped without it).
     dwell : float

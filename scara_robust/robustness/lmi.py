@@ -89,8 +89,8 @@ def lmi_verdict(status: str, verified: bool) -> str:
 
     Examples
     --------
-    >>> import scara_robust as sr
-    >>> sr.lmi_verdict("optimal", True), sr.lmi_verdict("optimal", False), sr.lmi_verdict("infeasible", False)
+    >>> from scara_robust.robustness.lmi import lmi_verdict
+    >>> lmi_verdict("optimal", True), lmi_verdict("optimal", False), lmi_verdict("infeasible", False)
     ('certified', 'inaccurate', 'infeasible')
     """
     if verified:
@@ -214,7 +214,7 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     ----------
     closed_loops : array_like, shape (V, n, n)
         Frozen closed-loop matrices at the vertices, e.g. from
-        :func:`scara_robust.robustness.polytope.box_closed_loops`.
+        ``scara_robust.robustness.polytope.box_closed_loops``.
     solver : {'CLARABEL', 'SCS'}
 
     Returns

@@ -207,7 +207,7 @@ class SampledCertificate:
         smallest over the plants and the check set; positive means certified.
     n_plants : int
     floor : float
-        The smallest decay rate reported as certified, 1/s: :data:`~scara_robust.robustness.lmi.DECAY_FLOOR_RTOL`
+        The smallest decay rate reported as certified, 1/s: ``scara_robust.robustness.lmi.DECAY_FLOOR_RTOL``
         times the largest ``‖(A_d,i − I)/Ts‖₂``.
     """
 

@@ -74,8 +74,8 @@ def wilson_interval(
 
     Examples
     --------
-    >>> import scara_robust as sr
-    >>> low, high = sr.wilson_interval(0, 10)
+    >>> from scara_robust.studies.campaign.report import wilson_interval
+    >>> low, high = wilson_interval(0, 10)
     >>> float(low), round(float(high), 4)
     (0.0, 0.2775)
     """
@@ -133,8 +133,9 @@ def bootstrap_quantiles(
 
     Examples
     --------
-    >>> import numpy as np, scara_robust as sr
-    >>> low, high = sr.bootstrap_quantiles(np.arange(100.0), [0.5])
+    >>> import numpy as np
+    >>> from scara_robust.studies.campaign.report import bootstrap_quantiles
+    >>> low, high = bootstrap_quantiles(np.arange(100.0), [0.5])
     >>> bool(low[0] < 49.5 < high[0])
     True
     """
@@ -267,8 +268,8 @@ def worst_scenarios(results: pd.DataFrame, n: int = 5) -> pd.DataFrame:
     pandas.DataFrame
         One row per run, controllers in sorted order: ``controller``, ``rank`` (1 is the
         worst), ``scenario``, ``status``, the metrics (units in :data:`METRIC_UNITS`) and
-        the drawn inputs (:data:`scara_robust.studies.campaign.inputs.DRAWN_COLUMNS`, units in
-        :data:`scara_robust.studies.campaign.spec.SPEC_FIELDS`) that the table has. Replay one with
+        the drawn inputs (``scara_robust.studies.campaign.inputs.DRAWN_COLUMNS``, units in
+        ``scara_robust.studies.campaign.spec.SPEC_FIELDS``) that the table has. Replay one with
         :func:`scara_robust.replay_scenario`.
     """
     _check_table(results)
