@@ -1,4 +1,4 @@
-"""Turn a pytest-benchmark JSON report into the README's performance table.
+"""Turn a pytest-benchmark JSON report into the performance page's table (docs/performance.md).
 
 Usage: ``python benchmarks/report.py benchmark.json``. Prints a markdown table of mean
 times and the ratios of each reference to its fast counterpart, measured in the same run.

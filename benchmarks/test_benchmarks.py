@@ -1,7 +1,7 @@
 """Timing with pytest-benchmark.
 
 ``make bench`` enables timing and writes ``benchmark.json``; ``python benchmarks/report.py
-benchmark.json`` turns it into the README's table of ratios. ``make test`` runs each
+benchmark.json`` turns it into the performance page's table of ratios. ``make test`` runs each
 benchmark once with ``--benchmark-disable``, at reduced sizes (``benchmark.disabled``), so
 none of them can rot and the test suite stays short. Slow references run
 a fixed, small number of rounds (``benchmark.pedantic``).

@@ -421,6 +421,11 @@ def export_controller(
     OSError
         If the folder does not exist or is not writable; nothing is left behind.
 
+    See Also
+    --------
+    check_sample_time : run first on the design's plant.
+    single_precision_step : the float32 step in Python.
+
     Examples
     --------
     >>> import tempfile, scara_robust as sr

@@ -321,6 +321,11 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
         negative mass, a list of the wrong length, ...
     ModuleNotFoundError
         If Pinocchio (the extra ``robots``) is not installed.
+
+    See Also
+    --------
+    RobotArm : the arm it builds.
+    arm_uncertain_plant : its error dynamics as a plant.
     """
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
@@ -670,6 +675,10 @@ def load_model(path: str | os.PathLike[str]) -> UncertainPlant | UncertainLTVMod
     InputFileError
         Naming the file and the field: missing ``B``, shapes that do not match, a vertex
         of another size, a non-finite entry, an element outside its matrix, ...
+
+    See Also
+    --------
+    load_plant : a plant file only.
     """
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
@@ -798,6 +807,11 @@ def load_plant(path: str | os.PathLike[str]) -> UncertainPlant:
         One line naming the file and the field: a range with lower > upper, a missing
         unit, an unknown name in an entry, a call or an import, a rate on a fixed
         parameter, a plant undefined or singular where its form needs it, ...
+
+    See Also
+    --------
+    UncertainPlant : what it returns.
+    load_model : any model file (box, polytope or plant).
     """
     text_path = os.fspath(path)
     where = f"{text_path!r}:"

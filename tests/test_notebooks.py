@@ -71,9 +71,11 @@ def test_notebook_has_one_parameters_cell_first(name):
     assert all(c.cell_type == "markdown" for c in nb.cells[: tagged[0]])
 
 
-#: The notebooks that take longest even at their test sizes: executed by `make test-slow` and
-#: `make notebooks`; their numbers are checked in make test by the tests of the code they call.
-SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb", "robot_arm.ipynb")
+#: Executed by `make test-slow`, `make notebooks` and `make docs` (its gallery): the longest even at
+#: their test sizes, and the three time responses of the paper (run_scenario and plot_response,
+#: which tests/test_simulation.py and tests/test_plotting.py check in make test).
+SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb", "robot_arm.ipynb", "figure3_pid_large_ic.ipynb",
+                  "figure6_pid_small_ic.ipynb", "figures4_5_sliding_mode.ipynb")
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, id=n, marks=[pytest.mark.slow] if n in SLOW_NOTEBOOKS else [])
@@ -91,6 +93,9 @@ def test_notebook_executes_and_writes_its_figures(name, tmp_path):
         resources={"metadata": {"path": str(NOTEBOOK_DIR)}},
     )
     client.execute()  # raises CellExecutionError on the first failing cell
+    inline = sum("image/png" in out.get("data", {}) for cell in nb.cells if cell.cell_type == "code"
+                 for out in cell.outputs)
+    assert inline >= 1, f"{name} shows no figure inline (the gallery of the documentation shows its outputs)"
     written = sorted(p.name for p in tmp_path.glob("*.png"))
     assert written == sorted(NOTEBOOKS[name])
     for png in written:

@@ -6,14 +6,12 @@ digits the page prints; optimizer outputs to the tolerance the page states for t
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
 import pytest
 
 import scara_robust as sr
-from scara_robust.cli import main
 from scara_robust.simulation.controllers import PID_LMI_FILE
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,19 +68,19 @@ def test_centre_scaled_margins_of_the_guide(column, bounds):
     assert round(sr.robustness_margin(model, design, "frozen", anchor="center").theta, 4) == frozen
 
 
-@pytest.mark.lmi
-def test_synthesis_numbers_of_the_guide(tmp_path, capsys):
-    """``synthesize`` prints the guide's γ to the 5 % the guide states, and the shipped ‖K‖ to its digits."""
+def test_synthesis_numbers_of_the_guide():
+    """The guide's γ and ‖K‖ are the shipped gain's, and its tolerance is the one a fresh synthesis is held to.
+
+    `tests/test_synthesis.py` runs a fresh synthesis and holds its γ within GAMMA_RTOL of the
+    shipped one (the page's `synthesize` command runs in `tests/test_readme.py`).
+    """
+    from test_synthesis import GAMMA_RTOL
+
     stated = re.search(r"a worst-case L2 gain γ ≤ (\d\.\d+) rad/\(N·m\)", SYNTHESIS)
     tolerance = re.search(r"whose γ is within (\d+) % of (\d\.\d+)", SYNTHESIS)
     norm = re.search(r"the `l2` gain is certified with ‖K‖₂ = (\d+\.\d)", SYNTHESIS)
     assert stated and tolerance and norm and tolerance.group(2) == stated.group(1)
-    out = tmp_path / "k.json"
-    assert main(["synthesize", "--output", str(out)]) == 0
-    capsys.readouterr()
-    fresh = json.loads(out.read_text())
-    assert fresh["status"] == "certified"
-    assert fresh["gamma"] == pytest.approx(float(stated.group(1)), rel=int(tolerance.group(1)) / 100)
+    assert int(tolerance.group(1)) / 100 == GAMMA_RTOL
     shipped = sr.load_design(Path(sr.__file__).parent / PID_LMI_FILE)
     assert round(shipped.info["gain_norm"], 1) == float(norm.group(1))
     assert round(shipped.info["gamma"], 5) == float(stated.group(1))

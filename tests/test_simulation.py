@@ -45,7 +45,8 @@ def independent_pid_run(e0, ed0, t_final):
     return worst
 
 
-@pytest.mark.parametrize("scenario", ["large", "small"], ids=["large", "small"])
+#: the large initial error in make test-slow (the small one checks the same loop here)
+@pytest.mark.parametrize("scenario", [pytest.param("large", marks=pytest.mark.slow), "small"], ids=["large", "small"])
 def test_closed_loop_matches_independent_integration(scenario):
     sc = sr.SCENARIOS[scenario]
     ours = sr.run_scenario("pid", scenario, t_final=10.0).metrics().max_abs_error

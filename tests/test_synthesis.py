@@ -175,7 +175,7 @@ def test_l2_objective_needs_an_output_for_an_unstructured_state():
     assert result.certified and result.gamma > 0
 
 
-#: How far a fresh L2 synthesis's γ may lie from the shipped one (the README states it): the
+#: How far a fresh L2 synthesis's γ may lie from the shipped one (the synthesis guide states it): the
 #: solver stops short of a non-attained infimum at a point that depends on rounding; measured
 #: 0.01081 to 0.01098 (1.6 %) across three OpenBLAS kernels.
 GAMMA_RTOL = 0.05
@@ -189,7 +189,7 @@ def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_object
     K and P pass numpy's checks with the numbers the file records, a fresh synthesis is
     certified by numpy too, both γ lie above the worst frozen plant's H∞ norm (a lower bound
     on any gain's worst-case L2 gain), and the fresh objective γ is within the tolerance the
-    README states (GAMMA_RTOL) of the shipped one.
+    synthesis guide states (GAMMA_RTOL) of the shipped one.
     """
     from scara_robust.cli._synthesize import CHECK_GRID, PHYSICAL_GRID
     from scara_robust.robustness.l2gain import _bounded_real_ok

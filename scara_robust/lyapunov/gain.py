@@ -290,6 +290,12 @@ def design(model: ModelLike, rho: float, eta: float) -> Design:
     ValueError
         For ρ <= 0, η < 1, non-finite values, or a non-stabilizable (A, B).
 
+    See Also
+    --------
+    certify : Theorem 1 for the design.
+    design_surface : max λ(Z) over a (ρ, η) grid.
+    synthesize : a gain from an LMI, with its certificate.
+
     References
     ----------
     Paper, Section 3, procedure steps 2-3.

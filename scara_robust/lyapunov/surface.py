@@ -276,6 +276,11 @@ def design_surface(
     -------
     DesignSurface
 
+    See Also
+    --------
+    design, certify : one point of the surface.
+    plot_surface : draws it.
+
     References
     ----------
     Paper, Section 3, procedure steps 1-5; Figure 2.

@@ -296,6 +296,12 @@ def certify(model: ModelLike, design: Design, elements: str = "all") -> Certific
     -------
     Certificate
 
+    See Also
+    --------
+    design : the gain and the P that Theorem 1 tests.
+    certificate_table : every certificate of the design side by side.
+    robustness_margin : the largest scaling of the box that stays certified.
+
     References
     ----------
     Paper, Section 3, Theorem 1 (steps 1-7).

@@ -201,6 +201,12 @@ class RobotArm:
         have, a controlled joint that is not revolute, a floating base or another
         multi-degree-of-freedom joint, a payload frame on the fixed base.
 
+    See Also
+    --------
+    load_arm : an arm from a robot file.
+    arm_uncertain_plant : its error dynamics as a plant.
+    simulate_arm : its nonlinear closed loop.
+
     Examples
     --------
     >>> import scara_robust as sr
@@ -526,6 +532,11 @@ def arm_uncertain_plant(
     UncertainPlant
         Parameters ``t_ref`` (s) and ``m_p`` (kg), form 'pid' (3n design states), inputs
         the joint torques (N·m), outputs the joint angles (rad).
+
+    See Also
+    --------
+    RobotArm : the arm.
+    certificate_table : certificates on its samples.
     """
     check_choice("feedforward", feedforward, FEEDFORWARDS)
     if reference.n_joints != arm.n_joints:

@@ -256,6 +256,12 @@ class UncertainPlant:
         of every entry is far from any real plant, and a gain designed there can
         destabilize the real ones.
 
+    See Also
+    --------
+    load_plant : a plant from a file.
+    parameter_margin : margins in its parameters' units.
+    simulate_plant : a closed-loop run with varying parameters.
+
     Examples
     --------
     >>> import scara_robust as sr

@@ -76,6 +76,11 @@ def scara_uncertain_plant(
         Parameters ``t_ref`` (s) and ``m_p`` (kg), form 'pid', inputs the joint torques
         (N·m), outputs the joint angles (rad); 6 design-form states ``[∫e, e, ė]``.
 
+    See Also
+    --------
+    paper_model, derived_model : its interval boxes.
+    payload_margin : its payload margin in kg.
+
     Examples
     --------
     >>> import scara_robust as sr

@@ -162,6 +162,10 @@ def falsify(
     -------
     FalsifierResult
 
+    See Also
+    --------
+    lmi_certificate : the certificate the falsifier tries to contradict.
+
     Examples
     --------
     >>> import numpy as np, scara_robust as sr

@@ -95,6 +95,11 @@ def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str
     Returns
     -------
     L2Gain
+
+    See Also
+    --------
+    peak_gain : the peak-to-peak bound.
+    synthesize : with the ``l2`` objective.
     """
     start = time.perf_counter()
     A = check_array("closed_loops", closed_loops, ndim=3)

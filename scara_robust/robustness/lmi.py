@@ -222,6 +222,11 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     LMICertificate
         Status ``'not installed'`` when cvxpy is missing.
 
+    See Also
+    --------
+    verify_lyapunov : numpy's check of the returned P.
+    vertex_certificate : the design's own P.
+
     Examples
     --------
     >>> import numpy as np, scara_robust as sr

@@ -219,6 +219,11 @@ def robustness_margin(
     ArgumentValueError
         For an unknown method, ``tol <= 0``, a model without uncertain elements, or
         ``theorem1`` on a polytope.
+
+    See Also
+    --------
+    margin_table : every method's margin side by side.
+    parameter_margin : the margin in the plant's parameters and units.
     """
     model = as_model("model", model)
     check_instance("design", design, Design, "a Design")

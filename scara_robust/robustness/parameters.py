@@ -178,6 +178,11 @@ def parameter_margin(
         parameter ``NAME low [UNIT]`` and ``NAME high [UNIT]`` (its range at s), ``seconds``
         and ``message``.
 
+    See Also
+    --------
+    parameter_rate : how fast the parameters may vary.
+    robustness_margin : the margin of the interval box.
+
     Examples
     --------
     >>> import scara_robust as sr
@@ -287,6 +292,11 @@ def parameter_rate(
     RateMargin
         ``rate`` in the parameter's unit per second; ``inf`` when a common P certifies
         any rate.
+
+    See Also
+    --------
+    rate_bracket : the certified rate and a rate that destabilizes.
+    rate_bounded_certificate : the test behind it.
     """
     K = _gain(plant, design)
     key = _rate_parameter(plant, name)

@@ -4,7 +4,7 @@ The general answers for any plant are :func:`scara_robust.parameter_margin` and
 :func:`scara_robust.rate_bracket` on an :class:`~scara_robust.UncertainPlant`; the functions here
 keep the robot's conventions (the payload ``m_p(t) = (M/2)(1 + sin t)`` of peak M, the
 reference phase over one period, the sampling grids of the paper's study), so their numbers
-are those the README and the reproduction quote.
+are those the user guide and the reproduction page quote.
 """
 
 from __future__ import annotations
@@ -89,6 +89,11 @@ def payload_margin(
         Rows ``payload-design-P`` and ``payload-lmi`` (lower bounds) and
         ``payload-frozen`` (upper bound); columns ``method``, ``kind``, ``mass [kg]``,
         ``bracket [kg]``, ``seconds``, ``message``.
+
+    See Also
+    --------
+    parameter_margin : the same question for any plant.
+    payload_rate_certificate : how fast the payload may change.
     """
     check_instance("design", design, Design, "a Design")
     tol = check_real("tol", tol, positive=True)

@@ -348,6 +348,11 @@ def rate_bounded_certificate(
     ArgumentValueError
         For a bad shape, a negative rate, or an unknown solver (naming the argument).
 
+    See Also
+    --------
+    parameter_rate : the largest certified rate.
+    max_certified_rate : the same for an interval model.
+
     Examples
     --------
     >>> import numpy as np, scara_robust as sr

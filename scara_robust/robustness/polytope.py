@@ -209,6 +209,11 @@ def vertex_certificate(
     PolytopeCertificate
         ``max_eig`` is never above Theorem 1's ``max λ(Z)``, since Z bounds every vertex.
 
+    See Also
+    --------
+    polytope_certificate : the same test over a polytope's vertices.
+    lmi_certificate : any common P, not only the design's.
+
     Examples
     --------
     >>> import scara_robust as sr

@@ -320,6 +320,10 @@ def sampled_certificate(
     -------
     SampledCertificate
 
+    See Also
+    --------
+    max_sample_time : bisects it over the sample time.
+
     Examples
     --------
     >>> import control as ct, scara_robust as sr
@@ -464,6 +468,11 @@ def max_sample_time(
     Returns
     -------
     SampleTimeLimit
+
+    See Also
+    --------
+    check_sample_time : one sample time, as export checks it.
+    sampled_certificate : the test behind both.
 
     Examples
     --------
@@ -667,6 +676,11 @@ def check_sample_time(
     Returns
     -------
     SampleTimeCheck
+
+    See Also
+    --------
+    max_sample_time : the largest certified sample time.
+    export_controller : writes the controller only where it is certified.
 
     Examples
     --------

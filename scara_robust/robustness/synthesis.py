@@ -413,6 +413,11 @@ def synthesize(
     Synthesis
         Never raises for an infeasible or inaccurate problem: those are results.
 
+    See Also
+    --------
+    design : the paper's gain from (ρ, η).
+    certificate_table : every certificate of a gain.
+
     References
     ----------
     Boyd, El Ghaoui, Feron, Balakrishnan, *Linear Matrix Inequalities in System and

@@ -115,6 +115,14 @@ def certificate_table(
         False, or None for "no counterexample", "not installed" and "skipped"),
         ``max_eig``, ``decay_rate [1/s]``, ``growth_rate [1/s]`` (each filled on the rows it
         belongs to, NaN elsewhere; see the module's table), ``seconds`` and ``detail``.
+
+    See Also
+    --------
+    certify : Theorem 1.
+    vertex_certificate : the design's P at every corner of the box.
+    lmi_certificate : a common quadratic P.
+    falsify : a destabilizing switching signal.
+    max_sample_time : the largest certified sample time.
     """
     plant = plant if plant is not None else as_plant("model", model)
     model = as_model("model", model)

@@ -243,6 +243,11 @@ def simulate_arm(
     Returns
     -------
     ArmRun
+
+    See Also
+    --------
+    ArmSetup : the arm, its reference and payload.
+    plot_arm_run : draws the run.
     """
     n = setup.arm.n_joints
     gain = check_array("K", K, shape=(n, 3 * n))

@@ -239,6 +239,11 @@ def simulate_plant(
     Returns
     -------
     PlantRun
+
+    See Also
+    --------
+    parameter_profile : the parameter trajectories.
+    plot_plant_run : draws the run.
     """
     n_x, m = plant.n_states, plant.n_inputs
     n = plant.n_design_states

@@ -330,6 +330,12 @@ def simulate(
     -------
     SimulationResult
 
+    See Also
+    --------
+    run_scenario : a named scenario of the paper.
+    simulate_plant : any plant with varying parameters.
+    simulate_arm : any arm from its URDF.
+
     Examples
     --------
     >>> import scara_robust as sr
@@ -502,6 +508,11 @@ def run_scenario(
     Returns
     -------
     SimulationResult
+
+    See Also
+    --------
+    simulate : the same run from explicit arguments.
+    compare_controllers : PID and sliding mode side by side.
     """
     return _execute(
         _prepare_scenario(controller, scenario, payload_on, t_final, torque_limit, params, method, reference, payload,
