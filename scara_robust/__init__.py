@@ -42,6 +42,7 @@ Model (:mod:`scara_robust.model`)
 The controller on a board (:mod:`scara_robust.controller`)
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
     default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
+    SampledStateFeedback            -- u_k = -K x(t_k) held by a zero-order hold: a gain of your own, sampled
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
@@ -59,7 +60,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
-    l2_gain, L2Gain                 -- worst-case L2 gain: bounded-real LMI (upper), frozen H∞ norms (lower)
+    l2_gain, L2Gain, L2_INFLATION   -- worst-case L2 gain: bounded-real LMI (upper, inflated), frozen H∞ norms (lower)
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     max_certified_rate, RateMargin  -- the largest certified rate ν, by bisection
@@ -71,6 +72,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P
     discrete_lyapunov_check         -- numpy's check of A_iᵀPA_i − P ≺ 0
     max_sample_time, SampleTimeLimit -- largest certified Ts and smallest Ts with an unstable frozen plant
+    MAX_SAMPLE_TIME_CAP             -- where max_sample_time stops looking for a frozen instability, s
     check_sample_time, SampleTimeCheck -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
     simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)

@@ -204,3 +204,69 @@ def test_sampled_certificate_refuses_bad_input(design):
         sr.max_sample_time(sr.paper_model(), design, ts_min=1e-2, ts_max=1e-3)
     with pytest.raises(ValueError, match=r"`solver`"):
         sr.sampled_certificate(sr.paper_model(), design.discretize(1e-3), solver="MOSEK")
+
+
+# ---------------------------------------------------------------- static feedback, marginal modes, the cap
+
+#: A classic benchmark: q̈ = −0.1 q̇ + 0.1 u, u = −[3.75, 11.5] [q, q̇](t_k) under a zero-order hold.
+ZOH_A = np.array([[0.0, 1.0], [0.0, -0.1]])
+ZOH_B = np.array([[0.0], [0.1]])
+ZOH_K = np.array([[3.75, 11.5]])
+
+
+def _zoh_limit_by_eigenvalues() -> float:
+    """The largest constant Ts: where the spectral radius of Φ − ΓK crosses 1 (scipy's expm, brentq)."""
+    import scipy.linalg
+    import scipy.optimize
+
+    def excess(ts: float) -> float:
+        held = scipy.linalg.expm(np.block([[ZOH_A, ZOH_B], [np.zeros((1, 3))]]) * ts)
+        return float(np.abs(np.linalg.eigvals(held[:2, :2] - held[:2, 2:] @ ZOH_K)).max()) - 1.0
+
+    assert excess(1.0) < 0 < excess(2.0)
+    return float(scipy.optimize.brentq(excess, 1.0, 2.0, xtol=1e-12))
+
+
+@pytest.mark.parametrize("form", ["gain", "pid-ki-0"])
+def test_zoh_benchmark_brackets_the_eigenvalue_limit(form):
+    """The static gain, given as K or as a PID with K_I = 0 on the PID form, brackets 1.7294 s to 1e-3.
+
+    With K_I = 0 the PID's accumulator keeps its value and is fed by nothing: its eigenvalue
+    is exactly 1 at every Ts. It is left out and named, not reported as unstable at ts_min.
+    """
+    exact = _zoh_limit_by_eigenvalues()
+    assert exact == pytest.approx(1.7294, abs=1e-4)
+    if form == "gain":
+        limit = sr.max_sample_time((ZOH_A[None], ZOH_B[None]), ZOH_K, rtol=1e-4)
+    else:
+        plant = sr.pid_augment(ct.ss(ZOH_A, ZOH_B, [[1.0, 0.0]], 0), [])
+        pid = sr.DiscretePID(0.1, [[0.0]], ZOH_K[:, :1], ZOH_K[:, 1:], integrator="forward")
+        limit = sr.max_sample_time(plant, pid, rtol=1e-4)
+        assert "fed by nothing" in limit.message and "K_I = 0" in limit.message
+    low, high = limit.unstable_bracket
+    assert low <= exact <= high and (high - low) <= 1e-3 * exact
+    assert limit.certified_ts <= low and limit.certificate is not None and limit.certificate.certified
+
+
+def test_sampled_certificate_leaves_out_and_counts_the_marginal_state():
+    plant = sr.pid_augment(ct.ss(ZOH_A, ZOH_B, [[1.0, 0.0]], 0), [])
+    pid = sr.DiscretePID(0.5, [[0.0]], ZOH_K[:, :1], ZOH_K[:, 1:], integrator="forward")
+    loops = sr.sampled_closed_loops(plant.A[None], plant.B[None], pid)
+    assert np.abs(np.linalg.eigvals(loops)).max() == 1.0  # the accumulator, exactly
+    cert = sr.sampled_certificate(plant, pid)
+    assert cert.n_marginal == 1 and cert.frozen_stable and cert.spectral_radius < 1
+    static = sr.sampled_certificate((ZOH_A[None], ZOH_B[None]), sr.SampledStateFeedback(ZOH_K, 0.5))
+    assert static.n_marginal == 0 and static.spectral_radius == pytest.approx(cert.spectral_radius, rel=1e-12)
+
+
+def test_max_sample_time_says_when_it_reached_its_cap():
+    """A loop stable at every Ts (a stable first-order plant, no feedback) is searched up to the cap, and says so."""
+    A, B = np.array([[[-1.0]]]), np.array([[[1.0]]])
+    limit = sr.max_sample_time((A, B), [[0.0]], ts_max=10.0, rtol=1e-2)
+    assert limit.unstable_ts == np.inf and "no frozen instability up to the cap ts_max = 10 s" in limit.message
+    assert sr.MAX_SAMPLE_TIME_CAP == 100.0
+
+
+def test_max_sample_time_refuses_a_gain_that_is_not_a_matrix():
+    with pytest.raises(sr.ArgumentTypeError, match="`design` must be a Design, a DiscretePID"):
+        sr.max_sample_time((ZOH_A[None], ZOH_B[None]), "K")

@@ -165,3 +165,41 @@ def test_margin_cli_one_method(capsys):
     assert main(["margin", "--rho", "3", "--eta", "90", "--method", "vertex", "--no-payload", "--format", "json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["method"] for r in rows] == ["vertex"] and 0.55 < rows[0]["theta"] < 0.56
+
+
+# ---------------------------------------------------------------- a gain of your own
+
+def _small_box() -> sr.UncertainLTVModel:
+    """q̈ = a q̇ + b u with a ∈ [−0.15, −0.05] 1/s and b ∈ [0.05, 0.15]: two uncertain elements."""
+    return sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+                                (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+
+
+def test_a_plain_gain_gives_the_margins_of_the_equivalent_design():
+    """Design.from_gain(model, d.K, P=d.P) is d for every margin; a plain K (its P from the Lyapunov
+    equation) gives the same margins wherever the method does not use P."""
+    model = _small_box()
+    d = sr.design(model, 1.0, 2.0)
+    same = sr.Design.from_gain(model, d.K, P=d.P)
+    assert same.P_source == "given" and np.allclose(same.A_cl, d.A_cl, rtol=0, atol=1e-12)
+    plain = sr.Design.from_gain(model, d.K)
+    assert plain.P_source == "lyapunov"
+    assert np.allclose(plain.P @ plain.A_cl + plain.A_cl.T @ plain.P, -2 * np.eye(2), atol=1e-9)
+    for method in ("theorem1", "vertex", "frozen", "lmi"):
+        reference = sr.robustness_margin(model, d, method, tol=1e-2).theta
+        assert sr.robustness_margin(model, same, method, tol=1e-2).theta == pytest.approx(reference, rel=1e-9), method
+        if method in ("frozen", "lmi"):  # these do not use P
+            assert sr.robustness_margin(model, d.K, method, tol=1e-2).theta == pytest.approx(reference, rel=1e-9)
+
+
+def test_a_gain_of_your_own_runs_the_certificate_table_and_refuses_what_has_no_p():
+    model = _small_box()
+    table = sr.certificate_table(model, [[3.75, 11.5]], methods=("theorem1-all", "vertex-box", "lmi-box"))
+    assert list(table["method"]) == ["theorem1-all", "vertex-box", "lmi-box"]
+    assert table.set_index("method").loc["lmi-box", "certified"]
+    with pytest.raises(sr.ArgumentValueError, match="`K` gives a closed loop that is not Hurwitz"):
+        sr.Design.from_gain(model, [[0.0, 0.0]])  # the open loop has a pole at 0
+    with pytest.raises(sr.ArgumentValueError, match="`P` must be symmetric positive definite"):
+        sr.Design.from_gain(model, [[3.75, 11.5]], P=-np.eye(2))
+    with pytest.raises(sr.ArgumentValueError, match="`K`"):
+        sr.Design.from_gain(model, [[3.75, 11.5, 1.0]])

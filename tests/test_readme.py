@@ -27,6 +27,7 @@ PAGES = (
     "docs/guide/conventions.md",
     "docs/guide/own-robot.md",
     "docs/guide/own-plant.md",
+    "docs/guide/own-gain.md",
     "docs/guide/robust.md",
     "docs/guide/variation.md",
     "docs/guide/synthesis.md",

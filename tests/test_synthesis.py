@@ -84,6 +84,33 @@ def test_l2_gain_of_one_lti_plant_is_its_hinf_norm():
     assert result.lower == pytest.approx(result.upper, rel=1e-3) and result.upper >= result.lower
 
 
+@pytest.mark.lmi
+def test_l2_gain_with_feedthrough_matches_the_hinf_norm():
+    """With D ≠ 0 and one plant: ‖G‖∞ (python-control, slycot) <= upper <= ‖G‖∞ (1 + L2_INFLATION), and a
+    frequency sweep of σ_max(C(jωI − A)⁻¹B + D) in numpy reaches the same norm from below."""
+    A = np.array([[-1.0, 2.0, 0.0], [-2.0, -0.5, 1.0], [0.0, 0.0, -3.0]])
+    B = np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 1.0]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    D = np.array([[0.3, -0.2], [0.0, 0.8]])
+    hinf = float(ct.norm(ct.ss(A, B, C, D), p="inf"))
+    result = sr.l2_gain(A[None], B, C, D)
+    assert result.inflation == sr.L2_INFLATION == 1e-3
+    assert result.lower == pytest.approx(hinf, rel=1e-12)
+    assert hinf <= result.upper <= hinf * (1 + sr.L2_INFLATION) * (1 + 1e-6)
+    omegas = np.concatenate([[0.0], np.logspace(-3, 3, 20001)])
+    sweep = max(np.linalg.norm(C @ np.linalg.solve(1j * w * np.eye(3) - A, B) + D, 2) for w in omegas)
+    assert sweep <= hinf * (1 + 1e-9) and sweep == pytest.approx(hinf, rel=1e-4)
+    assert hinf > np.linalg.norm(D, 2)  # the feedthrough alone would be a lower bound; D matters here
+    without = sr.l2_gain(A[None], B, C)
+    assert without.lower != pytest.approx(hinf, rel=1e-3)
+
+
+@pytest.mark.lmi
+def test_l2_gain_refuses_a_feedthrough_of_the_wrong_shape():
+    with pytest.raises(sr.ArgumentValueError, match="`D`"):
+        sr.l2_gain(np.array([[[-1.0]]]), [[1.0]], [[1.0]], np.zeros((2, 1)))
+
+
 @pytest.mark.parametrize("seed", range(4), ids=[f"seed{s}" for s in range(4)])
 def test_l2_lower_bound_never_exceeds_upper_bound(seed):
     rng = np.random.default_rng(seed)
@@ -282,3 +309,37 @@ def test_peak_bound_holds_for_switching_and_bounded_disturbances():
 def test_peak_bound_of_an_unstable_frozen_loop_is_infinite():
     result = sr.peak_gain(np.array([[[0.1]]]), [[1.0]], [[1.0]])
     assert result.upper == np.inf and result.lower == np.inf and "not stable" in result.message
+
+
+@pytest.mark.lmi
+def test_margin_objective_reports_only_theta_that_numpy_verified(monkeypatch):
+    """A solver that answers "optimal" with a gain numpy rejects never moves θ.
+
+    The real solver runs up to θ = 0.3; beyond, the mock returns "optimal" with K = 0 (whose
+    loops do not decay: A has an eigenvalue at +1). The reported θ is the largest the real
+    solver gave and numpy verified, its status is certified, and the search names the
+    disagreement ("inaccurate": the solver answered, numpy rejected).
+    """
+    import scara_robust.robustness.synthesis as synthesis
+
+    A = np.array([[1.0, 0.0], [0.0, 1.0]])
+    model = sr.UncertainLTVModel(A, np.eye(2), (sr.UncertainElement("B", 0, 0, -1.0, 1.0),
+                                                 sr.UncertainElement("B", 1, 1, -1.0, 1.0)))
+    real = synthesis._solve
+    calls: list[float] = []
+
+    def lying(A_v, B_v, alpha, kappa, solver, l2=None):
+        theta = float(np.abs(B_v[:, 0, 0] - 1.0).max())  # the vertices' ΔB, i.e. the θ being tried
+        calls.append(theta)
+        if theta <= 0.3:
+            return real(A_v, B_v, alpha, kappa, solver, l2)
+        return "optimal", np.eye(2), np.zeros((2, 2)), math.nan  # Q = I, Y = 0: K = 0, not stabilizing
+
+    monkeypatch.setattr(synthesis, "_solve", lying)
+    result = sr.synthesize(model, objective="margin", tol=1e-2)
+    assert result.status == "certified" and result.certified
+    assert 0.3 * (1 - 2e-2) <= result.theta <= 0.3
+    assert any(t > 0.3 for t in calls)  # the mock was asked, and its answer did not count
+    assert "inaccurate" in result.search
+    loops = sr.PolytopicModel(*vertices_of(model.scaled(result.theta))).closed_loops(result.K)
+    assert sr.decay_rate(loops, result.P) > 0  # the reported gain and P, re-verified here

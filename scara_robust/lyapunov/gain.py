@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_real
 from ..controller.discrete import DiscretePID
-from ..exceptions import ArgumentValueError
+from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.plant import ModelLike, as_model
 
 __all__ = ["Design", "design", "riccati_solution"]
@@ -26,16 +26,17 @@ Array = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class Design:
-    """A gain designed from (ρ, η).
+    """A gain designed from (ρ, η), or a gain of your own (:meth:`from_gain`).
 
     Attributes
     ----------
     rho, eta : float
-        Design parameters (ρ > 0, η >= 1).
+        Design parameters (ρ > 0, η >= 1); NaN for a gain of your own.
     K : ndarray, shape (m, n)
         State-feedback gain of ``u = -K x``.
     P : ndarray, shape (n, n)
-        Riccati solution, symmetric positive definite.
+        Riccati solution, symmetric positive definite (for a gain of your own: the P given,
+        or the solution of ``PĀ + ĀᵀP = −2I``; see `P_source`).
     A_cl : ndarray, shape (n, n)
         Nominal closed loop ``Ā = A - B K``.
     Q : ndarray, shape (n, n)
@@ -49,6 +50,8 @@ class Design:
     n_joints : int or None
         Joints p of a model in the paper's PID form ``x = [∫e, e, ė]`` (n = 3p), from the
         model; None for a plain state-feedback model.
+    P_source : str
+        Where P comes from: ``'riccati'`` (the paper's step 2), ``'given'`` or ``'lyapunov'``.
     """
 
     rho: float
@@ -61,6 +64,75 @@ class Design:
     hurwitz: bool
     care_residual: float
     n_joints: int | None = None
+    P_source: str = "riccati"
+
+    @classmethod
+    def from_gain(cls, model: ModelLike, K: ArrayLike, P: ArrayLike | None = None) -> Design:
+        """A design for a gain of your own (``u = −Kx``; K = 0 for the open loop), on `model`'s nominal plant.
+
+        Every analysis that takes a design takes it: the margins, the certificate table and
+        the sampled-data limit. The methods that test one Lyapunov matrix (Theorem 1, the
+        vertex test) test `P`; the others (LMI, frozen bounds, falsifier) do not use it.
+
+        Parameters
+        ----------
+        model : UncertainPlant, UncertainLTVModel or PolytopicModel
+            Its nominal ``(A, B)`` makes ``Ā = A − BK``.
+        K : array_like, shape (m, n)
+            The gain, input units per state unit.
+        P : array_like, shape (n, n), optional
+            A Lyapunov matrix for the tests that need one (symmetric positive definite).
+            Default: the solution of ``PĀ + ĀᵀP = −2I`` (python-control's ``lyap``), which
+            exists only for a Hurwitz Ā.
+
+        Returns
+        -------
+        Design
+            ``rho = eta = NaN``, ``care_residual = NaN``, ``P_source`` ``'given'`` or ``'lyapunov'``.
+
+        Raises
+        ------
+        ArgumentValueError
+            If K or P has the wrong shape, P is not symmetric positive definite, or no P is
+            given and Ā is not Hurwitz.
+
+        See Also
+        --------
+        design : the paper's gain from (ρ, η).
+
+        Examples
+        --------
+        >>> import numpy as np, scara_robust as sr
+        >>> plant = sr.UncertainLTVModel(np.array([[0, 1], [0, -0.1]]), np.array([[0], [0.1]]))  # q̈ = −0.1q̇ + 0.1u
+        >>> d = sr.Design.from_gain(plant, [[3.75, 11.5]])   # u = −(3.75 q + 11.5 q̇)
+        >>> d.P_source, d.hurwitz
+        ('lyapunov', True)
+        """
+        model = as_model("model", model)
+        A, B = model.A, model.B
+        K = check_array("K", K, shape=(B.shape[1], A.shape[0]))
+        A_cl = A - B @ K
+        poles = np.linalg.eigvals(A_cl).astype(complex)
+        hurwitz = bool(np.all(poles.real < 0))
+        P_mat: Array
+        if P is not None:
+            given = check_array("P", P, shape=A.shape)
+            scale = max(float(np.abs(given).max()), 1e-300)
+            if not np.allclose(given, given.T, rtol=0.0, atol=1e-10 * scale) or \
+                    np.linalg.eigvalsh(0.5 * (given + given.T))[0] <= 0:
+                raise ArgumentValueError("P", "must be symmetric positive definite")
+            P_mat, source = 0.5 * (given + given.T), "given"
+        elif hurwitz:
+            X = np.asarray(ct.lyap(A_cl.T, 2.0 * np.eye(A.shape[0])), dtype=float)  # A_clᵀX + X A_cl + 2I = 0
+            P_mat, source = 0.5 * (X + X.T), "lyapunov"
+        else:
+            raise ArgumentValueError(
+                "K", f"gives a closed loop that is not Hurwitz (eigenvalue {poles[np.argmax(poles.real)]:.4g}), "
+                "so no Lyapunov matrix exists for it; pass P to test one anyway")
+        Q = -0.5 * (P_mat @ A_cl + A_cl.T @ P_mat)
+        return cls(rho=float("nan"), eta=float("nan"), K=K, P=P_mat, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
+                   hurwitz=hurwitz, care_residual=float("nan"), n_joints=getattr(model, "n_joints", None),
+                   P_source=source)
 
     @property
     def spectral_abscissa(self) -> float:
@@ -330,3 +402,22 @@ def design(model: ModelLike, rho: float, eta: float) -> Design:
         care_residual=float(np.linalg.norm(residual) / (1 + np.linalg.norm(P))),
         n_joints=getattr(model, "n_joints", None),
     )
+
+
+def as_design(model: ModelLike, design: Design | ArrayLike) -> Design:
+    """`design` itself, or :meth:`Design.from_gain` of `model` for a plain gain K (its P from the Lyapunov equation).
+
+    Parameters
+    ----------
+    model : UncertainPlant, UncertainLTVModel or PolytopicModel
+    design : Design or array_like, shape (m, n)
+
+    Returns
+    -------
+    Design
+    """
+    if isinstance(design, Design):
+        return design
+    if isinstance(design, (str, bytes)) or design is None:
+        raise ArgumentTypeError("design", f"must be a Design or a gain matrix K, found {type(design).__name__}")
+    return Design.from_gain(model, design)

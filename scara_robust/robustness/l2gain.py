@@ -1,9 +1,9 @@
 """Worst-case L2 gain of an uncertain closed loop: an upper bound by LMI, a lower bound from frozen plants.
 
-For ``ẋ = Ā(t) x + B_w w``, ``z = C x`` with ``Ā(t)`` anywhere in the convex hull of the
-closed loops ``Ā_i``, the bounded-real lemma with a common P (Boyd et al. 1994, §6.3.2)::
+For ``ẋ = Ā(t) x + B_w w``, ``z = C x + D w`` with ``Ā(t)`` anywhere in the convex hull of
+the closed loops ``Ā_i``, the bounded-real lemma with a common P (Boyd et al. 1994, §6.3.2)::
 
-    [[Ā_iᵀP + PĀ_i + CᵀC, PB_w], [B_wᵀP, −γ²I]] ≺ 0   at every i,   P ≻ 0
+    [[Ā_iᵀP + PĀ_i + CᵀC, PB_w + CᵀD], [B_wᵀP + DᵀC, DᵀD − γ²I]] ≺ 0   at every i,   P ≻ 0
 
 bounds ``‖z‖₂ <= γ‖w‖₂`` for every time variation (the idea of MATLAB's ``quadperf``). Every
 frozen plant is one admissible variation, so ``max_i ‖C(sI − Ā_i)⁻¹B_w‖∞`` (python-control's
@@ -25,7 +25,7 @@ from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 
-__all__ = ["L2Gain", "l2_gain", "PeakBound", "peak_gain"]
+__all__ = ["L2Gain", "l2_gain", "L2_INFLATION", "PeakBound", "peak_gain"]
 
 Array = NDArray[np.float64]
 
@@ -37,9 +37,12 @@ class L2Gain:
     Attributes
     ----------
     upper : float
-        γ of the bounded-real LMI with a common P, verified with numpy (``inf`` when the LMI
-        is infeasible or its answer fails the check; NaN without cvxpy). Units of z per
-        unit of w (rad per N·m for the robot's tracking error and disturbance torque).
+        A bound numpy verified: ``γ* (1 + inflation)``, where γ* is the LMI's optimum (a
+        point on the boundary of the feasible set, where a strict inequality cannot be
+        checked) and the LMI is solved again at the inflated bound for the most interior P,
+        which numpy checks (``inf`` when the LMI is infeasible or its answer fails the
+        check; NaN without cvxpy). Units of z per unit of w (rad per N·m for the robot's
+        tracking error and disturbance torque).
     lower : float
         ``max_i`` of the frozen plants' H∞ norms.
     worst_index : int
@@ -48,6 +51,8 @@ class L2Gain:
         The solver's status, ``'not verified'``, ``'infeasible'`` or ``'not installed'``.
     P : ndarray, shape (n, n), or None
     seconds : float
+    inflation : float
+        The relative margin of `upper` over the LMI's optimum (:data:`L2_INFLATION`).
     """
 
     upper: float
@@ -56,6 +61,7 @@ class L2Gain:
     status: str
     P: Array | None
     seconds: float
+    inflation: float = 0.0
 
     @property
     def message(self) -> str:
@@ -66,19 +72,30 @@ class L2Gain:
         return f"worst-case L2 gain >= {self.lower:.4g} (frozen plant {self.worst_index}); upper bound: {self.status}"
 
 
-def _bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float) -> bool:
-    """numpy's check of the bounded-real inequality at every closed loop."""
-    top = np.swapaxes(A, -1, -2) @ P + P @ A + C.T @ C
-    side = P @ Bw  # (V, n, q)
+#: The relative margin of a verified upper bound of :func:`l2_gain` over the LMI's optimum.
+L2_INFLATION = 1e-3
+
+
+def _bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float, D: Array | None = None) -> bool:
+    """numpy's check of the bounded-real inequality at every closed loop (feedthrough D, default 0)."""
     q = Bw.shape[-1]
-    corner = np.broadcast_to(-gamma**2 * np.eye(q), (A.shape[0], q, q))
+    D = np.zeros((C.shape[0], q)) if D is None else D
+    top = np.swapaxes(A, -1, -2) @ P + P @ A + C.T @ C
+    side = P @ Bw + C.T @ D  # (V, n, q)
+    corner = np.broadcast_to(D.T @ D - gamma**2 * np.eye(q), (A.shape[0], q, q))
     block = np.block([[top, side], [np.swapaxes(side, -1, -2), corner]])
     return bool(np.linalg.eigvalsh(0.5 * (block + np.swapaxes(block, -1, -2)))[:, -1].max() < 0
                 and np.linalg.eigvalsh(P)[0] > 0)
 
 
-def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str = "CLARABEL") -> L2Gain:
+def l2_gain(
+    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, D: ArrayLike | None = None, *, solver: str = "CLARABEL"
+) -> L2Gain:
     """Upper and lower bounds on the worst-case L2 gain from w to z over ``conv{Ā_i}``.
+
+    The upper bound is ``γ* (1 + L2_INFLATION)``: the LMI's optimum γ* lies on the boundary
+    of its feasible set, where numpy cannot confirm a strict inequality, so the LMI is
+    solved again at the inflated γ for the most interior P, and that P is what numpy checks.
 
     Parameters
     ----------
@@ -90,11 +107,21 @@ def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str
         like the control torque).
     C : array_like, shape (p, n)
         The output z (for the robot: ``[0, I, 0]``, the tracking error e).
+    D : array_like, shape (p, q), optional
+        Feedthrough from w to z (default 0). The gain is at least ``σ_max(D)``.
     solver : {'CLARABEL', 'SCS'}
 
     Returns
     -------
     L2Gain
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> A = np.array([[[-1.0]], [[-2.0]]])      # ẋ = a x + w, a in [-2, -1]; z = x + 0.5 w
+    >>> g = sr.l2_gain(A, [[1.0]], [[1.0]], [[0.5]])
+    >>> round(g.lower, 6), g.upper <= 1.5 * (1 + 1e-3) + 1e-6   # the H∞ norm at a = -1: 1 + 0.5
+    (1.5, True)
 
     See Also
     --------
@@ -112,25 +139,27 @@ def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str
     if Bw.ndim != 3 or Bw.shape[:2] != (A.shape[0], n):
         raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw.shape}")
     C = check_array("C", C, shape=(None, n))
+    q = Bw.shape[2]
+    D = np.zeros((C.shape[0], q)) if D is None else check_array("D", D, shape=(C.shape[0], q))
     check_choice("solver", solver, LMI_SOLVERS)
     norms = []
     for A_i, B_i in zip(A, Bw):
         if np.linalg.eigvals(A_i).real.max() >= 0:
             norms.append(math.inf)  # a frozen unstable plant: unbounded gain
         else:
-            norms.append(float(ct.norm(ct.ss(A_i, B_i, C, 0), p="inf")))
+            norms.append(float(ct.norm(ct.ss(A_i, B_i, C, D), p="inf")))
     worst = int(np.argmax(norms))
     lower = norms[worst]
     if not cvxpy_available():
         return L2Gain(math.nan, lower, worst, NOT_INSTALLED, None, time.perf_counter() - start)
     import cvxpy as cp
 
-    q = Bw.shape[2]
     P = cp.Variable((n, n), symmetric=True)
     g2 = cp.Variable(nonneg=True)
     constraints = [P >> 1e-9 * np.eye(n)]
     for A_i, B_i in zip(A, Bw):
-        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i], [B_i.T @ P, -g2 * np.eye(q)]])  # type: ignore[attr-defined]
+        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i + C.T @ D],  # type: ignore[attr-defined]
+                       [B_i.T @ P + D.T @ C, D.T @ D - g2 * np.eye(q)]])
         constraints.append(0.5 * (lhs + lhs.T) << -1e-9 * np.eye(n + q))
     problem = cp.Problem(cp.Minimize(g2), constraints)
     try:
@@ -144,11 +173,12 @@ def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str
     gamma = math.sqrt(max(float(np.asarray(g2.value)), 0.0))
     # The optimum sits on the boundary, where numpy cannot confirm a strict inequality:
     # re-solve at γ(1 + 1e-3) for the most interior P, and check that one.
-    bound = gamma * (1 + 1e-3)
+    bound = gamma * (1 + L2_INFLATION)
     t = cp.Variable()
     interior = [P >> t * np.eye(n), t <= 1]
     for A_i, B_i in zip(A, Bw):
-        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i], [B_i.T @ P, -bound**2 * np.eye(q)]])  # type: ignore[attr-defined]
+        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i + C.T @ D],  # type: ignore[attr-defined]
+                       [B_i.T @ P + D.T @ C, D.T @ D - bound**2 * np.eye(q)]])
         interior.append(0.5 * (lhs + lhs.T) << -t * np.eye(n + q))
     second = cp.Problem(cp.Maximize(t), interior)
     try:
@@ -159,8 +189,8 @@ def l2_gain(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, solver: str
         pass
     if P.value is not None and second.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         P_val = 0.5 * (np.array(P.value) + np.array(P.value).T)
-        if _bounded_real_ok(A, Bw, C, P_val, bound):
-            return L2Gain(bound, lower, worst, str(problem.status), P_val, time.perf_counter() - start)
+        if _bounded_real_ok(A, Bw, C, P_val, bound, D):
+            return L2Gain(bound, lower, worst, str(problem.status), P_val, time.perf_counter() - start, L2_INFLATION)
     return L2Gain(math.inf, lower, worst, "not verified", None, time.perf_counter() - start)
 
 

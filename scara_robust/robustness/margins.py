@@ -41,12 +41,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from tqdm import tqdm
 
-from .._validation import check_choice, check_instance, check_int, check_real
+from .._validation import check_choice, check_int, check_real
 from ..exceptions import ArgumentValueError
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, as_design
 from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
 from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
@@ -173,7 +173,7 @@ def _frozen(model: Model, design: Design, lo: float, anchor: str = "lower") -> t
 
 def robustness_margin(
     model: Model,
-    design: Design,
+    design: Design | ArrayLike,
     method: str = "theorem1",
     *,
     elements: str = "all",
@@ -190,7 +190,10 @@ def robustness_margin(
     ----------
     model : UncertainLTVModel or PolytopicModel
         The uncertainty set at θ = 1.
-    design : Design
+    design : Design or array_like, shape (m, n)
+        A design, or a gain K of your own (``u = −Kx``), taken as
+        ``Design.from_gain(model, K)``: Theorem 1 and the vertex test then use the P of
+        ``PĀ + ĀᵀP = −2I``; the other methods do not depend on P.
     method : {'theorem1', 'vertex', 'lmi', 'frozen', 'falsifier'}
     elements : {'all', 'A', 'B'}
         For ``theorem1`` and ``vertex`` on an interval model: which elements vary (the
@@ -226,7 +229,7 @@ def robustness_margin(
     parameter_margin : the margin in the plant's parameters and units.
     """
     model = as_model("model", model)
-    check_instance("design", design, Design, "a Design")
+    design = as_design(model, design)
     check_choice("method", method, tuple(MARGIN_METHODS))
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("anchor", anchor, ANCHORS)
@@ -320,15 +323,16 @@ def _falsifier_margin(
 
 
 def margin_table(
-    model: Model, design: Design, *, elements: str = "all", tol: float = MARGIN_TOL, falsifier_tries: int = 10,
-    seed: int = 0, anchor: str = "lower", progress: bool = False,
+    model: Model, design: Design | ArrayLike, *, elements: str = "all", tol: float = MARGIN_TOL,
+    falsifier_tries: int = 10, seed: int = 0, anchor: str = "lower", progress: bool = False,
 ) -> pd.DataFrame:
     """Every margin of :data:`MARGIN_METHODS`, each lower bound feeding the searches after it.
 
     Parameters
     ----------
     model : UncertainLTVModel or PolytopicModel
-    design : Design
+    design : Design or array_like, shape (m, n)
+        A design, or a gain K of your own (see :func:`robustness_margin`).
     elements : {'all', 'A', 'B'}
     tol : float
     falsifier_tries, seed : int
@@ -346,6 +350,7 @@ def margin_table(
         ``message``; then a row ``bracket`` whose ``lo`` is the best lower bound and ``hi``
         the best upper bound on the true margin.
     """
+    design = as_design(as_model("model", model), design)
     rows: list[Margin] = []
     best = 0.0
     for method in tqdm(MARGIN_METHODS, disable=not progress, file=sys.stderr, desc="margin", unit="method"):

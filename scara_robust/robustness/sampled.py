@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_instance, check_real
 from ..controller.discrete import DiscretePID
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import as_box, as_model, is_model
@@ -46,6 +47,7 @@ from ..model.uncertain import UncertainLTVModel
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
 
 __all__ = [
+    "MAX_SAMPLE_TIME_CAP",
     "sampled_closed_loops",
     "discrete_lyapunov_check",
     "sampled_certificate",
@@ -99,21 +101,23 @@ def _expm(X: Array) -> Array:
     return np.asarray(out, dtype=float)
 
 
-def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID) -> Array:
-    """The sampled loops ``A_d,i`` of the discrete PID with each plant held by a zero-order hold.
+def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID | SampledStateFeedback) -> Array:
+    """The sampled loops ``A_d,i`` of a discrete controller with each plant held by a zero-order hold.
 
     Parameters
     ----------
-    A : array_like, shape (V, 3p, 3p)
-    B : array_like, shape (V, 3p, m)
-        Plants in the PID form ``x = [∫e, e, ė]`` (continuous time; the ∫e columns of
-        the e and ė rows must be zero, as in Eq. 4).
-    pid : DiscretePID
+    A : array_like, shape (V, 3p, 3p) or (V, n, n)
+    B : array_like, shape (V, 3p, m) or (V, n, m)
+        For a PID: plants in the PID form ``x = [∫e, e, ė]`` (continuous time; the ∫e
+        columns of the e and ė rows must be zero, as in Eq. 4). For static state feedback:
+        plants of any form, whose whole state is fed back.
+    pid : DiscretePID or SampledStateFeedback
 
     Returns
     -------
-    ndarray, shape (V, 2p + n_z, 2p + n_z)
-        State ``[e, ė, z]``.
+    ndarray, shape (V, 2p + n_z, 2p + n_z) or (V, n, n)
+        State ``[e, ė, z]`` for a PID; the plant's state ``x`` for static feedback
+        (``A_d,i = Φ_i − Γ_i K``).
 
     Raises
     ------
@@ -122,6 +126,16 @@ def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID) -> Array:
     """
     A = check_array("A", A, ndim=3)
     B = check_array("B", B, ndim=3)
+    if isinstance(pid, SampledStateFeedback):
+        n, m = pid.n_states, pid.n_inputs
+        if A.shape[1:] != (n, n) or B.shape[1:] != (n, m) or A.shape[0] != B.shape[0]:
+            raise ArgumentValueError(
+                "model", f"must hold plants of shapes ({n}, {n}) and ({n}, {m}) for this gain, "
+                f"found {A.shape[1:]} and {B.shape[1:]}")
+        held = np.zeros((A.shape[0], n + m, n + m))
+        held[:, :n, :n], held[:, :n, n:] = A * pid.Ts, B * pid.Ts
+        E = _expm(held)
+        return np.asarray(E[:, :n, :n] - E[:, :n, n:] @ pid.K, dtype=float)
     p, m = pid.n_joints, pid.n_torques
     if A.shape[1:] != (3 * p, 3 * p) or B.shape[1:] != (3 * p, m) or A.shape[0] != B.shape[0]:
         raise ArgumentValueError(
@@ -146,6 +160,24 @@ def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID) -> Array:
     out[:, n_p:, :n_p] = Bc
     out[:, n_p:, n_p:] = Ac
     return out
+
+
+def _structurally_marginal(Ad: Array) -> NDArray[np.bool_]:
+    """States whose row of every ``A_d,i`` is a row of the identity: ``z_{k+1} = z_k``, fed by nothing.
+
+    Such a state (the accumulator of a PID with ``K_I = 0``, a pure integrator with no input)
+    keeps its value: its eigenvalue is exactly 1 whatever the rest of the loop does. With
+    the states ordered [others, these], ``A_d`` is block upper triangular with an identity
+    block, so the other eigenvalues are those of the loop without them.
+    """
+    n = Ad.shape[1]
+    return np.array([bool(np.all(Ad[:, i, :] == np.eye(n)[i])) for i in range(n)], dtype=bool)
+
+
+def _without_marginal(Ad: Array) -> tuple[Array, int]:
+    """The loops without their structurally marginal states, and how many were removed."""
+    keep = ~_structurally_marginal(Ad)
+    return np.ascontiguousarray(Ad[:, keep][:, :, keep]), int((~keep).sum())
 
 
 def discrete_lyapunov_check(closed_loops: ArrayLike, P: ArrayLike, Ts: float) -> tuple[float, float]:
@@ -209,6 +241,10 @@ class SampledCertificate:
     floor : float
         The smallest decay rate reported as certified, 1/s: ``scara_robust.robustness.lmi.DECAY_FLOOR_RTOL``
         times the largest ``‖(A_d,i − I)/Ts‖₂``.
+    n_marginal : int
+        Structurally marginal states left out of the test: states that keep their value
+        and are fed by nothing (the accumulator of a PID with ``K_I = 0``). Their eigenvalue
+        is exactly 1; the radius, P and rate are those of the loop without them.
     """
 
     Ts: float
@@ -218,6 +254,7 @@ class SampledCertificate:
     rate: float
     n_plants: int
     floor: float = 0.0
+    n_marginal: int = 0
 
     @property
     def frozen_stable(self) -> bool:
@@ -242,10 +279,12 @@ class SampledCertificate:
     @property
     def message(self) -> str:
         """One sentence."""
+        marginal = (f"; {self.n_marginal} state(s) fed by nothing (eigenvalue exactly 1, e.g. K_I = 0) "
+                    "left out" if self.n_marginal else "")
         if self.certified:
             return (
                 f"Ts = {self.Ts:.4g} s certified: common P verified on {self.n_plants} plants, "
-                f"decay rate α >= {self.rate:.4g} 1/s (V_k+1 <= (1 - 2α Ts) V_k)"
+                f"decay rate α >= {self.rate:.4g} 1/s (V_k+1 <= (1 - 2α Ts) V_k)" + marginal
             )
         if not self.frozen_stable:
             return (
@@ -289,7 +328,7 @@ def _solve_lmi(Ad: Array, Ts: float, solver: str) -> tuple[str, Array | None]:
 
 def sampled_certificate(
     model: SampledSet | tuple[ArrayLike, ArrayLike],
-    pid: DiscretePID,
+    pid: DiscretePID | SampledStateFeedback,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     solver: str = "CLARABEL",
@@ -300,16 +339,19 @@ def sampled_certificate(
     Parameters
     ----------
     model : UncertainLTVModel, PolytopicModel, PhysicalSamples or tuple (A, B)
-        The plants, in the PID form (a box gives its 2^N vertices).
-    pid : DiscretePID
-        Its sample time is the Ts tested.
+        The plants, in the PID form for a PID (a box gives its 2^N vertices).
+    pid : DiscretePID or SampledStateFeedback
+        Its sample time is the Ts tested. States that keep their value and are fed by
+        nothing (the accumulator of a PID with ``K_I = 0``) are left out and counted
+        (:attr:`SampledCertificate.n_marginal`).
     check : same types as `model`, optional
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
     solver : {'CLARABEL', 'SCS'}
-    candidate : array_like, shape (3p, 3p), optional
+    candidate : array_like, shape (3p, 3p) or (n, n), optional
         A common Lyapunov matrix of the continuous-time loops in the PID form
-        ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``). Where the
+        ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``; for static
+        feedback, in the plant's own state, used as it is). Where the
         discrete LMI finds no P whose verified decay clears the floor, this P, carried to
         the sampled loop's state ``[e, ė, w]`` (``w = K_I ∫e``, the measured-derivative
         PID's accumulator), is tried: for a small Ts the sampled loop is close to the
@@ -333,19 +375,23 @@ def sampled_certificate(
     >>> sr.sampled_certificate(plant, pid).certified  # doctest: +SKIP
     True
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
+                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("solver", solver, LMI_SOLVERS)
     A, B = _plants(model)
-    Ad = sampled_closed_loops(A, B, pid)
+    full = sampled_closed_loops(A, B, pid)
+    marginal = _structurally_marginal(full)
+    Ad, n_marginal = _without_marginal(full)
     radius = float(np.abs(np.linalg.eigvals(Ad)).max())
     if radius >= 1.0:
-        return SampledCertificate(pid.Ts, radius, "skipped", None, -np.inf, Ad.shape[0])
+        return SampledCertificate(pid.Ts, radius, "skipped", None, -np.inf, Ad.shape[0], n_marginal=n_marginal)
     if not cvxpy_available():
-        return SampledCertificate(pid.Ts, radius, NOT_INSTALLED, None, np.nan, Ad.shape[0])
+        return SampledCertificate(pid.Ts, radius, NOT_INSTALLED, None, np.nan, Ad.shape[0], n_marginal=n_marginal)
     extra = None
     if check is not None:
         Ac, Bc = _plants(check)
-        extra = sampled_closed_loops(Ac, Bc, pid)
+        extra_full = sampled_closed_loops(Ac, Bc, pid)
+        extra = np.ascontiguousarray(extra_full[:, ~marginal][:, :, ~marginal])
         radius = max(radius, float(np.abs(np.linalg.eigvals(extra)).max()))
     floor = decay_floor((Ad - np.eye(Ad.shape[1])) / pid.Ts)
 
@@ -355,14 +401,18 @@ def sampled_certificate(
 
     status, P = _solve_lmi(Ad, pid.Ts, solver)
     rate = verified(P) if P is not None else -np.inf
-    mapped = _to_sampled_coordinates(candidate, pid, Ad.shape[1]) if candidate is not None else None
+    mapped = None
+    if candidate is not None and isinstance(pid, SampledStateFeedback):
+        mapped = np.asarray(candidate, dtype=float) if np.shape(candidate) == Ad.shape[1:] else None
+    elif candidate is not None and isinstance(pid, DiscretePID):
+        mapped = _to_sampled_coordinates(candidate, pid, Ad.shape[1])
     if mapped is not None and not (rate > 0 and rate >= floor):
         mapped_rate = verified(mapped)
         if mapped_rate > rate:
             status, P, rate = "continuous-time P, verified at this Ts", mapped, mapped_rate
     if P is None:
-        return SampledCertificate(pid.Ts, radius, status, None, -np.inf, Ad.shape[0])
-    return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0], floor)
+        return SampledCertificate(pid.Ts, radius, status, None, -np.inf, Ad.shape[0], n_marginal=n_marginal)
+    return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0], floor, n_marginal)
 
 
 def _to_sampled_coordinates(P: ArrayLike, pid: DiscretePID, n: int) -> Array | None:
@@ -427,13 +477,17 @@ def _bisect(ok: object, lo: float, hi: float, rtol: float) -> tuple[float, float
     return lo, hi
 
 
+#: The default cap of :func:`max_sample_time`'s search for a frozen instability, s.
+MAX_SAMPLE_TIME_CAP = 100.0
+
+
 def max_sample_time(
     model: SampledSet | tuple[ArrayLike, ArrayLike],
-    design: Design | DiscretePID,
+    design: Design | DiscretePID | SampledStateFeedback | ArrayLike,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     ts_min: float = 1e-5,
-    ts_max: float = 1.0,
+    ts_max: float = MAX_SAMPLE_TIME_CAP,
     rtol: float = 1e-3,
     solver: str = "CLARABEL",
     **discretize: object,
@@ -441,23 +495,28 @@ def max_sample_time(
     """Bisect the largest certified Ts and the smallest Ts at which a frozen plant is unstable.
 
     The frozen bound: Ts grows geometrically from `ts_min` (factor 1.25) until a frozen
-    sampled loop is unstable, then the step is bisected (geometric mean) to `rtol`; it
-    is the first instability the scan meets. The certified bound: bisection of the
-    common-P test between `ts_min` and the frozen bound (a certificate at Ts does not
-    imply one at every smaller Ts in theory; the reported Ts carries its own verified
-    certificate).
+    sampled loop is unstable or Ts reaches the cap `ts_max`, then the step is bisected
+    (geometric mean) to `rtol`; it is the first instability the scan meets, and the
+    message says whether one was bracketed or the cap was reached. States that keep
+    their value and are fed by nothing (the accumulator of a PID with ``K_I = 0``) have
+    an eigenvalue of exactly 1 at every Ts; they are left out of the test and named.
+    The certified bound: bisection of the common-P test between `ts_min` and the frozen
+    bound (a certificate at Ts does not imply one at every smaller Ts in theory; the
+    reported Ts carries its own verified certificate).
 
     Parameters
     ----------
     model : UncertainLTVModel, PolytopicModel, PhysicalSamples or tuple (A, B)
-        Plants in the PID form of `design`.
-    design : Design or DiscretePID
-        A design in the PID form (``design.discretize`` is applied at each Ts), or a
-        discrete PID (its gains, integrator, derivative and N at each Ts).
+        Plants in the PID form of `design`, or of any form for static state feedback.
+    design : Design, DiscretePID, SampledStateFeedback or array_like of shape (m, n)
+        A design in the PID form (``design.discretize`` is applied at each Ts), a
+        discrete PID (its gains, integrator, derivative and N at each Ts), or a static
+        state-feedback gain K (``u_k = −K x(t_k)``, zero-order hold).
     check : optional
         Plants on which every certificate must also verify (see :func:`sampled_certificate`).
     ts_min, ts_max : float
-        Search range, s (0 < ts_min < ts_max).
+        Search range, s (0 < ts_min < ts_max); `ts_max` is the cap of the search for a
+        frozen instability (default :data:`MAX_SAMPLE_TIME_CAP`).
     rtol : float
         Relative width of the final brackets (> 0).
     solver : {'CLARABEL', 'SCS'}
@@ -483,7 +542,12 @@ def max_sample_time(
     >>> print(lim.message)  # doctest: +SKIP
     certified up to Ts = 0.281 s (decay rate α >= 0.013 1/s); a frozen plant is unstable from Ts = 0.283 s
     """
-    check_instance("design", design, (Design, DiscretePID), "a Design or a DiscretePID")
+    if not isinstance(design, (Design, DiscretePID, SampledStateFeedback)):
+        try:
+            design = SampledStateFeedback(design, 1.0)
+        except (ArgumentValueError, ArgumentTypeError) as err:
+            raise ArgumentTypeError("design", "must be a Design, a DiscretePID, a SampledStateFeedback or a gain "
+                                    f"matrix K of shape (m, n): {err}") from err
     ts_min = check_real("ts_min", ts_min, positive=True)
     ts_max = check_real("ts_max", ts_max, positive=True)
     if ts_max <= ts_min:
@@ -496,18 +560,24 @@ def max_sample_time(
     if unknown:
         raise ArgumentValueError(unknown[0], "is not an option of Design.discretize")
 
-    def pid_at(ts: float) -> DiscretePID:
+    def pid_at(ts: float) -> DiscretePID | SampledStateFeedback:
+        if isinstance(design, SampledStateFeedback):
+            return design.at(ts)
         if isinstance(design, DiscretePID):
             return DiscretePID(ts, design.K_I, design.K_P, design.K_D, integrator=design.integrator,
                                derivative=design.derivative, N=design.N)
         return design.discretize(ts, **opts)  # type: ignore[arg-type]
 
     def stable(ts: float) -> bool:
-        return bool(np.abs(np.linalg.eigvals(sampled_closed_loops(A, B, pid_at(ts)))).max() < 1.0)
+        loops, _ = _without_marginal(sampled_closed_loops(A, B, pid_at(ts)))
+        return bool(np.abs(np.linalg.eigvals(loops)).max() < 1.0)
 
+    n_marginal = _without_marginal(sampled_closed_loops(A, B, pid_at(ts_min)))[1]
+    left_out = (f" ({n_marginal} state(s) fed by nothing, eigenvalue exactly 1 at every Ts, e.g. K_I = 0, "
+                "left out)" if n_marginal else "")
     if not stable(ts_min):
         return SampleTimeLimit(np.nan, (0.0, ts_min), ts_min, (0.0, ts_min), None, A.shape[0],
-                               f"a frozen sampled loop is unstable already at ts_min = {ts_min:g} s")
+                               f"a frozen sampled loop is unstable already at ts_min = {ts_min:g} s" + left_out)
     lo = ts_min
     hi = math.inf
     ts = ts_min
@@ -522,10 +592,12 @@ def max_sample_time(
     unstable = (lo, hi)
     if not cvxpy_available():
         return SampleTimeLimit(np.nan, (np.nan, np.nan), hi, unstable, None, A.shape[0],
-                               f"frozen instability at Ts = {hi:.4g} s; cvxpy not installed, no certificate")
+                               (f"frozen instability at Ts = {hi:.4g} s" if math.isfinite(hi) else
+                                f"no frozen instability up to the cap ts_max = {ts_max:g} s")
+                               + "; cvxpy not installed, no certificate" + left_out)
     certs: dict[float, SampledCertificate] = {}
     candidate = None
-    if isinstance(design, Design):  # the continuous loops' common P: a second candidate at every Ts
+    if isinstance(design, (Design, SampledStateFeedback)):  # the continuous loops' common P: a second candidate
         continuous = lmi_certificate(A - B @ design.K, solver=solver)
         candidate = continuous.P if continuous.certified else None
 
@@ -538,15 +610,17 @@ def max_sample_time(
         c_lo, c_hi = top, hi
     elif not certified(ts_min):
         return SampleTimeLimit(np.nan, (0.0, ts_min), hi, unstable, certs[ts_min], A.shape[0],
-                               f"not certified at ts_min = {ts_min:g} s; frozen instability at Ts = {hi:.4g} s")
+                               f"not certified at ts_min = {ts_min:g} s; "
+                               + (f"frozen instability at Ts = {hi:.4g} s" if math.isfinite(hi) else
+                                  f"no frozen instability up to the cap ts_max = {ts_max:g} s") + left_out)
     else:
         c_lo, c_hi = _bisect(certified, ts_min, top, rtol)
     cert = certs[c_lo]
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
         + (f"a frozen plant is unstable from Ts = {hi:.4g} s" if math.isfinite(hi) else
-           f"no frozen instability up to {ts_max:g} s")
-    )
+           f"no frozen instability up to the cap ts_max = {ts_max:g} s")
+    ) + left_out
     return SampleTimeLimit(c_lo, (c_lo, c_hi), hi, unstable, cert, A.shape[0], message)
 
 

@@ -32,9 +32,10 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
-from .._validation import check_choice, check_instance, check_int
-from ..lyapunov.gain import Design
+from .._validation import check_choice, check_int
+from ..lyapunov.gain import Design, as_design
 from ..lyapunov.theorem1 import certify
 from ..model.plant import ModelLike, UncertainPlant, as_model, as_plant
 from .falsifier import falsify
@@ -68,7 +69,7 @@ def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
 
 def certificate_table(
     model: ModelLike,
-    design: Design,
+    design: Design | ArrayLike,
     *,
     plant: UncertainPlant | None = None,
     points: Mapping[str, int] | None = None,
@@ -85,8 +86,10 @@ def certificate_table(
     model : UncertainPlant, UncertainLTVModel or PolytopicModel
         The uncertainty set: a plant (its interval hull, and its samples for the
         ``physical`` rows), an interval box or a polytope.
-    design : Design
-        The design K(ρ, η) and its P.
+    design : Design or array_like, shape (m, n)
+        The design K(ρ, η) and its P, or a gain K of your own (``Design.from_gain(model, K)``:
+        the rows that test one P, Theorem 1 and the vertex tests, use the P of
+        ``PĀ + ĀᵀP = −2I``).
     plant : UncertainPlant, optional
         Whose frozen plants on the parameter grid make the ``physical`` rows (default:
         `model` when it is a plant; the rows are skipped without one).
@@ -126,7 +129,7 @@ def certificate_table(
     """
     plant = plant if plant is not None else as_plant("model", model)
     model = as_model("model", model)
-    check_instance("design", design, Design, "a Design from scara_robust.design()")
+    design = as_design(model, design)
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
     for method in methods:
         check_choice("methods", method, CERTIFICATE_METHODS)
