@@ -22,6 +22,10 @@ rounding: the same float32 operations in the same order.
 
 Units and names come from the plant (:class:`~scara_robust.Signal`): by default the SCARA's,
 e in rad, ė in rad/s, u in N·m; Ts in s.
+
+Static state feedback (:class:`~scara_robust.SampledStateFeedback`) is exported the same way,
+stateless: ``void <prefix>_step(const double x[NX], double u[NU])`` computes ``u = −K x``
+(called every Ts, its output held until the next call).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from numpy.typing import NDArray
 
 from ._validation import check_array, check_choice, check_instance
 from .controller.discrete import DiscretePID
+from .controller.state_feedback import SampledStateFeedback
 from .exceptions import ArgumentValueError
 from .io import _umask
 from .model.plant import Signal
@@ -377,8 +382,57 @@ def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.f
     return step
 
 
+def _gain_files(ctrl: SampledStateFeedback, prefix: str, notes: Sequence[str], inputs: Sequence[Signal] | None,
+                outputs: Sequence[Signal] | None, precision: str) -> dict[str, str]:
+    """``<prefix>.h`` and ``<prefix>.c`` of static state feedback ``u = −K x``."""
+    check_choice("precision", precision, PRECISIONS)
+    m, n = ctrl.K.shape
+    xs = list(inputs) if inputs is not None else [Signal(f"x{i}", "model units") for i in range(n)]
+    us = list(outputs) if outputs is not None else [Signal(f"u{j}", "model units") for j in range(m)]
+    if len(xs) != n:
+        raise ArgumentValueError("inputs", f"must name the {n} states fed back, found {len(xs)}")
+    if len(us) != m:
+        raise ArgumentValueError("outputs", f"must name the {m} plant inputs, found {len(us)}")
+    ctype = "float" if precision == "single" else "double"
+    macro = prefix.upper()
+    signals = "\n".join([f" *   x[{i}] = {sig.name} [{sig.unit}]" for i, sig in enumerate(xs)]
+                        + [f" *   u[{j}] = {sig.name} [{sig.unit}]" for j, sig in enumerate(us)])
+    comment = "".join(f" * {line}\n" for line in notes)
+    header = f"""/* {prefix}: static state feedback u = -K x, sampled every Ts = {ctrl.Ts:.17g} s and held
+ * until the next sample (zero-order hold). Call {prefix}_step once per sample.
+{comment}{signals}
+ */
+#ifndef {macro}_H
+#define {macro}_H
+
+#define {macro}_NX {n}
+#define {macro}_NU {m}
+#define {macro}_TS {_num(ctrl.Ts, precision)}
+
+void {prefix}_step(const {ctype} x[{macro}_NX], {ctype} u[{macro}_NU]);
+
+#endif
+"""
+    source = f"""#include "{prefix}.h"
+
+{_matrix("K", ctrl.K, precision)}
+void {prefix}_step(const {ctype} x[{macro}_NX], {ctype} u[{macro}_NU])
+{{
+    int i, j;
+    for (j = 0; j < {macro}_NU; ++j) {{
+        {ctype} sum = {_num(0.0, precision)};
+        for (i = 0; i < {macro}_NX; ++i) {{
+            sum += K[j][i] * x[i];
+        }}
+        u[j] = -sum;
+    }}
+}}
+"""
+    return {f"{prefix}.h": header, f"{prefix}.c": source}
+
+
 def export_controller(
-    pid: DiscretePID,
+    pid: DiscretePID | SampledStateFeedback,
     folder: str | os.PathLike[str],
     *,
     format: str = "c",
@@ -393,7 +447,9 @@ def export_controller(
 
     Parameters
     ----------
-    pid : DiscretePID
+    pid : DiscretePID or SampledStateFeedback
+        The PID (stateful: ``<prefix>_init`` and ``<prefix>_step``) or static state
+        feedback (stateless ``<prefix>_step(x, u)``: ``u = −K x``).
     folder : path-like
         An existing, writable folder.
     format : {'c', 'json'}
@@ -407,7 +463,8 @@ def export_controller(
         Lines for the C header's opening comment (see :func:`c_source`) and, in JSON,
         the record's ``notes``.
     outputs, inputs : sequence of Signal, optional
-        Names and units (default: the SCARA's), see :func:`c_source`.
+        Names and units (default: the SCARA's, see :func:`c_source`; for static feedback
+        the plant's inputs u and its states x, default ``u0..``, ``x0..``).
     precision : {'double', 'single'}
         The C floating-point type (the JSON record says which the C would use).
 
@@ -433,13 +490,23 @@ def export_controller(
     >>> [p.name for p in sr.export_controller(pid, tempfile.mkdtemp())]
     ['scara_pid.h', 'scara_pid.c']
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
+                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("format", format, EXPORT_FORMATS)
     prefix = _check_prefix(prefix)
     target = Path(folder)
     if not target.is_dir():
         raise NotADirectoryError(20, "not an existing folder", str(target))
-    if format == "c":
+    if isinstance(pid, SampledStateFeedback):
+        if format == "c":
+            contents = _gain_files(pid, prefix, notes, inputs, outputs, precision)
+        else:
+            check_choice("precision", precision, PRECISIONS)
+            record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": pid.Ts,
+                      "K": pid.K.tolist(), "precision": precision, **(metadata or {}),
+                      **({"notes": list(notes)} if notes else {})}
+            contents = {f"{prefix}.json": json.dumps(record, indent=2) + "\n"}
+    elif format == "c":
         header, source = c_source(pid, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
         contents = {f"{prefix}.h": header, f"{prefix}.c": source}
     else:

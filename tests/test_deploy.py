@@ -173,3 +173,48 @@ def test_compare_and_campaigns_run_the_sampled_pid(monkeypatch):
     (row,) = run_draw(spec, sr.draw_scenario(spec, 1, 0))
     assert row["controller"] == "pid-sampled" and row["status"] == "tracking"
     np.testing.assert_allclose(gains[0], sr.design(sr.paper_model(), 2.0, 50.0).K)  # the spec's (rho, eta)
+
+
+_GAIN_MAIN = r"""
+#include <stdio.h>
+#include "benchmark_k.h"
+int main(void) {
+    double x[BENCHMARK_K_NX], u[BENCHMARK_K_NU];
+    while (scanf("%lf %lf", &x[0], &x[1]) == 2) {
+        benchmark_k_step(x, u);
+        printf("%.17g\n", u[0]);
+    }
+    return 0;
+}
+"""
+
+
+@needs_cc
+def test_exported_static_state_feedback_matches_python(tmp_path):
+    """u = −K x of a SampledStateFeedback in C99 equals `step` in Python on 1 000 random states, and
+    the header names the signals with their units and the sample time."""
+    ctrl = sr.SampledStateFeedback([[3.75, 11.5]], 1.5)
+    files = sr.export_controller(ctrl, tmp_path, prefix="benchmark_k",
+                                 inputs=[sr.Signal("q", "rad"), sr.Signal("qdot", "rad/s")],
+                                 outputs=[sr.Signal("u", "N")])
+    header = files[0].read_text()
+    assert "x[1] = qdot [rad/s]" in header and "u[0] = u [N]" in header and "#define BENCHMARK_K_TS 1.5" in header
+    (tmp_path / "main.c").write_text(_GAIN_MAIN)
+    exe = tmp_path / "gain"
+    subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-ffp-contract=off",
+                    "-o", str(exe), str(tmp_path / "main.c"), str(files[1])],
+                   check=True, capture_output=True, text=True, timeout=120)
+    x = np.random.default_rng(0).normal(size=(1000, 2))
+    lines = "\n".join(" ".join(repr(float(v)) for v in row) for row in x)
+    out = subprocess.run([str(exe)], input=lines, check=True, capture_output=True, text=True, timeout=120).stdout
+    u_c = np.array([float(v) for v in out.split()])
+    u_py = np.array([ctrl.step(row)[0] for row in x])
+    assert u_c.shape == (1000,) and np.abs(u_c - u_py).max() <= 1e-14 * np.abs(u_py).max()
+    json_file = sr.export_controller(ctrl, tmp_path, format="json", prefix="benchmark_k")[0]
+    assert '"law": "u = -K x, zero-order hold"' in json_file.read_text()
+
+
+def test_static_state_feedback_export_refuses_a_wrong_signal_count(tmp_path):
+    with pytest.raises(sr.ArgumentValueError, match="`inputs` must name the 2 states fed back, found 1"):
+        sr.export_controller(sr.SampledStateFeedback([[3.75, 11.5]], 1.5), tmp_path, inputs=[sr.Signal("q", "rad")])
+    assert list(tmp_path.iterdir()) == []

@@ -722,7 +722,7 @@ class SampleTimeCheck:
 
 def check_sample_time(
     model: SampledSet | tuple[ArrayLike, ArrayLike],
-    pid: DiscretePID,
+    pid: DiscretePID | SampledStateFeedback,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     set_name: str = "the given plants",
@@ -738,7 +738,8 @@ def check_sample_time(
     ----------
     model : UncertainLTVModel, PolytopicModel, PhysicalSamples or tuple (A, B)
         Plants in the PID form (see :func:`sampled_certificate`).
-    pid : DiscretePID
+    pid : DiscretePID or SampledStateFeedback
+        The controller at the sample time to check.
     check : optional
         Plants on which the P must also verify (e.g. :func:`interior_grid` of a box).
     set_name : str
@@ -765,7 +766,8 @@ def check_sample_time(
     >>> sr.check_sample_time(plant, pid).certified  # doctest: +SKIP
     False
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
+                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     cert = sampled_certificate(model, pid, check=check, solver=solver)
     limit = None
     if not cert.certified:
