@@ -53,8 +53,12 @@ for _page, _lang, _code in BLOCKS:
     for _line in _code.splitlines() if _lang == "sh" else []:
         if _line.strip().startswith("python -m scara_robust") and _line.strip() not in {c for _, c in COMMANDS}:
             COMMANDS.append((_page, _line.strip()))
-#: Calls of the python blocks run at a shorter horizon (tests/test_reproduction.py checks the same table).
-REDUCED_PYTHON = {"sr.error_sensitivity()": "sr.error_sensitivity(t_final=8.0)"}
+#: Calls of the python blocks run at a shorter horizon: tests/test_reproduction.py checks the same
+#: table, tests/test_deploy.py the sampled loop at the certified Ts over the whole 20 s.
+REDUCED_PYTHON = {
+    "sr.error_sensitivity()": "sr.error_sensitivity(t_final=8.0)",
+    "d.discretize(ts, torque_limit=50)), scenario)": "d.discretize(ts, torque_limit=50)), scenario, t_final=6.5)",
+}
 
 
 def test_every_page_with_code_is_run():
@@ -129,6 +133,10 @@ def test_the_pages_have_code_to_run():
     assert len(PYTHON) >= 2 and len(COMMANDS) >= 10
     assert all(lang in {"python", "sh", "text", "toml", "json", "c", "csv"} or lang.startswith("{")
                for _, lang, _ in BLOCKS), "every block says what it is"
+
+
+def test_every_reduced_call_is_on_a_page():
+    assert all(any(call in code for _, code in PYTHON) for call in REDUCED_PYTHON)
 
 
 def _page_id(page: str) -> str:
