@@ -317,6 +317,15 @@ def riccati_solution(model: ModelLike, rho: float) -> Array:
         If ρ is not a finite positive number, (A, B) is not stabilizable, the
         Riccati solver fails, or its solution's relative residual exceeds
         :data:`CARE_RTOL` (the equation is ill-conditioned at this ρ).
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+    >>> P = sr.riccati_solution(box, 1.0)
+    >>> P.shape, bool(np.all(np.linalg.eigvalsh(P) > 0))
+    ((2, 2), True)
     """
     rho = check_real("rho", rho, positive=True)
     model = as_model("model", model)

@@ -227,6 +227,14 @@ def robustness_margin(
     --------
     margin_table : every method's margin side by side.
     parameter_margin : the margin in the plant's parameters and units.
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+    >>> round(sr.robustness_margin(box, sr.design(box, 1.0, 2.0), "vertex").theta, 4)
+    1.5842
     """
     model = as_model("model", model)
     design = as_design(model, design)

@@ -94,6 +94,15 @@ def decay_rate(closed_loops: ArrayLike, P: ArrayLike) -> float:
     -------
     float
         1/s.
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+    >>> d = sr.design(box, 1.0, 2.0)
+    >>> bool(sr.decay_rate(np.array([d.A_cl]), d.P) > 0)   # V = xᵀPx decays on the nominal loop
+    True
     """
     A = check_array("closed_loops", closed_loops, ndim=3)
     P = check_array("P", P, shape=(A.shape[1], A.shape[1]))
@@ -422,6 +431,14 @@ def synthesize(
     ----------
     Boyd, El Ghaoui, Feron, Balakrishnan, *Linear Matrix Inequalities in System and
     Control Theory*, SIAM 1994: §7.2.1 (decay), §7.5.1 (L2 gain, state feedback).
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+    >>> sr.synthesize(box, objective="decay").certified
+    True
     """
     start = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)

@@ -126,6 +126,15 @@ def certificate_table(
     lmi_certificate : a common quadratic P.
     falsify : a destabilizing switching signal.
     max_sample_time : the largest certified sample time.
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
+    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
+    >>> table = sr.certificate_table(box, sr.design(box, 1.0, 2.0), methods=("theorem1-all", "vertex-box"))
+    >>> table["verdict"].tolist()
+    ['certified', 'certified']
     """
     plant = plant if plant is not None else as_plant("model", model)
     model = as_model("model", model)

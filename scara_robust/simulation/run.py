@@ -513,6 +513,12 @@ def run_scenario(
     --------
     simulate : the same run from explicit arguments.
     compare_controllers : PID and sliding mode side by side.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.run_scenario("pid", "small", t_final=6.5).status
+    'tracking'
     """
     return _execute(
         _prepare_scenario(controller, scenario, payload_on, t_final, torque_limit, params, method, reference, payload,
