@@ -337,7 +337,7 @@ def test_margin_objective_reports_only_theta_that_numpy_verified(monkeypatch):
 
     monkeypatch.setattr(synthesis, "_solve", lying)
     result = sr.synthesize(model, objective="margin", tol=1e-2)
-    assert result.status == "certified" and result.certified
+    assert result.status == "certified" and result.certified and result.design.P_source == "lmi"
     assert 0.3 * (1 - 2e-2) <= result.theta <= 0.3
     assert any(t > 0.3 for t in calls)  # the mock was asked, and its answer did not count
     assert "inaccurate" in result.search

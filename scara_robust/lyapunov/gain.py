@@ -51,7 +51,8 @@ class Design:
         Joints p of a model in the paper's PID form ``x = [∫e, e, ė]`` (n = 3p), from the
         model; None for a plain state-feedback model.
     P_source : str
-        Where P comes from: ``'riccati'`` (the paper's step 2), ``'given'`` or ``'lyapunov'``.
+        Where P comes from: ``'riccati'`` (the paper's step 2), ``'given'``, ``'lyapunov'``
+        or ``'lmi'`` (the common P of a synthesis).
     """
 
     rho: float
@@ -129,9 +130,16 @@ class Design:
             raise ArgumentValueError(
                 "K", f"gives a closed loop that is not Hurwitz (eigenvalue {poles[np.argmax(poles.real)]:.4g}), "
                 "so no Lyapunov matrix exists for it; pass P to test one anyway")
-        Q = -0.5 * (P_mat @ A_cl + A_cl.T @ P_mat)
-        return cls(rho=float("nan"), eta=float("nan"), K=K, P=P_mat, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
-                   hurwitz=hurwitz, care_residual=float("nan"), n_joints=getattr(model, "n_joints", None),
+        return cls._of_gain(A, B, K, P_mat, source, getattr(model, "n_joints", None))
+
+    @classmethod
+    def _of_gain(cls, A: Array, B: Array, K: Array, P: Array, source: str, n_joints: int | None) -> Design:
+        """The design of ``u = −Kx`` on the nominal ``(A, B)`` with the Lyapunov matrix P, unchecked."""
+        A_cl = A - B @ K
+        Q = -0.5 * (P @ A_cl + A_cl.T @ P)
+        poles = np.linalg.eigvals(A_cl).astype(complex)
+        return cls(rho=float("nan"), eta=float("nan"), K=K, P=P, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
+                   hurwitz=bool(np.all(poles.real < 0)), care_residual=float("nan"), n_joints=n_joints,
                    P_source=source)
 
     @property

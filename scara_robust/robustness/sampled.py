@@ -174,10 +174,15 @@ def _structurally_marginal(Ad: Array) -> NDArray[np.bool_]:
     return np.array([bool(np.all(Ad[:, i, :] == np.eye(n)[i])) for i in range(n)], dtype=bool)
 
 
-def _without_marginal(Ad: Array) -> tuple[Array, int]:
-    """The loops without their structurally marginal states, and how many were removed."""
+def _restrict(Ad: Array, keep: NDArray[np.bool_]) -> Array:
+    """The loops on the states `keep` only."""
+    return np.ascontiguousarray(Ad[:, keep][:, :, keep])
+
+
+def _without_marginal(Ad: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """The loops without their structurally marginal states, and the states kept."""
     keep = ~_structurally_marginal(Ad)
-    return np.ascontiguousarray(Ad[:, keep][:, :, keep]), int((~keep).sum())
+    return _restrict(Ad, keep), keep
 
 
 def discrete_lyapunov_check(closed_loops: ArrayLike, P: ArrayLike, Ts: float) -> tuple[float, float]:
@@ -379,9 +384,8 @@ def sampled_certificate(
                    "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("solver", solver, LMI_SOLVERS)
     A, B = _plants(model)
-    full = sampled_closed_loops(A, B, pid)
-    marginal = _structurally_marginal(full)
-    Ad, n_marginal = _without_marginal(full)
+    Ad, keep = _without_marginal(sampled_closed_loops(A, B, pid))
+    n_marginal = int((~keep).sum())
     radius = float(np.abs(np.linalg.eigvals(Ad)).max())
     if radius >= 1.0:
         return SampledCertificate(pid.Ts, radius, "skipped", None, -np.inf, Ad.shape[0], n_marginal=n_marginal)
@@ -390,8 +394,7 @@ def sampled_certificate(
     extra = None
     if check is not None:
         Ac, Bc = _plants(check)
-        extra_full = sampled_closed_loops(Ac, Bc, pid)
-        extra = np.ascontiguousarray(extra_full[:, ~marginal][:, :, ~marginal])
+        extra = _restrict(sampled_closed_loops(Ac, Bc, pid), keep)
         radius = max(radius, float(np.abs(np.linalg.eigvals(extra)).max()))
     floor = decay_floor((Ad - np.eye(Ad.shape[1])) / pid.Ts)
 
@@ -570,14 +573,16 @@ def max_sample_time(
                                derivative=design.derivative, N=design.N)
         return design.discretize(ts, **opts)  # type: ignore[arg-type]
 
-    def stable(ts: float) -> bool:
-        loops, _ = _without_marginal(sampled_closed_loops(A, B, pid_at(ts)))
+    def stable(ts: float, loops: Array | None = None) -> bool:
+        if loops is None:
+            loops = _without_marginal(sampled_closed_loops(A, B, pid_at(ts)))[0]
         return bool(np.abs(np.linalg.eigvals(loops)).max() < 1.0)
 
-    n_marginal = _without_marginal(sampled_closed_loops(A, B, pid_at(ts_min)))[1]
+    first, keep = _without_marginal(sampled_closed_loops(A, B, pid_at(ts_min)))
+    n_marginal = int((~keep).sum())
     left_out = (f" ({n_marginal} state(s) fed by nothing, eigenvalue exactly 1 at every Ts, e.g. K_I = 0, "
                 "left out)" if n_marginal else "")
-    if not stable(ts_min):
+    if not stable(ts_min, first):
         return SampleTimeLimit(np.nan, (0.0, ts_min), ts_min, (0.0, ts_min), None, A.shape[0],
                                f"a frozen sampled loop is unstable already at ts_min = {ts_min:g} s" + left_out)
     lo = ts_min

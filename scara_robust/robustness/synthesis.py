@@ -563,8 +563,4 @@ def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:
     else:
         A0, B0 = A.mean(axis=0), B.mean(axis=0)
         joints = A.shape[1] // 3 if A.shape[1] % 3 == 0 and A.shape[1] // 3 == B.shape[2] else None
-    A_cl = A0 - B0 @ K
-    Q = -0.5 * (P @ A_cl + A_cl.T @ P)
-    poles = np.linalg.eigvals(A_cl).astype(complex)
-    return Design(rho=math.nan, eta=math.nan, K=K, P=P, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
-                  hurwitz=bool(np.all(poles.real < 0)), care_residual=math.nan, n_joints=joints)
+    return Design._of_gain(A0, B0, K, P, "lmi", joints)

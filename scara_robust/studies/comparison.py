@@ -13,7 +13,6 @@ import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 from tqdm import tqdm
@@ -150,13 +149,7 @@ def compare_plant_designs(
                 row[label] = float(block[0, 0]) if block.size == 1 else str(block.round(6).tolist())
         else:
             row["K"] = str(K.round(6).tolist())
-        A_cl = hull.A - hull.B @ K
-        design = None
-        if P is not None:
-            Q = -0.5 * (P @ A_cl + A_cl.T @ P)
-            poles = np.linalg.eigvals(A_cl).astype(complex)
-            design = Design(rho=math.nan, eta=math.nan, K=K, P=P, A_cl=A_cl, Q=0.5 * (Q + Q.T), poles=poles,
-                            hurwitz=bool(np.all(poles.real < 0)), care_residual=math.nan, n_joints=hull.n_joints)
+        design = None if P is None else Design._of_gain(hull.A, hull.B, K, P, "given", hull.n_joints)
         row["theorem1 max eig"] = certify(hull, design).max_eig if design is not None else math.nan
         loops = hull.vertex_closed_loops(K)
         own = decay_rate(loops, P) if P is not None else -math.inf  # the design's own P, checked by numpy
