@@ -20,9 +20,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco]"
 	touch $(STAMP)
 
+# ruff and mypy run inside the suite (tests/test_lint.py), beside the other tests
 test: $(STAMP)
-	$(BIN)/ruff check scara_robust tests benchmarks docs
-	$(BIN)/mypy
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 SCARA_ROBUST_REQUIRE_EXTRAS=1 \
 		$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
 

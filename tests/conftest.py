@@ -36,8 +36,9 @@ def _installed(module: str) -> bool:
 #: The test files that take longest, started first: `make test` runs files in this order
 #: (``--no-loadscope-reorder``), so each of its two processes takes one of the long files at
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
-LONGEST_FILES = ("test_readme.py", "test_site.py", "test_notebooks.py", "test_simulation.py", "test_synthesis.py",
-                 "test_robust_certificates.py", "test_compiled.py", "test_plant_type.py", "test_arm.py")
+LONGEST_FILES = ("test_readme.py", "test_site.py", "test_lint.py", "test_notebooks.py", "test_simulation.py",
+                 "test_synthesis.py", "test_robust_certificates.py", "test_compiled.py", "test_plant_type.py",
+                 "test_arm.py")
 
 
 def pytest_configure(config):
