@@ -248,6 +248,32 @@ def test_zoh_benchmark_brackets_the_eigenvalue_limit(form):
     assert limit.certified_ts <= low and limit.certificate is not None and limit.certificate.certified
 
 
+@pytest.mark.parametrize(("Ts", "status"), [(1.5, "tracking"), (1.9, "not-tracking")])
+def test_sampled_state_feedback_simulation_steps_like_the_sampled_loop(Ts, status):
+    """simulate_plant with the ZOH gain: at the samples, x_k+1 = (Φ − ΓK) x_k (scipy's expm), to LSODA's tolerance.
+
+    Below the limit 1.7294 s the regulated state decays; above it grows, and the run says so.
+    """
+    import scipy.linalg
+
+    a, b = sr.Parameter("a", "1/s", (0.1, 0.1)), sr.Parameter("b", "m/(N·s²)", (0.1, 0.1))
+    plant = sr.UncertainPlant.from_expressions([a, b], [[0, 1], [0, "-a"]], [[0], ["b"]], form="state")
+    run = sr.simulate_plant(plant, sr.SampledStateFeedback(ZOH_K, Ts), x0=[1.0, 0.0], t_final=60.0, n_points=1201)
+    held = scipy.linalg.expm(np.block([[ZOH_A, ZOH_B], [np.zeros((1, 3))]]) * Ts)
+    loop = held[:2, :2] - held[:2, 2:] @ ZOH_K
+    x, scale = np.array([1.0, 0.0]), 1.0
+    for k in range(int(60.0 / Ts) + 1):
+        at = np.flatnonzero(np.isclose(run.t, k * Ts, rtol=0.0, atol=1e-9))
+        if at.size:
+            assert run.y[0, at[0]] == pytest.approx(x[0], abs=1e-6 * scale)
+            assert run.u[0, at[0]] == pytest.approx(float((-ZOH_K @ x)[0]), abs=1e-5 * scale)
+        x = loop @ x
+        scale = max(scale, float(np.abs(x).max()))
+    assert run.status == status
+    changes = np.flatnonzero(np.diff(run.u[0]) != 0)  # u is held: it changes only where a sample falls between
+    assert changes.size and np.all(np.floor(run.t[changes] / Ts + 1e-9) != np.floor(run.t[changes + 1] / Ts + 1e-9))
+
+
 def test_sampled_certificate_leaves_out_and_counts_the_marginal_state():
     plant = sr.pid_augment(ct.ss(ZOH_A, ZOH_B, [[1.0, 0.0]], 0), [])
     pid = sr.DiscretePID(0.5, [[0.0]], ZOH_K[:, :1], ZOH_K[:, 1:], integrator="forward")

@@ -106,6 +106,31 @@ def test_l2_gain_with_feedthrough_matches_the_hinf_norm():
 
 
 @pytest.mark.lmi
+def test_peak_gain_with_feedthrough_bounds_a_simulated_peak():
+    """z = Cx + Dw: the bound is the ellipsoid's γ plus σmax(D); inputs with ‖w(t)‖ <= 1 simulated by
+    python-control (the worst frozen sinusoid, held unit vectors switching every second) stay below it."""
+    A = np.array([[-1.0, 2.0, 0.0], [-2.0, -0.5, 1.0], [0.0, 0.0, -3.0]])
+    B = np.array([[0.0, 1.0], [1.0, 0.0], [0.5, 1.0]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]])
+    D = np.array([[0.3, -0.2], [0.0, 0.8]])
+    with_d, without = sr.peak_gain(A[None], B, C, D), sr.peak_gain(A[None], B, C)
+    assert with_d.upper == pytest.approx(without.upper + np.linalg.norm(D, 2), rel=1e-12)
+    assert np.linalg.norm(D, 2) <= with_d.lower <= with_d.upper and with_d.lower != without.lower
+    sys = ct.ss(A, B, C, D)
+    T = np.linspace(0.0, 40.0, 8001)
+    angles = np.random.default_rng(0).uniform(0, 2 * np.pi, 41)[np.minimum(T.astype(int), 40)]
+    _, omega = ct.linfnorm(sys)
+    G = C @ np.linalg.solve(1j * omega * np.eye(3) - A, B) + D
+    v = np.linalg.svd(G)[2][0].conj()
+    for w in (np.array([np.cos(angles), np.sin(angles)]), np.real(np.outer(v, np.exp(1j * omega * T)))):
+        assert np.linalg.norm(w, axis=0).max() <= 1 + 1e-12
+        z = ct.forced_response(sys, T, w).outputs
+        peak = float(np.linalg.norm(z, axis=0).max())
+        assert peak <= with_d.upper
+    assert peak >= 0.99 * with_d.lower  # the worst sinusoid reaches the lower bound in steady state
+
+
+@pytest.mark.lmi
 def test_l2_gain_refuses_a_feedthrough_of_the_wrong_shape():
     with pytest.raises(sr.ArgumentValueError, match="`D`"):
         sr.l2_gain(np.array([[[-1.0]]]), [[1.0]], [[1.0]], np.zeros((2, 1)))

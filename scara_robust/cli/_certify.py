@@ -8,7 +8,6 @@ from typing import Any
 
 import numpy as np
 
-from ..lyapunov.gain import design
 from ..model.plant import as_model, as_plant
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
@@ -17,6 +16,7 @@ from ._common import (
     add_setup_options,
     finite_float,
     resolve_bounds,
+    resolve_gain,
     resolve_plant,
     resolve_setup,
     sampled_plants,
@@ -33,15 +33,18 @@ def add_parser(sub: Any) -> None:
     sub : argparse._SubParsersAction
     """
     p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
-    p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
-    p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
+    p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
+    p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
+    p.add_argument("--design", metavar="FILE.json",
+                   help="certify your own gain instead: a design file with `K` on the plant's design form (and "
+                   "optionally `P`; without it, P solves the nominal loop's Lyapunov equation)")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
     p.add_argument("--max-ts", action="store_true",
-                   help="also: the largest sample time the sampled-data certificate holds at (the design discretized "
-                   "as export does: Tustin integral, measured derivative), and the smallest at which a frozen plant "
-                   "is unstable (extra lmi)")
+                   help="also: the largest sample time the sampled-data certificate holds at (a PID discretized as "
+                   "export does: Tustin integral, measured derivative; a gain on a plant file's state or integral "
+                   "form: u = -K x(t_k) held), and the smallest at which a frozen plant is unstable (extra lmi)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
@@ -71,12 +74,14 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     plant = resolve_plant(args, setup)
     model = as_model("model", plant)
-    d = design(model, args.rho, args.eta)
-    table = certificate_table(model, d, plant=as_plant("model", plant), falsifier_tries=args.tries, seed=args.seed)
+    physical = as_plant("model", plant)
+    d, label = resolve_gain(args, model)
+    table = certificate_table(model, d, plant=physical, falsifier_tries=args.tries, seed=args.seed)
     limit = None
     if args.max_ts:
         plants, check, set_name = sampled_plants(args, plant, model)
-        limit = max_sample_time(plants, d, check=check, rtol=1e-3)
+        static = physical is not None and physical.form != "pid"  # u = −K x(t_k) held, on the design form
+        limit = max_sample_time(plants, d.K if static else d, check=check, rtol=1e-3)
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         if limit is not None:
@@ -84,7 +89,7 @@ def run(args: argparse.Namespace) -> str:
                             "unstable_ts [s]": _json_value(limit.unstable_ts), "detail": limit.message})
         return json.dumps(records, indent=2)
     source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
-    header = f"certificates of K(rho={d.rho:g}, eta={d.eta:g}), {source}"
+    header = f"certificates of {label}, {source}"
     shown = table.drop(columns="detail").assign(
         certified=table["certified"].map({True: "yes", False: "no", None: "-"})
     )

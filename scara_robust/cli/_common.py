@@ -19,6 +19,7 @@ import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
 from ..io import DesignFile, is_arm_file, load_design, load_model, load_robot, load_scenario, write_atomic
+from ..lyapunov.gain import Design, design
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.polytopic import PolytopicModel
@@ -57,6 +58,7 @@ __all__ = [
     "output_exists",
     "add_design_option",
     "resolve_design",
+    "resolve_gain",
 ]
 
 _Loaded = TypeVar("_Loaded")
@@ -692,6 +694,43 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
         raise CommandLineError(f"`--design` {path!r}: field `K` must have shape {shape} for {what}, found "
                                f"{loaded.K.shape}")
     return loaded
+
+
+def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel) -> tuple[Design, str]:
+    """The gain analysed: designed at ``--rho``/``--eta``, or your own from ``--design FILE.json``.
+
+    A design file's K is taken as it is (:meth:`~scara_robust.Design.from_gain`), with the
+    file's P when it has one and otherwise the Lyapunov solution of its nominal loop.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        With ``rho``, ``eta`` and ``design``.
+    model : UncertainLTVModel or PolytopicModel
+        The design-form model.
+
+    Returns
+    -------
+    design : Design
+    label : str
+        How a report names the gain: ``K(rho=3, eta=90)`` or ``the gain of 'FILE.json' (P: ...)``.
+    """
+    path = getattr(args, "design", None)
+    if path is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if path is None:
+        if args.rho is None or args.eta is None:
+            raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json (your own K)")
+        d = design(model, args.rho, args.eta)
+        return d, f"K(rho={d.rho:g}, eta={d.eta:g})"
+    loaded = resolve_design(args, (model.n_inputs, model.n_states), "this plant's design form")
+    assert loaded is not None
+    try:
+        d = Design.from_gain(model, loaded.K, loaded.P)
+    except ArgumentError as err:
+        raise CommandLineError(f"`--design` {path!r}: field `{err.argument}` {err.problem}") from err
+    source = {"given": "the file's P", "lyapunov": "P from the nominal loop's Lyapunov equation"}[d.P_source]
+    return d, f"the gain of {path!r} ({source})"
 
 
 def output_exists(path: str | None) -> bool:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
+from ..controller.state_feedback import SampledStateFeedback
 from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, PRECISIONS, _check_prefix, export_controller
 from ..io import load_design
 from ..lyapunov.gain import design
@@ -22,6 +23,7 @@ from ._common import (
     finite_float,
     per_joint_values,
     resolve_bounds,
+    resolve_gain,
     resolve_plant,
     resolve_setup,
     sampled_plants,
@@ -39,10 +41,12 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "export",
-        help="the designed PID, discretized at --ts, as C99 source (.h, .c) or JSON",
+        help="the designed PID (or a state-form plant's static feedback), sampled at --ts, as C99 source (.h, .c) "
+        "or JSON",
         description="Design K at (rho, eta), discretize it (Design.discretize) and write it into the folder "
         "--output: --format c writes PREFIX.h and PREFIX.c (PREFIX_init, PREFIX_step), --format json "
         "PREFIX.json with every gain and limit. Without options, the controller of Design.discretize(Ts). "
+        "A plant file in the state form gets static state feedback u = -K x(t_k), held (PREFIX_step(x, u)). "
         "The sampled-data certificate runs first, on --model's plants or the robot's physical set: a Ts it "
         "does not certify is refused with the largest certified Ts, unless --allow-uncertified.",
     )
@@ -120,7 +124,30 @@ def run(args: argparse.Namespace) -> str:
     options = {"integrator": args.integrator, "derivative": args.derivative, "N": args.filter_n,
                "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
                "anti_windup": not args.no_anti_windup}
-    if args.design is not None:
+    static = physical is not None and physical.form != "pid"
+    if static:
+        assert physical is not None
+        if physical.form == "integral":
+            raise CommandLineError(f"`--model` {args.model!r}: export writes a PID (form 'pid') or static state "
+                                   "feedback u = -K x (form 'state'); a gain on the integral form [∫(r - Cx), x] "
+                                   "needs its integrator on the controller and is not exported")
+        changed = [o for o, v, default in (("--integrator", args.integrator, "tustin"),
+                                           ("--derivative", args.derivative, "measured"),
+                                           ("--filter-n", args.filter_n, 100.0),
+                                           ("--torque-limit", args.torque_limit, None),
+                                           ("--tracking-time", args.tracking_time, None),
+                                           ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+        if changed:
+            raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {args.model!r} is in the state "
+                                   "form, whose controller is u = -K x(t_k) held")
+        d, gain = resolve_gain(args, model)
+        controller: DiscretePID | SampledStateFeedback = SampledStateFeedback(d.K, args.ts)
+        signals = {"outputs": physical.inputs}  # the controller's outputs are the plant's inputs; it reads x0..
+        gain = f"static state feedback, {gain}"
+        meta: dict[str, Any] = ({"design_file": args.design} if args.design is not None else
+                                {"rho": d.rho, "eta": d.eta})
+        meta["model"] = model.name
+    elif args.design is not None:
         loaded = _load_file("--design", args.design, load_design)
         m, n = loaded.K.shape
         if n != model.n_states or n != 3 * m:
@@ -128,16 +155,16 @@ def run(args: argparse.Namespace) -> str:
                 f"`--design` {args.design!r}: field `K` must have shape ({model.n_states // 3}, {model.n_states}) "
                 f"for this plant's PID (x = [∫e, e, ė]), found {loaded.K.shape}")
         p = m
-        pid = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
+        controller = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
         gain = f"gain of {args.design!r}"
-        meta: dict[str, Any] = {"design_file": args.design, "model": model.name}
+        meta = {"design_file": args.design, "model": model.name}
     else:
         d = design(model, args.rho, args.eta)
-        pid = d.discretize(args.ts, **options)
+        controller = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
     plants, check, set_name = sampled_plants(args, plant, model)
-    result = check_sample_time(plants, pid, check=check, set_name=set_name)
+    result = check_sample_time(plants, controller, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
         raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
     meta["certificate"] = result.record()
@@ -148,8 +175,13 @@ def run(args: argparse.Namespace) -> str:
                         "without your own analysis.")
     source = f"model {model.name}" if args.model is not None else f"bounds {resolve_bounds(args, setup)}"
     meta["precision"] = args.precision
-    files = export_controller(pid, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
+    files = export_controller(controller, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
                               precision=args.precision, **signals)
+    if isinstance(controller, SampledStateFeedback):
+        lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
+                 ("" if result.certified else "WARNING: not certified; ") + result.message]
+        return "\n".join([*lines, *(f"wrote {f}" for f in files)])
+    pid = controller
     lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
              f"{args.precision} precision",
              ("" if result.certified else "WARNING: not certified; ") + result.message]

@@ -10,7 +10,7 @@ from typing import Any
 
 import pandas as pd
 
-from ..lyapunov.gain import Design, design
+from ..lyapunov.gain import Design
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, robustness_margin
@@ -22,6 +22,7 @@ from ._common import (
     add_setup_options,
     finite_float,
     resolve_bounds,
+    resolve_gain,
     resolve_plant,
     resolve_setup,
     with_ranges,
@@ -41,8 +42,12 @@ def add_parser(sub: Any) -> None:
         "margin",
         help="robustness margins: the largest scaling of the uncertainty set each method certifies, and upper bounds",
     )
-    p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
-    p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
+    p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
+    p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
+    p.add_argument("--design", metavar="FILE.json",
+                   help="the margins of your own gain instead: a design file with `K` on the plant's design form "
+                   "(and optionally `P`, which Theorem 1 and the vertex test use; without it, P solves the nominal "
+                   "loop's Lyapunov equation)")
     add_setup_options(p, scenario=None, model=True)
     p.add_argument("--elements", choices=("all", "A", "B"), default="all", help="elements scaled and varying")
     p.add_argument("--anchor", choices=ANCHORS, default="lower",
@@ -89,9 +94,9 @@ def run(args: argparse.Namespace) -> str:
     setup = resolve_setup(args)
     plant = with_ranges(args, resolve_plant(args, setup))
     model = as_model("model", plant)
-    d = design(model, args.rho, args.eta)
+    d, label = resolve_gain(args, model)
     if getattr(args, "arm_file", None) is not None:
-        return _margin_arm(args, plant, d)
+        return _margin_arm(args, plant, d, label)
     physical = as_plant("model", plant) if args.model is not None else None
     if args.rate and as_plant("model", plant) is None:
         raise CommandLineError("`--rate` needs a plant with physical parameters (a plant file with [parameters], or "
@@ -136,7 +141,7 @@ def run(args: argparse.Namespace) -> str:
     meaning = ("every element range scaled about the design plant (lower corner), [theta*lower, theta*upper]"
                if args.anchor == "lower" else "every element range scaled about the box's centre, "
                "[c - theta*w/2, c + theta*w/2]")
-    lines = [f"margins of K(rho={d.rho:g}, eta={d.eta:g}), {source}, elements: {args.elements}",
+    lines = [f"margins of {label}, {source}, elements: {args.elements}",
              f"theta (anchor {args.anchor}): {meaning}",
              table.drop(columns="message").to_string(index=False, float_format="%.6g"), "",
              *[f"  {row.method}: {row.message}" for row in table.itertuples()]]
@@ -157,7 +162,7 @@ def run(args: argparse.Namespace) -> str:
     return "\n".join(lines)
 
 
-def _margin_arm(args: argparse.Namespace, plant: UncertainPlant, d: Design) -> str:
+def _margin_arm(args: argparse.Namespace, plant: UncertainPlant, d: Design, label: str) -> str:
     """``margin --robot F`` on an arm: the certified payload range in kg, and with ``--rate`` its rate in kg/s.
 
     The interval box of an arm has too many corners for the element margins; the payload
@@ -177,7 +182,7 @@ def _margin_arm(args: argparse.Namespace, plant: UncertainPlant, d: Design) -> s
         if rate is not None:
             rows.append({"table": "rate", **{k: _number(v) for k, v in rate.items()}})
         return json.dumps(rows, indent=2)
-    lines = [f"payload margin of K(rho={d.rho:g}, eta={d.eta:g}) on {args.arm_file!r}: the payload range "
+    lines = [f"payload margin of {label} on {args.arm_file!r}: the payload range "
              f"[{m.range[0]:g}, {m.range[1]:g}] kg scaled about the nominal {m.nominal:g} kg by `scale`, the "
              "reference time kept whole; the range each method certifies:",
              table.drop(columns=[c for c in table.columns if c.startswith("t_ref")] + ["message"]).to_string(

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
@@ -177,8 +178,21 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
     """
     _, profiles = plant_profiles(args, plant, t_final)
     reference, dist = run_inputs(args, plant)
-    return simulate_plant(plant, K, profiles=profiles, reference=reference, disturbance=dist, t_final=t_final,
-                          tolerance=args.tolerance)
+    ts = getattr(args, "ts", None)
+    if ts is not None and not (np.isfinite(ts) and ts > 0):
+        raise CommandLineError(f"`--ts` must be a sample time > 0 s, found {ts:g}")
+    gain = K if ts is None else SampledStateFeedback(K, ts)
+    x0 = None
+    if getattr(args, "x0", None) is not None:
+        x0 = _floats("--x0", args.x0)
+        if len(x0) != plant.n_states:
+            raise CommandLineError(f"`--x0` takes {plant.n_states} values (one per state of the plant), found "
+                                   f"{len(x0)}")
+    if plant.form == "state" and dist is None and (x0 is None or not any(x0)):
+        raise CommandLineError("a plant in the state form is regulated to zero and starts at rest: give --x0 (an "
+                               "initial state) or --disturbance, or nothing moves")
+    return simulate_plant(plant, gain, profiles=profiles, reference=reference, disturbance=dist, t_final=t_final,
+                          x0=x0, tolerance=args.tolerance)
 
 
 def run_inputs(args: argparse.Namespace, plant: UncertainPlant) -> tuple[tuple[float, float], Any]:

@@ -61,6 +61,11 @@ def add_parser(sub: Any) -> None:
                    help="with --model: design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, default=None, help="with --model: design parameter eta >= 1")
     add_plant_run_options(p)
+    p.add_argument("--ts", type=finite_float, default=None, metavar="S",
+                   help="with --model: the gain sampled every S seconds and held (zero-order hold), u = -K x(t_k) on "
+                   "the design form, the loop that certify --max-ts certifies (default: continuous)")
+    p.add_argument("--x0", default=None, metavar="X[,X2,...]",
+                   help="with --model: the plant's initial state, in its states' units (default: at rest, zero)")
     p.add_argument("--payload", choices=("on", "off"), default=None, help="payload m_p(t) on (default) or off")
     p.add_argument(
         "--t-final",
@@ -148,7 +153,7 @@ def run(args: argparse.Namespace) -> str:
         return _run_plant(args)
     plant_only = [o for o in ("rho", "eta") if getattr(args, o) is not None]
     plant_only += [o for o, default in (("profile", "constant"), ("reference", "1")) if getattr(args, o) != default]
-    plant_only += [o for o in ("parameter", "disturbance") if getattr(args, o) is not None]
+    plant_only += [o for o in ("parameter", "disturbance", "ts", "x0") if getattr(args, o) is not None]
     if plant_only:
         raise CommandLineError(f"`--{plant_only[0]}` describes a run of --model's plant; the robot's runs take "
                                "--design, --scenario and --payload")
@@ -284,6 +289,7 @@ def _run_plant(args: argparse.Namespace) -> str:
     if text is not None:
         return text
     files += [written] if written else []
-    head = f"{plant.name}, {gain}, {t_final:g} s, profile {args.profile}"
+    sampling = "" if args.ts is None else f", sampled every {args.ts:g} s (u = -K x(t_k) held)"
+    head = f"{plant.name}, {gain}{sampling}, {t_final:g} s, profile {args.profile}"
     return "\n".join([*summary(run_, plant, head),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])

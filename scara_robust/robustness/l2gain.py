@@ -233,15 +233,15 @@ class PeakBound:
         return f"worst-case peak of z >= {self.lower:.4g} per unit of ‖w‖; no upper bound: {self.status}"
 
 
-def _sinusoid_peak(A: Array, Bw: Array, C: Array) -> float:
+def _sinusoid_peak(A: Array, Bw: Array, C: Array, D: Array) -> float:
     """Steady peak of ‖z‖ for the worst sinusoid ``w = Re(v e^{jωt})``, ``|v| = 1``, on one frozen plant.
 
     ``‖w(t)‖ <= |v| = 1`` at every t, so this is an admissible disturbance and its peak a
     lower bound on the worst case. ω is where ``σmax(G(jω))`` peaks (python-control's
-    ``linfnorm``) and v its top right singular vector.
+    ``linfnorm``, with the feedthrough D) and v its top right singular vector.
     """
-    _, omega = ct.linfnorm(ct.ss(A, Bw, C, 0))
-    G = C @ np.linalg.solve(1j * float(omega) * np.eye(A.shape[0]) - A, Bw)
+    _, omega = ct.linfnorm(ct.ss(A, Bw, C, D))
+    G = C @ np.linalg.solve(1j * float(omega) * np.eye(A.shape[0]) - A, Bw) + D
     v = np.linalg.svd(G)[2][0].conj()
     phases = np.exp(1j * np.linspace(0.0, 2 * np.pi, 721))
     return float(np.linalg.norm(np.real(np.outer(phases, G @ v)), axis=1).max())
@@ -261,7 +261,13 @@ def _ellipsoid_bound(A: Array, Bw: Array, C: Array, P: Array, alpha: float) -> f
 
 
 def peak_gain(
-    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, *, alphas: ArrayLike | None = None, solver: str = "CLARABEL"
+    closed_loops: ArrayLike,
+    Bw: ArrayLike,
+    C: ArrayLike,
+    D: ArrayLike | None = None,
+    *,
+    alphas: ArrayLike | None = None,
+    solver: str = "CLARABEL",
 ) -> PeakBound:
     """The smallest invariant-ellipsoid bound on ``‖z(t)‖`` for ``‖w(t)‖ <= 1`` over ``conv{Ā_i}``.
 
@@ -271,11 +277,17 @@ def peak_gain(
     of a grid, and the best answer is checked with numpy. It is the quadratic form of
     Corollary 1's ultimate bound, with P chosen for the bound instead of given.
 
+    With a feedthrough, ``z = Cx + Dw``, the upper bound is ``γ + σmax(D)`` (``‖z‖ <=
+    ‖Cx‖ + ‖D‖‖w‖``): valid, and conservative by at most σmax(D), since the ellipsoid is
+    chosen for ``Cx`` alone. The lower bound's sinusoid includes D.
+
     Parameters
     ----------
     closed_loops : array_like, shape (V, n, n)
     Bw : array_like, shape (n, q) or (V, n, q)
     C : array_like, shape (p, n)
+    D : array_like, shape (p, q), optional
+        Feedthrough from w to z (default zero).
     alphas : array_like, optional
         Rates tried, 1/s (> 0; default 16 points log-spaced over [10⁻², 10²]·(smallest
         decay of the closed loops' eigenvalues)).
@@ -298,6 +310,8 @@ def peak_gain(
     if Bw.ndim != 3 or Bw.shape[:2] != (A.shape[0], n):
         raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw.shape}")
     C = check_array("C", C, shape=(None, n))
+    D = np.zeros((C.shape[0], Bw.shape[2])) if D is None else check_array("D", D, shape=(C.shape[0], Bw.shape[2]))
+    feedthrough = float(np.linalg.norm(D, 2)) if D.size else 0.0
     check_choice("solver", solver, LMI_SOLVERS)
     grid = None if alphas is None else check_array("alphas", alphas, ndim=1)
     if grid is not None and np.any(grid <= 0):
@@ -310,7 +324,7 @@ def peak_gain(
         grid = -spectral * np.logspace(-2, np.log10(2.0), 16)
     if not cvxpy_available():
         return PeakBound(math.nan, math.nan, None, NOT_INSTALLED, time.perf_counter() - start)
-    peaks = [_sinusoid_peak(A_i, B_i, C) for A_i, B_i in zip(A, Bw)]
+    peaks = [_sinusoid_peak(A_i, B_i, C, D) for A_i, B_i in zip(A, Bw)]
     worst = int(np.argmax(peaks))
     import cvxpy as cp
 
@@ -344,4 +358,5 @@ def peak_gain(
         else:
             if not math.isfinite(best[0]):
                 best = (math.inf, math.nan, None, "not verified")
-    return PeakBound(best[0], best[1], best[2], best[3], time.perf_counter() - start, peaks[worst], worst)
+    return PeakBound(best[0] + feedthrough, best[1], best[2], best[3], time.perf_counter() - start, peaks[worst],
+                     worst)

@@ -22,6 +22,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError, InputFileError
 from ..model.plant import UncertainPlant
 from .metrics import STATUSES
@@ -197,7 +198,7 @@ class PlantRun:
 
 def simulate_plant(
     plant: UncertainPlant,
-    K: ArrayLike,
+    K: ArrayLike | SampledStateFeedback,
     *,
     profiles: Mapping[str, Callable[[float], float]] | None = None,
     reference: tuple[ArrayLike, float] | None = None,
@@ -210,11 +211,19 @@ def simulate_plant(
 ) -> PlantRun:
     """Simulate the plant in closed loop with the gain K while its parameters follow `profiles`.
 
+    The gain acts continuously, ``u(t) = −K ξ(t)`` on the design-form state ξ, or, given a
+    :class:`~scara_robust.SampledStateFeedback`, sampled: ``u(t) = −K ξ(t_k)`` held by a
+    zero-order hold over ``[t_k, t_k + Ts)``, the plant (and the error integral of the PID
+    and integral forms) integrated in continuous time between samples. This is the loop
+    the sampled-data certificate (:func:`~scara_robust.max_sample_time` with the gain)
+    certifies.
+
     Parameters
     ----------
     plant : UncertainPlant
-    K : array_like, shape (m, n)
-        Gain on the design form (a :class:`~scara_robust.Design`'s ``K``).
+    K : array_like, shape (m, n), or SampledStateFeedback
+        Gain on the design form (a :class:`~scara_robust.Design`'s ``K``), or the same gain
+        sampled at its ``Ts``.
     profiles : mapping of str to callable, optional
         ``p(t)`` per parameter (:func:`parameter_profile`); the others stay nominal.
     reference : (amplitude, omega), optional
@@ -247,7 +256,8 @@ def simulate_plant(
     """
     n_x, m = plant.n_states, plant.n_inputs
     n = plant.n_design_states
-    K = check_array("K", K, shape=(m, n))
+    Ts = K.Ts if isinstance(K, SampledStateFeedback) else None
+    K = check_array("K", K.K if isinstance(K, SampledStateFeedback) else K, shape=(m, n))
     t_final = check_real("t_final", t_final, positive=True)
     n_points = check_int("n_points", n_points, 3)
     profiles = dict(profiles or {})
@@ -292,16 +302,20 @@ def simulate_plant(
     def update(t: float, xs: Array, u_in: Array, params: object) -> Array:
         x, z = xs[:n_x], xs[n_x:]
         A, B = plant.plant_matrices(params_at(t))
-        u = control(t, x, z) + (d if t >= t_on else 0.0)
+        u = (control(t, x, z) if Ts is None else u_in) + (d if t >= t_on else 0.0)
         dz = ref(t)[0] - C[:q] @ x if n_int else np.zeros(0)
         return np.concatenate([A @ x + B @ u, dz])
 
-    sys = ct.nlsys(update, None, states=n_x + n_int, inputs=0, outputs=n_x + n_int, name=plant.name)
+    n_in = 0 if Ts is None else m
+    sys = ct.nlsys(update, None, states=n_x + n_int, inputs=n_in, outputs=n_x + n_int, name=plant.name)
     T = np.linspace(0.0, t_final, n_points)
+    xs0 = np.concatenate([x_init, np.zeros(n_int)])
+    held = np.zeros((m, T.size))
     try:
-        res = ct.input_output_response(sys, T, 0, np.concatenate([x_init, np.zeros(n_int)]),
-                                       solve_ivp_method="LSODA", solve_ivp_kwargs={"rtol": 1e-8, "atol": 1e-10})
-        states = np.asarray(res.states, dtype=float).reshape(n_x + n_int, -1)
+        if Ts is None:
+            states = _integrate(sys, T, np.zeros((0, T.size)), xs0)
+        else:
+            states, held = _integrate_sampled(sys, T, Ts, t_on, xs0, lambda t, xs: control(t, xs[:n_x], xs[n_x:]))
         ok, message = True, "integrated"
     except (ValueError, RuntimeError, OverflowError) as err:  # python-control raises on a failed solve
         states = np.full((n_x + n_int, T.size), np.nan)
@@ -310,7 +324,10 @@ def simulate_plant(
     r = np.array([ref(t)[0] for t in T]).T.reshape(q, -1)
     y = C[:q] @ x if plant.form != "state" else x[:q]
     e = r - y
-    u = np.array([control(t, x[:, k], z[:, k]) for k, t in enumerate(T)]).T.reshape(m, -1)
+    if Ts is None:
+        u = np.array([control(t, x[:, k], z[:, k]) for k, t in enumerate(T)]).T.reshape(m, -1)
+    else:
+        u = held
     p = np.array([[params_at(t)[name] for t in T] for name in plant.names]).reshape(len(plant.names), -1)
     rates = np.abs(np.diff(p, axis=1) / np.diff(T)).max(axis=1) if p.size else np.zeros(0)
     peak_r = float(np.abs(amp).max()) if amp.size else 0.0
@@ -337,3 +354,38 @@ def simulate_plant(
               *(f"{prm.name} [{prm.unit}]" for prm in plant.parameters))
     return PlantRun(T, y, r, e, u, p, status, reason, worst, float(np.abs(u).max()) if finite else math.inf,
                     rates, labels)
+
+
+def _integrate(sys: ct.NonlinearIOSystem, T: Array, U: Array, x0: Array) -> Array:
+    """python-control's LSODA response of `sys` on times T (s) from x0; its states, shape (n, len(T))."""
+    res = ct.input_output_response(sys, T, U, x0, solve_ivp_method="LSODA",
+                                   solve_ivp_kwargs={"rtol": 1e-8, "atol": 1e-10})
+    return np.asarray(res.states, dtype=float).reshape(x0.size, -1)
+
+
+def _integrate_sampled(
+    sys: ct.NonlinearIOSystem, T: Array, Ts: float, t_on: float, x0: Array, control: Callable[[float, Array], Array]
+) -> tuple[Array, Array]:
+    """The loop with the input sampled every Ts (s) and held: segment by segment, on output times T.
+
+    The input ``control(t_k, x(t_k))`` is held over ``[t_k, t_k + Ts)``; the segments also
+    break at `t_on` (s), where the disturbance steps, so no input is interpolated across a
+    step. Returns the states on T, shape (n, len(T)), and the held input on T, shape (m, len(T)).
+    """
+    samples = np.arange(0.0, T[-1], Ts)
+    breaks = np.union1d(np.append(samples, T[-1]), [t_on] if 0.0 < t_on < T[-1] else [])
+    states = np.empty((x0.size, T.size))
+    held = np.empty((sys.ninputs, T.size))
+    x, u = x0.copy(), np.zeros(sys.ninputs)
+    sampled = np.isin(breaks, samples)
+    for i, (a, b) in enumerate(zip(breaks[:-1], breaks[1:])):
+        if sampled[i]:
+            u = control(a, x)
+        inside = (T >= a) & ((T < b) | (b == T[-1]))
+        times = np.union1d([a, b], T[inside])
+        out = _integrate(sys, times, np.repeat(u[:, None], times.size, axis=1), x)
+        keep = np.isin(times, T[inside])
+        states[:, inside] = out[:, keep]
+        held[:, inside] = u[:, None]
+        x = out[:, -1]
+    return states, held
