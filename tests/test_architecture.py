@@ -31,6 +31,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.studies",),
     ("scara_robust.plotting",),
     ("scara_robust",),  # the package's __init__: re-exports the library
+    ("scara_robust.app",),  # the web page: a front end the command line serves
     ("scara_robust.cli", "scara_robust.compare", "scara_robust.__main__"),
 )
 FRONT_ENDS = LAYERS[-1]

@@ -17,13 +17,14 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
-from . import _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
+from . import _app, _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
 from ._common import CommandLineError, Parser, check_outputs, emit, error_message, route_arm_file
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
 #: The commands, in the order ``--help`` lists them.
-_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report, _export)
+_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report, _export,
+             _app)
 
 _EXAMPLES = """examples:
   python -m scara_robust design --rho 3 --eta 90

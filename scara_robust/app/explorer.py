@@ -1,0 +1,452 @@
+"""What the page computes, without the page: the map, one design's answers, cancellable slow work.
+
+:class:`DesignExplorer` holds the plant (the SCARA or a plant file), the (ρ, η) grid and its
+map, and answers for one selected design: first the gain and Theorem 1's verdict (fast),
+then the closed-loop response, then the certificates, margins and sample time (slow). The
+slow answers run on a worker thread (the response on a second one, so it never waits behind
+them); :meth:`DesignExplorer.submit` starts them for a new
+selection and drops every pending answer of the previous one.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import threading
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..exceptions import ArgumentError
+from ..lyapunov.gain import Design, design
+from ..lyapunov.surface import DesignSurface, design_surface
+from ..lyapunov.theorem1 import certify
+from ..model.plant import UncertainPlant
+from ..model.uncertain import UncertainLTVModel
+from ..robustness.margins import robustness_margin
+from ..robustness.payload import payload_margin
+from ..robustness.sampled import max_sample_time
+from ..robustness.table import certificate_table
+from ..simulation.plants import simulate_plant
+from ..simulation.run import run_scenario
+
+__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response"]
+
+Array = NDArray[np.float64]
+
+#: Map measures: key -> (label with unit, what it is).
+MEASURES: dict[str, tuple[str, str]] = {
+    "max_eig": ("max λ(Z) [-]", "Theorem 1: certified where max λ(Z) < 0"),
+    "margin": ("margin θ [-]", "Theorem 1 margin: the largest scaling of every element range it certifies "
+                               "(certified where θ >= 1)"),
+}
+
+
+@dataclass(frozen=True)
+class QuickAnswer:
+    """The gain of one (ρ, η) and Theorem 1's verdict: what a click shows at once.
+
+    Attributes
+    ----------
+    rho, eta : float
+    design : Design
+    max_eig : float
+        max λ(Z) of Theorem 1 (certified when < 0).
+    certified : bool
+    seconds : float
+        Wall time of the design and the certificate, s.
+    """
+
+    rho: float
+    eta: float
+    design: Design
+    max_eig: float
+    certified: bool
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Response:
+    """A closed-loop run of the selected design.
+
+    Attributes
+    ----------
+    t : ndarray, shape (k,)
+        s.
+    errors : ndarray, shape (q, k)
+        Tracking errors, in the outputs' unit.
+    inputs : ndarray, shape (m, k)
+        Controller outputs, in the inputs' unit.
+    error_labels, input_labels : tuple of str
+        Legend entries with units.
+    error_unit, input_unit : str
+    status : str
+    reason : str
+    seconds : float
+        Wall time of the run, s.
+    """
+
+    t: Array
+    errors: Array
+    inputs: Array
+    error_labels: tuple[str, ...]
+    input_labels: tuple[str, ...]
+    error_unit: str
+    input_unit: str
+    status: str
+    reason: str
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Answer:
+    """One slow answer for the selected design.
+
+    Attributes
+    ----------
+    kind : {'response', 'margins', 'certificates', 'payload', 'sample_time'}
+    generation : int
+        The selection it belongs to.
+    value : object
+        A pandas table or a dict, by kind.
+    error : str
+        Why it failed, if it did ("" otherwise).
+    seconds : float
+    """
+
+    kind: str
+    generation: int
+    value: Any
+    error: str
+    seconds: float
+
+
+@dataclass
+class DesignExplorer:
+    """The graphical design of one plant: its (ρ, η) map and the answers for a selected design.
+
+    Parameters
+    ----------
+    model : UncertainLTVModel
+        The interval model the PID is designed and certified on.
+    title : str
+        What the page calls the plant.
+    plant : UncertainPlant, optional
+        Its physical parameters (a plant file's, or the robot's payload and reference time):
+        the physical certificate rows and, for a plant file, the simulation.
+    plant_source : callable, optional
+        A picklable call that builds `plant` again (a worker process computes the physical
+        certificate rows with it; a plant's own functions cannot be sent to a process).
+    robot_signals : mapping, optional
+        Keyword arguments of :func:`scara_robust.run_scenario` (the SCARA's robot, reference,
+        payload and disturbance): the response is the SCARA's 20-s run on the compiled
+        engine. Without it the response is :func:`scara_robust.simulate_plant` on `plant`.
+    sampled : (plants, check, name), optional
+        The sampled-data certificate's plants, a set to verify on, and their description.
+    exporter : callable, optional
+        ``exporter(rho, eta, Ts, torque_limit) -> {file name: text}``; raises
+        ``ValueError`` (or a subclass) with a one-line message when it refuses.
+    parse_grid : callable, optional
+        Parses a grid ``START:STOP:NUM`` into its values; raises with a message.
+    rhos, etas : array_like
+        The map's grid.
+    elements : {'all', 'A', 'B'}
+        The uncertain elements entering Theorem 1's Z (the others at their lower bounds), on
+        the map and in the selected design's verdict.
+    t_final : float
+        Horizon of the response, s.
+    """
+
+    model: UncertainLTVModel
+    title: str
+    plant: UncertainPlant | None = None
+    plant_source: Callable[[], Any] | None = None
+    robot_signals: Mapping[str, Any] | None = None
+    sampled: tuple[Any, Any, str] | None = None
+    exporter: Callable[[float, float, float, list[float] | None], dict[str, str]] | None = None
+    parse_grid: Callable[[str], Array] | None = None
+    rhos: Any = field(default_factory=lambda: np.linspace(0.1, 10.0, 100))
+    etas: Any = field(default_factory=lambda: np.linspace(1.0, 200.0, 200))
+    elements: str = "all"
+    t_final: float = 20.0
+    surface: DesignSurface | None = field(default=None, init=False)
+    _generation: int = field(default=0, init=False)
+    _pending: list[Future[Answer]] = field(default_factory=list, init=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, init=False)
+    _process: ProcessPoolExecutor | None = field(default=None, init=False)
+    _fast: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(1, "scara-robust-run"), init=False)
+
+    def __post_init__(self) -> None:
+        self.compute_map(self.rhos, self.etas)
+        if self.robot_signals is not None:  # load the compiled engine now, not on the first click
+            self._fast.submit(self.response, design(self.model, float(self.rhos[0]), float(self.etas[0])))
+
+    @property
+    def signals(self) -> tuple[tuple[str, ...], tuple[str, ...], str, str]:
+        """Legend entries of the errors and of the inputs (with units), and the two units."""
+        if self.robot_signals is not None or self.plant is None:
+            return ("e₁ [rad]", "e₂ [rad]"), ("τ₁ [N·m]", "τ₂ [N·m]"), "rad", "N·m"
+        out, inp = self.plant.outputs, self.plant.inputs
+        return (tuple(f"e {s.name} [{s.unit}]" for s in out), tuple(f"{s.name} [{s.unit}]" for s in inp),
+                out[0].unit, inp[0].unit)
+
+    # -- the map -----------------------------------------------------------------------------
+
+    def compute_map(self, rhos: Any, etas: Any) -> DesignSurface:
+        """Evaluate max λ(Z) and the Theorem 1 margin on ``rhos × etas`` (refused beyond the CLI's limit).
+
+        Parameters
+        ----------
+        rhos, etas : array_like
+
+        Returns
+        -------
+        DesignSurface
+
+        Raises
+        ------
+        ArgumentValueError
+            For a grid the ``surface`` command refuses too (values, or more points than
+            :data:`scara_robust.MAX_SURFACE_POINTS`).
+        """
+        surface = design_surface(self.model, rhos, etas, self.elements, measure="margin")
+        self.surface, self.rhos, self.etas = surface, surface.rhos, surface.etas
+        return surface
+
+    def measure(self, key: str) -> Array:
+        """The map's values of one measure.
+
+        Parameters
+        ----------
+        key : str
+            A key of :data:`MEASURES`.
+
+        Returns
+        -------
+        ndarray, shape (n_rho, n_eta)
+        """
+        assert self.surface is not None
+        values = self.surface.max_eig if key == "max_eig" else self.surface.margin
+        assert values is not None
+        return np.asarray(values, dtype=float)
+
+    def nearest(self, rho: float, eta: float) -> tuple[int, int]:
+        """Grid indices ``(i, k)`` of the map's point nearest (ρ, η), axis by axis.
+
+        Parameters
+        ----------
+        rho, eta : float
+
+        Returns
+        -------
+        (int, int)
+        """
+        i = int(np.abs(self.rhos - rho).argmin())
+        k = int(np.abs(self.etas - eta).argmin())
+        return i, k
+
+    # -- one design --------------------------------------------------------------------------
+
+    def quick(self, rho: float, eta: float) -> QuickAnswer:
+        """The gain at (ρ, η) and Theorem 1's verdict.
+
+        Parameters
+        ----------
+        rho : float
+            > 0.
+        eta : float
+            >= 1.
+
+        Returns
+        -------
+        QuickAnswer
+
+        Raises
+        ------
+        ArgumentValueError
+            Naming ``rho`` or ``eta`` when out of range.
+        """
+        start = time.perf_counter()
+        d = design(self.model, rho, eta)
+        cert = certify(self.model, d, self.elements)
+        return QuickAnswer(d.rho, d.eta, d, float(cert.max_eig), bool(cert.certified), time.perf_counter() - start)
+
+    def response(self, d: Design) -> Response:
+        """The closed-loop run of design `d`: the SCARA on the compiled engine, or the plant file's loop.
+
+        Parameters
+        ----------
+        d : Design
+
+        Returns
+        -------
+        Response
+        """
+        start = time.perf_counter()
+        if self.robot_signals is not None:
+            res = run_scenario("pid", "large", K=d.K, t_final=self.t_final, method="compiled", **self.robot_signals)
+            errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
+            return Response(np.asarray(res.t, dtype=float), errors, inputs, *self.signals, res.status,
+                            res.status_reason, time.perf_counter() - start)
+        assert self.plant is not None
+        run = simulate_plant(self.plant, d.K, t_final=self.t_final, n_points=1001)
+        return Response(run.t, run.e, run.u, *self.signals, run.status, run.reason, time.perf_counter() - start)
+
+    # -- slow answers ------------------------------------------------------------------------
+
+    def slow_answers(self, d: Design) -> dict[str, tuple[Callable[..., Any], tuple[Any, ...]]]:
+        """The slow answers for design `d`, by kind, in the order they are computed.
+
+        Parameters
+        ----------
+        d : Design
+
+        Returns
+        -------
+        dict
+            Kind -> ``(function, arguments)``: module-level functions and picklable
+            arguments, run in a worker process.
+        """
+        answers: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {
+            "response": (self.response, (d,)),
+            "margins": (_margins, (self.model, d)),
+            "certificates": (_certificates, (self.model, d, self.plant_source)),
+        }
+        if self.robot_signals is not None:
+            answers["payload"] = (_payload, (d, self.robot_signals.get("params"), self.robot_signals.get("reference")))
+        if self.sampled is not None:
+            plants, check, _ = self.sampled
+            answers["sample_time"] = (_sample_time, (plants, check, d))
+        return answers
+
+    def submit(self, d: Design, deliver: Callable[[Answer], None]) -> int:
+        """Start the slow answers of a new selection; drop the pending ones of the previous.
+
+        The response runs on a thread of this process; the other answers in a worker
+        process, so that neither their computation nor Python's interpreter lock slows the
+        page's next click.
+
+        Parameters
+        ----------
+        d : Design
+        deliver : callable
+            Called (on a worker thread) with each :class:`Answer` of this selection, never
+            with an answer of a superseded one.
+
+        Returns
+        -------
+        int
+            The selection's generation.
+        """
+        with self._lock:
+            self._generation += 1
+            generation = self._generation
+            for future in self._pending:
+                future.cancel()  # not started: never runs; running: its answer is dropped
+            self._pending = []
+            for kind, (work, args) in self.slow_answers(d).items():
+                pool: Any = self._fast if kind == "response" else self._workers()
+                future = pool.submit(_timed, work, *args)
+                future.add_done_callback(partial(self._finish, kind, generation, deliver))
+                self._pending.append(future)
+        return generation
+
+    def _workers(self) -> ProcessPoolExecutor:
+        if self._process is None:
+            self._process = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        return self._process
+
+    @property
+    def generation(self) -> int:
+        """The current selection's number."""
+        return self._generation
+
+    def _finish(self, kind: str, generation: int, deliver: Callable[[Answer], None], future: Future[Any]) -> None:
+        if future.cancelled() or generation != self._generation:
+            return
+        try:
+            value, error, seconds = future.result()
+        except (BrokenProcessPool, OSError) as err:  # the worker died (killed, out of memory)
+            value, error, seconds = None, f"the worker process stopped: {err}", math.nan
+        if generation == self._generation:
+            deliver(Answer(kind, generation, value, error, seconds))
+
+    def export(self, rho: float, eta: float, ts: float, torque_limit: list[float] | None) -> dict[str, str]:
+        """The controller files of (ρ, η) at Ts, as ``export`` writes them.
+
+        Parameters
+        ----------
+        rho, eta : float
+        ts : float
+            Sample time, s.
+        torque_limit : list of float, optional
+            N·m.
+
+        Returns
+        -------
+        dict
+            File name -> text.
+
+        Raises
+        ------
+        ValueError
+            With the reason (a Ts the certificate refuses, a bad limit) when nothing is written.
+        """
+        if self.exporter is None:
+            raise ValueError("this page has no exporter")
+        if not (math.isfinite(ts) and ts > 0):
+            raise ValueError(f"Ts must be a sample time > 0 s, found {ts:g}")
+        if torque_limit is not None and min(torque_limit) <= 0:
+            raise ValueError(f"the torque limit must be > 0 N·m, found {min(torque_limit):g}")
+        return self.exporter(rho, eta, ts, torque_limit)
+
+    def close(self) -> None:
+        """Stop the worker thread (pending answers are dropped)."""
+        self._generation += 1
+        self._fast.shutdown(wait=False, cancel_futures=True)
+        if self._process is not None:
+            self._process.shutdown(wait=False, cancel_futures=True)
+
+
+def _timed(work: Callable[..., Any], *args: Any) -> tuple[Any, str, float]:
+    """``work(*args)``, its error message ("" if none) and its wall time, s (run in a worker)."""
+    start = time.perf_counter()
+    try:
+        return work(*args), "", time.perf_counter() - start
+    except (ArgumentError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+        return None, " ".join(str(err).split()), time.perf_counter() - start
+
+
+def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:
+    """The margin bracket: Theorem 1 and the vertex test below, a frozen unstable plant above."""
+    rows = {m: robustness_margin(model, d, m, tol=1e-3) for m in ("theorem1", "vertex", "frozen")}
+    return {"lower": max(rows["theorem1"].theta, rows["vertex"].theta), "upper": rows["frozen"].theta, "rows": rows}
+
+
+#: The worker process's plants, by the repr of the call that builds them (built once per process).
+_PLANTS: dict[str, UncertainPlant | None] = {}
+
+
+def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:
+    """Every certificate row (Theorem 1, vertex, physical, LMI, falsifier)."""
+    key = repr(plant_source)
+    if key not in _PLANTS:
+        _PLANTS[key] = None if plant_source is None else plant_source()
+    return certificate_table(model, d, plant=_PLANTS[key], falsifier_tries=5, seed=0)
+
+
+def _payload(d: Design, params: Any, reference: Any) -> Any:
+    """The SCARA's payload bracket in kg: the design's P below, a frozen unstable payload above."""
+    return payload_margin(d, params, reference, tol=1e-2, methods=("payload-design-P", "payload-frozen"))
+
+
+def _sample_time(plants: Any, check: Any, d: Design) -> Any:
+    """The largest Ts the sampled-data certificate holds at (the PID discretized as export does)."""
+    return max_sample_time(plants, d, check=check, rtol=1e-2)

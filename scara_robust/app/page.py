@@ -1,0 +1,393 @@
+"""The page: a Bokeh document over a :class:`~scara_robust.app.explorer.DesignExplorer`, and its server.
+
+Left, the (ρ, η) map coloured by the chosen measure with its certification contour; hovering
+shows the value, a click selects the design. Right, the selected design: its gain, Theorem
+1's verdict, the response, then the slower answers as they arrive. Every asset is served by
+the Bokeh server itself (its ``/static`` route): the page needs no network.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import html
+import math
+import threading
+from collections.abc import Callable
+from functools import partial
+from typing import Any
+
+import numpy as np
+from bokeh.application import Application
+from bokeh.application.handlers.function import FunctionHandler
+from bokeh.document import Document
+from bokeh.events import Event, Tap
+from bokeh.layouts import column, row
+from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
+from bokeh.models.annotations import ColorBar, Legend, Title
+from bokeh.models.widgets import Button, Div, Select, TextInput
+from bokeh.palettes import RdBu11
+from bokeh.plotting import figure
+from bokeh.plotting.contour import contour_data
+from bokeh.server.server import Server
+
+from ..exceptions import ArgumentError
+from .explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
+
+__all__ = ["build_page", "serve", "start_in_thread"]
+
+#: Certified is blue, not certified red (RdBu11 runs from dark blue at the low end to dark red).
+_PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11))}
+_LEVEL = {"max_eig": 0.0, "margin": 1.0}
+_TABLE = "style='border-collapse:collapse' cellpadding='3' border='1'"
+_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
+
+
+def _color_range(key: str, values: np.ndarray) -> tuple[float, float]:
+    """A colour scale centred on the certification level, wide enough for most of the map."""
+    finite = values[np.isfinite(values)]
+    if key == "margin":
+        top = float(np.percentile(finite, 95)) if finite.size else 2.0
+        half = max(abs(top - 1.0), 0.5)
+        return 1.0 - half, 1.0 + half
+    half = float(np.percentile(np.abs(finite), 90)) if finite.size else 1.0
+    half = half if half > 0 else 1.0
+    return -half, half
+
+
+def _cells(values: np.ndarray) -> tuple[float, float]:
+    """Start and width of an image axis whose cells are centred on the grid `values` (evenly spaced)."""
+    step = float(values[1] - values[0]) if values.size > 1 else max(abs(float(values[0])) * 0.1, 0.1)
+    return float(values[0]) - step / 2, float(values[-1] - values[0]) + step
+
+
+def _title(fig: Any) -> Title:
+    """A figure's title object (figure() always makes one)."""
+    title = fig.title
+    assert isinstance(title, Title)
+    return title
+
+
+def _number(text: str, name: str, unit: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{name} must be a number ({unit}), found {text.strip()!r}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite ({unit}), found {text.strip()!r}")
+    return value
+
+
+def _gain_table(answer: QuickAnswer, output_unit: str, input_unit: str, elements: str) -> str:
+    """K as K_P, K_I, K_D rows per input, with units, in HTML."""
+    d = answer.design
+    head = (f"<b id='design-head'>Design at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b> "
+            f"<span style='color:#666'>(K and Theorem 1 in {1e3 * answer.seconds:.1f} ms)</span>")
+    verdict = ("<span style='color:#1a7f37;font-weight:bold'>certified</span>" if answer.certified else
+               "<span style='color:#b31d28;font-weight:bold'>not certified</span>")
+    lines = [head, f"<div id='thm1-verdict'>Theorem 1: {verdict} (max λ(Z) = {answer.max_eig:.4g}, elements "
+                   f"{html.escape(elements)})</div>"]
+    m, n = d.K.shape
+    if n == 3 * m:
+        K_I, K_P, K_D = d.pid_matrices()
+        rows = "".join(
+            f"<tr><td>u{j + 1}</td><td>{' '.join(f'{v:.6g}' for v in K_P[j])}</td>"
+            f"<td>{' '.join(f'{v:.6g}' for v in K_I[j])}</td><td>{' '.join(f'{v:.6g}' for v in K_D[j])}</td></tr>"
+            for j in range(m))
+        i, o = html.escape(input_unit), html.escape(output_unit)
+        lines.append(f"<div>u = K_P e + K_I ∫e + K_D ė, one row per input (columns: the errors):</div>"
+                     f"<table id='gain-table' {_TABLE}><tr><th></th><th>K_P [{i}/{o}]</th>"
+                     f"<th>K_I [{i}/({o}·s)]</th><th>K_D [{i}·s/{o}]</th></tr>" + rows + "</table>")
+    rows = "".join(f"<tr><td>u{j + 1}</td>" + "".join(f"<td>{v:.6g}</td>" for v in d.K[j]) + "</tr>"
+                   for j in range(m))
+    lines.append(f"<div>K of u = −K x on the design form:</div><table id='k-matrix' {_TABLE}>" + rows + "</table>")
+    return "".join(lines)
+
+
+def _table_html(frame: Any, columns: list[str], table_id: str) -> str:
+    shown = frame[columns].copy()
+    return str(shown.to_html(index=False, table_id=table_id, float_format=lambda v: f"{v:.4g}", na_rep="–",
+                             border=1))
+
+
+def build_page(doc: Document, explorer: DesignExplorer) -> None:
+    """Fill `doc` with the page of `explorer`.
+
+    Parameters
+    ----------
+    doc : bokeh.document.Document
+    explorer : DesignExplorer
+    """
+    doc.title = f"scara_robust: {explorer.title}"
+    state: dict[str, Any] = {"measure": "max_eig", "selected": None}
+    first = list(MEASURES)[0]
+    values = explorer.measure(first)
+    low, high = _color_range(first, values)
+    mapper = LinearColorMapper(palette=_PALETTE[first], low=low, high=high, nan_color="#cccccc")
+    rhos, etas = explorer.rhos, explorer.etas
+    (x0, dw), (y0, dh) = _cells(rhos), _cells(etas)
+    image_src = ColumnDataSource({"image": [values.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]})
+    fmap = figure(width=560, height=480, x_range=Range1d(start=x0, end=x0 + dw), y_range=Range1d(start=y0, end=y0 + dh),
+                  x_axis_label="ρ [-]", y_axis_label="η [-]", tools="tap,pan,wheel_zoom,reset,save",
+                  title=f"{MEASURES[first][0]}: {MEASURES[first][1]}", name="design-map")
+    image = fmap.image(image="image", x="x", y="y", dw="dw", dh="dh", source=image_src,
+                       color_mapper=mapper)  # type: ignore[call-arg]  # a property of the Image glyph
+    fmap.add_tools(HoverTool(renderers=[image], tooltips=[("ρ", "$x{0.000}"), ("η", "$y{0.00}"),
+                                                          ("value", "@image{0.0000}")]))
+    contour = fmap.contour(rhos, etas, values.T, levels=[_LEVEL[first], _LEVEL[first] + 1e-12],
+                           line_color="black", line_width=2)
+    colorbar = ColorBar(color_mapper=mapper, title=MEASURES[first][0], width=12)
+    fmap.add_layout(colorbar, "right")
+    chosen = ColumnDataSource({"x": [], "y": []})
+    fmap.scatter("x", "y", source=chosen, marker="x", size=16, line_width=3, color="black")
+
+    options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items()]
+    measure = Select(title="Map colour", value=first, options=options, width=260,
+                     name="measure")
+    rho_in = TextInput(title="ρ [-] (> 0)", value="3", width=120, name="rho")
+    eta_in = TextInput(title="η [-] (>= 1)", value="90", width=120, name="eta")
+    go = Button(label="Select (ρ, η)", button_type="primary", width=130, name="select")
+    rho_grid = TextInput(title="ρ grid START:STOP:NUM", value=f"{rhos[0]:g}:{rhos[-1]:g}:{rhos.size}", width=170,
+                         name="rho-grid")
+    eta_grid = TextInput(title="η grid START:STOP:NUM", value=f"{etas[0]:g}:{etas[-1]:g}:{etas.size}", width=170,
+                         name="eta-grid")
+    regrid = Button(label="Recompute map", width=130, name="regrid")
+    message = Div(text="", width=560, name="message", styles={"color": "#b31d28"})
+
+    design_div = Div(text="Click the map, or type (ρ, η) and press Select.", width=560, name="design")
+    response_div = Div(text="", width=560, name="response")
+    status = {kind: Div(text="", width=560, name=kind) for kind in ("certificates", "margins", "payload",
+                                                                    "sample_time")}
+    err_src = ColumnDataSource({"t": []})
+    inp_src = ColumnDataSource({"t": []})
+    ferr = figure(width=560, height=200, x_axis_label="time t [s]", y_axis_label="tracking error",
+                  tools="pan,wheel_zoom,reset,save", name="errors")
+    finp = figure(width=560, height=200, x_axis_label="time t [s]", y_axis_label="controller output",
+                  x_range=ferr.x_range, tools="pan,wheel_zoom,reset,save", name="inputs")
+    error_labels, input_labels, out_unit, in_unit = explorer.signals
+    err_src.data = {"t": [], **{f"e{j}": [] for j in range(len(error_labels))}}
+    inp_src.data = {"t": [], **{f"u{j}": [] for j in range(len(input_labels))}}
+    for fig, labels, key in ((ferr, error_labels, "e"), (finp, input_labels, "u")):
+        fig.add_layout(Legend(), "right")
+        for j, label in enumerate(labels):
+            fig.line("t", f"{key}{j}", source=err_src if key == "e" else inp_src, color=_COLORS[j % 6],
+                     legend_label=label)
+    ferr.yaxis.axis_label = f"tracking error [{out_unit}]"
+    finp.yaxis.axis_label = f"controller output [{in_unit}]"
+    ts_in = TextInput(title="Ts [s]", value="0.001", width=110, name="ts")
+    limit_in = TextInput(title="torque limit [N·m] (blank: none)", value="", width=200, name="torque-limit")
+    export_btn = Button(label="Export C", width=110, name="export")
+    export_div = Div(text="", width=560, name="export-result")
+
+    def set_measure(key: str) -> None:
+        state["measure"] = key
+        vals = explorer.measure(key)
+        lo, hi = _color_range(key, vals)
+        mapper.update(low=lo, high=hi, palette=_PALETTE[key])
+        (x0, dw), (y0, dh) = _cells(explorer.rhos), _cells(explorer.etas)
+        image_src.data = {"image": [vals.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]}
+        contour.set_data(contour_data(explorer.rhos, explorer.etas, vals.T,
+                                      levels=[_LEVEL[key], _LEVEL[key] + 1e-12]))
+        colorbar.title = MEASURES[key][0]
+        _title(fmap).text = f"{MEASURES[key][0]}: {MEASURES[key][1]}"
+
+    def draw_response(resp: Response, generation: int) -> None:
+        if generation != explorer.generation:
+            return
+        err_src.data = {"t": resp.t, **{f"e{j}": resp.errors[j] for j in range(resp.errors.shape[0])}}
+        inp_src.data = {"t": resp.t, **{f"u{j}": resp.inputs[j] for j in range(resp.inputs.shape[0])}}
+        response_div.text = (f"<b>Response</b> <span id='response-status'>{resp.status}</span> "
+                             f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
+                             f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>")
+
+    def show_answer(answer: Answer) -> None:
+        if answer.generation != explorer.generation:
+            return
+        div = status.get(answer.kind)
+        if answer.kind == "response":
+            if answer.error:
+                response_div.text = f"<b>Response</b>: failed ({html.escape(answer.error)})"
+            else:
+                draw_response(answer.value, answer.generation)
+            return
+        assert div is not None
+        took = f" <span style='color:#666'>({answer.seconds:.1f} s)</span>"
+        if answer.error:
+            div.text = f"<b>{answer.kind.replace('_', ' ')}</b>: failed: {html.escape(answer.error)}"
+            return
+        if answer.kind == "certificates":
+            div.text = ("<b>Certificates</b> (max_eig: of the method's matrix, certified when < 0)" + took +
+                        _table_html(answer.value, ["method", "verdict", "max_eig", "decay_rate [1/s]"],
+                                    "certificate-table"))
+        elif answer.kind == "margins":
+            v = answer.value
+            upper = "no frozen instability found" if math.isinf(v["upper"]) else f"{v['upper']:.4g}"
+            div.text = (f"<b>Margin θ</b> (every element range scaled about the design plant){took}: certified "
+                        f"for θ <= <span id='margin-lower'>{v['lower']:.4g}</span> (Theorem 1 / vertex), a frozen "
+                        f"plant unstable at θ = {upper}: bracket [{v['lower']:.4g}, {upper}]")
+        elif answer.kind == "payload":
+            table = answer.value.set_index("method")
+            lo = float(table.loc["payload-design-P", "mass [kg]"])
+            hi = float(table.loc["payload-frozen", "mass [kg]"])
+            div.text = (f"<b>Payload</b>{took}: certified for a peak payload up to {lo:.4g} kg (the design's P); "
+                        f"a frozen payload of {hi:.4g} kg makes the loop unstable")
+        elif answer.kind == "sample_time":
+            div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
+
+    def deliver(answer: Answer) -> None:  # on the worker thread: hand over to the document's thread
+        doc.add_next_tick_callback(partial(show_answer, answer))
+
+    def select(rho: float, eta: float) -> None:
+        try:
+            answer = explorer.quick(rho, eta)
+        except ArgumentError as err:
+            message.text = html.escape(f"{err.argument} {err.problem}".replace("rho", "ρ").replace("eta", "η"))
+            return
+        state["selected"] = answer
+        design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
+        explorer.submit(answer.design, deliver)
+        doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
+
+    def mark_pending(answer: QuickAnswer) -> None:
+        if state["selected"] is not answer:
+            return
+        message.text = ""
+        chosen.data = {"x": [answer.rho], "y": [answer.eta]}
+        rho_in.value, eta_in.value = f"{answer.rho:g}", f"{answer.eta:g}"
+        kinds = explorer.slow_answers(answer.design)
+        if "response" in kinds:  # before any answer: those are scheduled after this callback
+            response_div.text = "<b>Response</b>: computing…"
+        for kind, div in status.items():
+            div.text = f"<b>{kind.replace('_', ' ')}</b>: computing…" if kind in kinds else ""
+        export_div.text = ""
+
+    def on_tap(event: Event) -> None:  # the map's grid point nearest the click: its value is what was shown
+        assert isinstance(event, Tap)
+        if event.x is None or event.y is None:
+            return
+        i, k = explorer.nearest(float(event.x), float(event.y))
+        select(float(explorer.rhos[i]), float(explorer.etas[k]))
+
+    def on_select() -> None:
+        try:
+            rho = _number(rho_in.value, "ρ", "-")
+            eta = _number(eta_in.value, "η", "-")
+        except ValueError as err:
+            message.text = html.escape(str(err))
+            return
+        select(rho, eta)
+
+    def on_regrid() -> None:
+        parse = explorer.parse_grid
+        if parse is None:
+            message.text = "this page's grid is fixed"
+            return
+        try:
+            r, e = parse(rho_grid.value), parse(eta_grid.value)
+            explorer.compute_map(r, e)
+        except ArgumentError as err:
+            problem = err.problem.replace("× `etas`", "× the η grid").replace("with `etas`", "with the η grid")
+            message.text = html.escape(f"map refused: the ρ grid {problem}" if err.argument == "rhos"
+                                       else f"map refused: the {'η' if err.argument == 'etas' else 'ρ'} grid "
+                                       f"{problem}")
+            return
+        except ValueError as err:  # the grid's text
+            message.text = html.escape(f"grid: {err}")
+            return
+        message.text = ""
+        set_measure(state["measure"])
+        (x0, dw), (y0, dh) = _cells(explorer.rhos), _cells(explorer.etas)
+        fmap.x_range.update(start=x0, end=x0 + dw)
+        fmap.y_range.update(start=y0, end=y0 + dh)
+
+    def on_export() -> None:
+        answer = state["selected"]
+        if answer is None:
+            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+            return
+        try:
+            ts = _number(ts_in.value, "Ts", "s")
+            limit = None
+            if limit_in.value.strip():
+                limit = [_number(v, "the torque limit", "N·m") for v in limit_in.value.split(",")]
+            files = explorer.export(answer.rho, answer.eta, ts, limit)
+        except (ValueError, ArgumentError) as err:
+            export_div.text = f"<span style='color:#b31d28' id='export-error'>{html.escape(str(err))}</span>"
+            return
+        links = " ".join(
+            f"<a download='{html.escape(name)}' id='download-{html.escape(name.replace('.', '-'))}' "
+            f"href='data:text/plain;charset=utf-8;base64,{base64.b64encode(text.encode()).decode()}'>"
+            f"{html.escape(name)}</a>" for name, text in files.items())
+        export_div.text = f"Controller at Ts = {ts:g} s, certified: {links}"
+
+    measure.on_change("value", lambda attr, old, new: set_measure(new))
+    fmap.on_event(Tap, on_tap)
+    go.on_click(on_select)
+    regrid.on_click(on_regrid)
+    export_btn.on_click(on_export)
+
+    title = Div(text=f"<h2 style='margin:0'>Robust PID design: {html.escape(explorer.title)} (Theorem 1 over "
+                f"elements {html.escape(explorer.elements)})</h2>"
+                "<div style='color:#444'>Blue: certified by Theorem 1 (black contour: the boundary). "
+                "Hover for the value, click to select a design.</div>", width=1150)
+    left = column(measure, fmap, row(rho_in, eta_in, column(Div(text="&nbsp;"), go)),
+                  row(rho_grid, eta_grid, column(Div(text="&nbsp;"), regrid)), message)
+    right = column(design_div, response_div, ferr, finp, *status.values(),
+                   row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)), export_div)
+    doc.add_root(column(title, row(left, right)))
+
+
+def serve(explorer: DesignExplorer, port: int, *, address: str = "127.0.0.1",
+          on_start: Callable[[str], None] | None = None) -> Server:
+    """Create the Bokeh server of `explorer`'s page on ``address:port`` (not started).
+
+    Parameters
+    ----------
+    explorer : DesignExplorer
+    port : int
+        TCP port (1-65535).
+    address : str
+        Interface to listen on (default: this machine only).
+    on_start : callable, optional
+        Called with the page's URL once the server listens.
+
+    Returns
+    -------
+    bokeh.server.server.Server
+    """
+    app = Application(FunctionHandler(partial(build_page, explorer=explorer)))
+    origins = [f"localhost:{port}", f"127.0.0.1:{port}", f"{address}:{port}"]
+    server = Server({"/": app}, port=port, address=address, allow_websocket_origin=origins)
+    if on_start is not None:
+        on_start(f"http://{address}:{port}/")
+    return server
+
+
+def start_in_thread(explorer: DesignExplorer, port: int) -> tuple[Server, threading.Thread]:
+    """Serve the page from a background thread (for tests and notebooks); stop with ``server.io_loop.stop()``.
+
+    Parameters
+    ----------
+    explorer : DesignExplorer
+    port : int
+
+    Returns
+    -------
+    server : bokeh.server.server.Server
+    thread : threading.Thread
+    """
+    ready = threading.Event()
+    holder: dict[str, Server] = {}
+
+    def run() -> None:
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        server = serve(explorer, port)
+        server.start()
+        holder["server"] = server
+        ready.set()
+        server.io_loop.start()
+
+    thread = threading.Thread(target=run, name="scara-robust-app-server", daemon=True)
+    thread.start()
+    ready.wait(30)
+    return holder["server"], thread

@@ -1,0 +1,162 @@
+"""``app``: the graphical design as a local web page (Bokeh server on this machine)."""
+
+from __future__ import annotations
+
+import argparse
+import errno
+import os
+import sys
+import tempfile
+from functools import partial
+from typing import Any
+
+from ..model.plant import as_model, as_plant
+from ._common import (
+    RANGE_HELP,
+    CommandLineError,
+    Parser,
+    add_setup_options,
+    parse_range,
+    resolve_plant,
+    resolve_setup,
+    sampled_plants,
+)
+from ._export import add_parser as add_export_parser
+from ._export import run as export_run
+
+__all__ = ["add_parser", "run", "explorer_of", "physical_plant"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``app``.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+    """
+    p = sub.add_parser(
+        "app", help="the graphical design as a local web page: click the (rho, eta) map, read the design's answers",
+        description="Serve the design page on this machine (every asset local; open the printed URL). Left: the "
+        "(rho, eta) map coloured by max eig Z or the Theorem 1 margin, with its certification contour. Right, for "
+        "the selected design: K, the verdicts, the margins, the payload margin, the largest sample time, the "
+        "response, and its C controller (export's files). Stop with Ctrl-C.")
+    add_setup_options(p, scenario="signals", model=True)
+    p.add_argument("--rho", type=parse_range, default="0.1:10:100", metavar="START:STOP:NUM",
+                   help=f"rho grid of the map (default 0.1:10:100): {RANGE_HELP}")
+    p.add_argument("--eta", type=parse_range, default="1:200:200", metavar="START:STOP:NUM",
+                   help="eta grid of the map (default 1:200:200)")
+    p.add_argument("--elements", choices=("all", "A", "B"), default="all",
+                   help="uncertain elements entering Theorem 1's Z on the map and in the verdict (default all; for "
+                   "the SCARA, A shows the certified region)")
+    p.add_argument("--port", type=int, default=5006, help="TCP port on 127.0.0.1 (default 5006)")
+    p.set_defaults(func=run)
+
+
+def _setup_argv(args: argparse.Namespace) -> list[str]:
+    """The options that chose the plant, to hand to ``export``."""
+    argv: list[str] = []
+    for option in ("robot", "model", "bounds", "scenario"):
+        value = getattr(args, option, None)
+        if value is not None:
+            argv += [f"--{option}", str(value)]
+    return argv
+
+
+def physical_plant(args: argparse.Namespace) -> Any:
+    """The plant with physical parameters of the options (None for an interval or polytope file).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    UncertainPlant or None
+    """
+    return as_plant("model", resolve_plant(args, resolve_setup(args)))
+
+
+def explorer_of(args: argparse.Namespace) -> Any:
+    """The page's :class:`~scara_robust.app.explorer.DesignExplorer` for the command's options.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    DesignExplorer
+    """
+    from ..app import DesignExplorer
+
+    if getattr(args, "arm_file", None) is not None:
+        raise CommandLineError(f"`--robot` {args.arm_file!r} is a URDF arm; the page takes the SCARA's robot files "
+                               "and plant files (an arm's design: the design, certify and margin commands)")
+    setup = resolve_setup(args)
+    plant = resolve_plant(args, setup)
+    model = as_model("model", plant)
+    if model.kind != "box":
+        raise CommandLineError(f"`--model` {args.model!r} is a polytope; the map of Theorem 1 needs an interval "
+                               "model (elements with ranges, or physical parameters)")
+    physical = as_plant("model", plant)
+    if args.model is not None and physical is None:
+        raise CommandLineError(f"`--model` {args.model!r} has no physical parameters to simulate; the page needs a "
+                               "plant file with [parameters]")
+    setup_argv = _setup_argv(args)
+    parser = Parser(prog="scara_robust")
+    add_export_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+
+    def exporter(rho: float, eta: float, ts: float, torque_limit: list[float] | None) -> dict[str, str]:
+        with tempfile.TemporaryDirectory() as folder:
+            argv = ["export", "--rho", repr(rho), "--eta", repr(eta), "--ts", repr(ts), "--output", folder,
+                    *setup_argv]
+            if torque_limit is not None:
+                argv += ["--torque-limit", ",".join(repr(v) for v in torque_limit)]
+            try:
+                export_run(parser.parse_args(argv))
+            except CommandLineError as err:
+                raise ValueError(str(err)) from None
+            return {name: open(os.path.join(folder, name), encoding="utf-8").read()
+                    for name in sorted(os.listdir(folder))}
+
+    title = model.name if args.model is not None else (
+        f"SCARA of {args.robot!r}" if args.robot is not None else "the paper's SCARA")
+    source = None if physical is None else partial(physical_plant, argparse.Namespace(**vars(args)))
+    return DesignExplorer(model, title, plant=physical,  # type: ignore[arg-type]  # model: a box, checked above
+                          plant_source=source,
+                          robot_signals=setup.signals() if args.model is None else None,
+                          sampled=sampled_plants(args, plant, model), exporter=exporter, parse_grid=parse_range,
+                          rhos=args.rho, etas=args.eta, elements=args.elements)
+
+
+def run(args: argparse.Namespace) -> str:
+    """Serve the page until interrupted.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    str
+    """
+    if not 1 <= args.port <= 65535:
+        raise CommandLineError(f"`--port` must be a TCP port in 1..65535, found {args.port}")
+    try:
+        from ..app import serve
+    except ImportError as err:
+        raise CommandLineError(f"the page needs Bokeh: pip install '.[app]' ({err})") from None
+    explorer = explorer_of(args)
+    try:
+        server = serve(explorer, args.port)
+        server.start()
+    except OSError as err:
+        why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
+        raise CommandLineError(f"`--port` {args.port}: {why}") from None
+    sys.stderr.write(f"serving the design page at http://127.0.0.1:{args.port}/ (Ctrl-C stops it)\n")
+    sys.stderr.flush()
+    try:
+        server.io_loop.start()
+    finally:
+        explorer.close()
+    return ""

@@ -1,0 +1,305 @@
+"""The design page (``python -m scara_robust app``): what it computes, and the page in a real browser.
+
+The browser test starts the page on a free local port for the DC motor of examples/plant-dc-motor.toml,
+opens it in headless Debian Chromium (Playwright through ``executable_path``), clicks an
+uncertified and then a certified point of the map, and checks what the page shows against the
+library: K against ``sr.design``, the verdicts against ``sr.certificate_table``, the downloaded
+C file against ``export``'s. Bad input typed into the page gets a message and the page keeps
+serving. Screenshots and the click-to-answer times go to docs/_build/screenshots/.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import socket
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.cli import build_parser, main
+
+pytest.importorskip("bokeh", reason="the page needs Bokeh: pip install '.[app]'")
+
+from scara_robust.app import DesignExplorer, start_in_thread  # noqa: E402
+from scara_robust.cli._app import explorer_of  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOT = str(ROOT / "examples" / "robot-paper.toml")
+MOTOR = str(ROOT / "examples" / "plant-dc-motor.toml")
+SCREENSHOTS = ROOT / "docs" / "_build" / "screenshots"
+#: The map's grid in the tests: (3, 90) is a grid point, as in the default 0.1:10:100 x 1:200:200.
+GRID = ["--rho", "0.1:10:100", "--eta", "1:200:200"]
+
+
+@pytest.fixture(scope="module")
+def motor():
+    explorer = explorer_of(build_parser().parse_args(["app", "--model", MOTOR, "--rho", "0.5:5:10",
+                                                      "--eta", "1:50:10"]))
+    yield explorer
+    explorer.close()
+
+
+def test_a_selection_shows_the_library_s_gain_and_theorem1_verdict(motor):
+    answer = motor.quick(1.0, 2.0)
+    d = sr.design(motor.model, 1.0, 2.0)
+    assert np.array_equal(answer.design.K, d.K)
+    cert = sr.certify(motor.model, d, "all")
+    assert answer.max_eig == cert.max_eig and answer.certified == cert.certified
+    surface = sr.design_surface(motor.model, motor.rhos, motor.etas, measure="margin")
+    assert np.array_equal(motor.measure("max_eig"), surface.max_eig)
+    assert np.array_equal(motor.measure("margin"), surface.margin)
+
+
+def test_a_new_selection_drops_the_pending_answers_of_the_previous(motor, monkeypatch):
+    """A second selection cancels what the first has not started and drops what it was computing."""
+    import time
+
+    delivered: list[tuple[int, str]] = []
+    monkeypatch.setattr(motor, "slow_answers", lambda d: {"margins": (time.sleep, (3.0,)),
+                                                          "certificates": (abs, (-1.0,))})
+    old = motor.submit(sr.design(motor.model, 1.0, 2.0), lambda a: delivered.append((a.generation, a.kind)))
+    first = list(motor._pending)
+    deadline = time.monotonic() + 60
+    while not first[0].running() and time.monotonic() < deadline:  # the worker process starts, then runs it
+        time.sleep(0.05)
+    assert first[0].running()
+    monkeypatch.setattr(motor, "slow_answers", lambda d: {"margins": (abs, (-2.0,))})
+    done = threading.Event()
+    new = motor.submit(sr.design(motor.model, 2.0, 3.0),
+                       lambda a: (delivered.append((a.generation, a.kind, a.value)), done.set()))
+    assert done.wait(60)
+    for future in first:  # cancelled before it ran, or ran to its end: either way its answer is dropped
+        assert future.cancelled() or future.result(60)[1] == ""
+    assert new == old + 1 and delivered == [(new, "margins", 2.0)]
+
+
+def test_the_scara_page_runs_the_compiled_engine():
+    """The SCARA's response is run_scenario's 20-s run on the compiled engine, with its units."""
+    explorer = explorer_of(build_parser().parse_args(["app", "--robot", ROBOT, "--rho", "1:5:5", "--eta", "10:90:5",
+                                                      "--elements", "A"]))
+    try:
+        answer = explorer.quick(3.0, 90.0)
+        assert answer.certified and answer.max_eig == sr.certify(explorer.model, answer.design, "A").max_eig
+        resp = explorer.response(answer.design)
+        ref = sr.run_scenario("pid", "large", K=answer.design.K, t_final=20.0, method="compiled")
+        assert np.array_equal(resp.errors, ref.e) and resp.status == ref.status == "tracking"
+        assert resp.error_labels == ("e₁ [rad]", "e₂ [rad]") and resp.input_unit == "N·m"
+    finally:
+        explorer.close()
+
+
+def test_the_page_s_export_is_export_s(motor, tmp_path):
+    files = motor.export(1.0, 2.0, 1e-3, [2.0])
+    assert main(["export", "--model", MOTOR, "--rho", "1.0", "--eta", "2.0", "--ts", "0.001", "--torque-limit",
+                 "2.0", "--output", str(tmp_path)]) == 0
+    assert files == {p.name: p.read_text(encoding="utf-8") for p in sorted(tmp_path.iterdir())}
+    with pytest.raises(ValueError, match="not certified"):
+        motor.export(1.0, 2.0, 0.5, None)
+    with pytest.raises(ValueError, match="torque limit must be > 0 N·m, found 0"):
+        motor.export(1.0, 2.0, 1e-3, [0.0])
+
+
+def test_bad_selections_and_grids_are_refused_with_the_argument(motor):
+    with pytest.raises(sr.ArgumentValueError, match="`rho`"):
+        motor.quick(-1.0, 2.0)
+    with pytest.raises(sr.ArgumentValueError, match="`eta`"):
+        motor.quick(1.0, 0.5)
+    with pytest.raises(sr.ArgumentValueError, match="at most 1,000,000 points"):
+        motor.compute_map(np.linspace(0.1, 10, 2000), np.linspace(1, 200, 1000))
+    assert motor.rhos.size == 10  # the map is unchanged
+
+
+@pytest.mark.parametrize(("argv", "text"), [
+    (["app", "--port", "0"], "`--port` must be a TCP port in 1..65535"),
+    (["app", "--model", str(ROOT / "examples" / "plant-polytope.toml")], "is a polytope"),
+    (["app", "--rho", "0.1:10:1250", "--eta", "1:200:1000"], "a grid of 1,250,000 points"),
+], ids=["port", "polytope", "huge-grid"])
+def test_the_command_refuses_bad_input_in_one_line(capsys, argv, text):
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and text in err, err
+
+
+def test_the_command_says_when_its_port_is_taken(capsys):
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert main(["app", "--model", MOTOR, "--rho", "0.5:5:3", "--eta", "1:5:3", "--port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"`--port` {port}: is in use" in err
+
+
+# -- the page in Chromium ----------------------------------------------------------------------
+
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+#: Where the map's plotting frame is on the page, and its data ranges (Bokeh's view of the figure).
+FRAME_JS = """() => {
+  const model = Bokeh.documents[0].get_model_by_name('design-map');
+  const view = Bokeh.index.get_one(model);
+  const bbox = view.frame.bbox, rect = view.canvas_view.el.getBoundingClientRect();
+  return {left: rect.left + bbox.left, top: rect.top + bbox.top, width: bbox.width, height: bbox.height,
+          x0: view.frame.x_range.start, x1: view.frame.x_range.end,
+          y0: view.frame.y_range.start, y1: view.frame.y_range.end};
+}"""
+
+
+#: Milliseconds from the last pointer release (or t0) until an element, searched through Bokeh's shadow roots,
+#: holds `text`; polled at every frame.
+SHOWN_JS = """([id, text, t0]) => {
+  const find = (root) => {
+    const hit = root.getElementById ? root.getElementById(id) : root.querySelector('#' + id);
+    if (hit) return hit;
+    for (const el of root.querySelectorAll('*')) {
+      if (el.shadowRoot) { const f = find(el.shadowRoot); if (f) return f; }
+    }
+    return null;
+  };
+  const el = find(document);
+  return el && el.textContent.includes(text) ? performance.now() - (t0 === null ? window.__released : t0) : false;
+}"""
+#: Records when the mouse button is released anywhere on the page (the click's moment, in the page's clock).
+RELEASE_JS = "() => window.addEventListener('pointerup', () => { window.__released = performance.now(); }, true)"
+
+
+def _shown_after(page, element_id: str, text: str, t0: float | None, timeout: float) -> float:
+    """Milliseconds from the page's clock t0 (None: the last click's release) until `element_id` shows `text`."""
+    handle = page.wait_for_function(SHOWN_JS, arg=[element_id, text, t0], polling="raf", timeout=timeout)
+    return float(handle.json_value())
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _numbers(text: str) -> list[float]:
+    return [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?", text)]
+
+
+@pytest.fixture(scope="module")
+def page_of_motor():
+    import shutil
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium); .ci/run installs it")
+    sync_api = pytest.importorskip("playwright.sync_api", reason="Playwright is not installed: pip install '.[docs]'")
+    explorer = explorer_of(build_parser().parse_args(["app", "--model", MOTOR, *GRID]))
+    port = _free_port()
+    server, _ = start_in_thread(explorer, port)
+    problems: list[str] = []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS, headless=True)
+        page = browser.new_page(viewport={"width": 1250, "height": 1150}, accept_downloads=True)
+        page.on("console", lambda m: problems.append(f"console: {m.text}") if m.type == "error" else None)
+        page.on("requestfailed", lambda r: problems.append(f"failed: {r.url}"))
+        page.on("request", lambda r: problems.append(f"remote: {r.url}")
+                if not r.url.startswith((f"http://127.0.0.1:{port}", f"ws://127.0.0.1:{port}", "data:")) else None)
+        page.goto(f"http://127.0.0.1:{port}/")
+        page.wait_for_selector("text=Click the map", timeout=60_000)
+        page.evaluate(RELEASE_JS)
+        yield page, explorer, problems
+        browser.close()
+    server.io_loop.add_callback(server.io_loop.stop)
+    explorer.close()
+
+
+def _click_grid_point(page, explorer: DesignExplorer, i: int, k: int) -> None:
+    frame = page.evaluate(FRAME_JS)
+    x = frame["left"] + (explorer.rhos[i] - frame["x0"]) / (frame["x1"] - frame["x0"]) * frame["width"]
+    y = frame["top"] + (1 - (explorer.etas[k] - frame["y0"]) / (frame["y1"] - frame["y0"])) * frame["height"]
+    page.mouse.click(x, y)
+    return None
+
+
+def test_the_page_in_chromium(page_of_motor, tmp_path):
+    page, explorer, problems = page_of_motor
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    values = explorer.measure("max_eig")
+    certified = explorer.nearest(1.0, 5.0)  # certified, and its sampled loop at Ts = 1 ms too
+    assert values[certified] < 0
+    # an uncertified point far from the boundary
+    uncertified = np.unravel_index(np.argmax(np.where(values > 0, values, -np.inf)), values.shape)
+    assert values[uncertified] > 0
+    times = {}
+    for name, (i, k) in (("uncertified", uncertified), ("certified", certified)):
+        start = _click_grid_point(page, explorer, int(i), int(k))
+        rho, eta = float(explorer.rhos[i]), float(explorer.etas[k])
+        label = f"Design at ρ = {rho:.4g}, η = {eta:.4g}"
+        times[f"{name}: click to K and Theorem 1 [ms]"] = _shown_after(page, "design-head", label, start, 10_000)
+        verdict = page.locator("#thm1-verdict")
+        d = sr.design(explorer.model, rho, eta)
+        shown = np.array(_numbers(page.locator("#k-matrix").inner_text())).reshape(d.K.shape[0], -1)[:, 1:]
+        assert np.allclose(shown, d.K, rtol=1e-5, atol=0), name
+        expected = "not certified" if values[i, k] > 0 else "certified"
+        assert f"Theorem 1: {expected}" in verdict.inner_text()
+        if name == "uncertified":
+            continue  # the next click cancels its slow answers
+        times[f"{name}: click to response [ms]"] = _shown_after(page, "response-status", "", start, 120_000)
+        times["response run on the server [ms]"] = float(page.locator("#response-ms").inner_text())
+        page.locator("#certificate-table").wait_for(timeout=120_000)
+        page.wait_for_selector("text=Sample time", timeout=120_000)
+        page.screenshot(path=str(SCREENSHOTS / "app-certified.png"), full_page=True)
+        rows = page.locator("#certificate-table tr").all_inner_texts()[1:]
+        shown_verdicts = {r.split("\t")[0].strip(): r.split("\t")[1].strip() for r in rows}
+        table = sr.certificate_table(explorer.model, d, plant=explorer.plant, falsifier_tries=5, seed=0)
+        assert shown_verdicts == dict(zip(table["method"], table["verdict"]))
+        # the controller file: the page's download equals export's
+        page.get_by_label("Ts [s]").fill("0.001")
+        page.get_by_role("button", name="Export C").click()
+        link = page.locator("#download-motor_pid-c")
+        link.wait_for(timeout=30_000)
+        with page.expect_download() as download:
+            link.click()
+        downloaded = Path(download.value.path()).read_text(encoding="utf-8")
+        out = tmp_path / "export"
+        out.mkdir()
+        assert main(["export", "--model", MOTOR, "--rho", repr(rho), "--eta", repr(eta), "--ts", "0.001",
+                     "--output", str(out)]) == 0
+        assert downloaded == (out / "motor_pid.c").read_text(encoding="utf-8")
+    # the same selection typed: button to K and Theorem 1
+    page.get_by_label(LABELS["rho"]).fill("2")
+    page.get_by_label(LABELS["eta"]).fill("50")
+    page.get_by_role("button", name="Select (ρ, η)").click()
+    times["typed: Select to K and Theorem 1 [ms]"] = _shown_after(page, "design-head", "Design at ρ = 2, η = 50",
+                                                                  None, 10_000)
+    (SCREENSHOTS / "app-timings.json").write_text(json.dumps(times, indent=2), encoding="utf-8")
+    print(json.dumps(times, indent=2))
+    assert not problems, problems
+
+
+#: The page's text fields, by their labels.
+LABELS = {"rho": "ρ [-] (> 0)", "eta": "η [-] (>= 1)", "torque-limit": "torque limit [N·m] (blank: none)",
+          "ts": "Ts [s]", "rho-grid": "ρ grid START:STOP:NUM", "eta-grid": "η grid START:STOP:NUM"}
+
+
+@pytest.mark.parametrize(("field", "value", "button", "message"), [
+    ("rho", "-1", "Select (ρ, η)", "ρ must be > 0"),
+    ("eta", "abc", "Select (ρ, η)", "η must be a number (-), found 'abc'"),
+    ("torque-limit", "0", "Export C", "the torque limit must be > 0 N·m, found 0"),
+    ("ts", "0.5", "Export C", "is not certified"),
+    ("rho-grid", "0.1:10:1250", "Recompute map", "a grid of 1,250,000 points"),
+], ids=["rho-negative", "eta-text", "torque-limit-zero", "ts-uncertified", "huge-grid"])
+def test_bad_input_on_the_page_gets_a_message_and_the_page_keeps_serving(page_of_motor, field, value, button,
+                                                                         message):
+    page, explorer, problems = page_of_motor
+    if field == "rho-grid":
+        page.get_by_label(LABELS["eta-grid"]).fill("1:200:1000")
+    page.get_by_label(LABELS[field]).fill(value)
+    page.get_by_role("button", name=button).click()
+    page.wait_for_selector(f"text={message}", timeout=30_000)
+    page.get_by_label(LABELS[field]).fill({"rho": "3", "eta": "90", "torque-limit": "", "ts": "0.001",
+                                           "rho-grid": "0.1:10:100"}[field])
+    page.get_by_label(LABELS["eta-grid"]).fill("1:200:200")
+    page.get_by_label(LABELS["rho"]).fill("3")
+    page.get_by_label(LABELS["eta"]).fill("90")
+    page.get_by_role("button", name="Select (ρ, η)").click()  # the page still answers
+    page.wait_for_selector("text=Design at ρ = 3, η = 90", timeout=30_000)
+    assert not problems, problems
