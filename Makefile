@@ -4,7 +4,7 @@
 # process, two processes on two cores.
 # Every target creates .venv and installs the package with its test tools and the
 # optional extras (docs: Sphinx and Playwright; lmi: cvxpy; dask; parquet: pyarrow; compiled: numba;
-# robots: Pinocchio; mujoco) on first use,
+# robots: Pinocchio; mujoco; app: Bokeh) on first use,
 # so their tests run (robot-data, the 130-MB example-robot-data, is not installed: its tests skip).
 PYTHON ?= python3
 VENV := .venv
@@ -17,7 +17,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet --no-compile -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco]"
+	$(BIN)/python -m pip install --quiet --no-compile -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco,app]"
 	touch $(STAMP)
 
 # ruff and mypy run inside the suite (tests/test_lint.py), beside the other tests

@@ -71,6 +71,12 @@ def main(argv: list[str]) -> int:
         share = info["pinocchio_seconds"] / info["timed_seconds"]
         lines.append(f"| 6-joint arm, 20-s run ({info['pinocchio_calls']} Pinocchio calls; {share:.0%} of the time "
                      f"in Pinocchio, the rest in Python and scipy) | {mean[arm]:.4g} | | |")
+    click, riccati = mean.get("test_app_click_to_gain"), mean.get("test_app_click_to_gain_reference")
+    if click and riccati:
+        lines.append(f"| design page: a click's K and Theorem 1 (vs the Riccati design alone) | {click:.4g} | "
+                     f"{riccati:.4g} | {click / riccati:.1f}x |")
+    if "test_app_response" in mean:
+        lines.append(f"| design page: the 20-s SCARA response, compiled, warm | {mean['test_app_response']:.4g} | | |")
     print("\n".join(lines))
     return 0
 

@@ -186,3 +186,35 @@ def test_arm6_run_20s(benchmark, tmp_path):
     pin_time, total, calls = _arm_run_split(setup, K, payload, t_final)
     benchmark.extra_info.update(pinocchio_seconds=pin_time, timed_seconds=total, pinocchio_calls=calls)
     assert 0 < pin_time < total
+
+
+@pytest.fixture(scope="module")
+def scara_page():
+    """The design page's computations for the SCARA of examples/robot-paper.toml (Theorem 1 over ΔA)."""
+    pytest.importorskip("bokeh", reason="the app extra")
+    from scara_robust.cli import build_parser
+    from scara_robust.cli._app import explorer_of
+
+    explorer = explorer_of(build_parser().parse_args(["app", "--robot", "examples/robot-paper.toml", "--elements",
+                                                      "A"]))
+    explorer.response(explorer.quick(3.0, 90.0).design)  # the compiled engine loaded, as the page does at start
+    yield explorer
+    explorer.close()
+
+
+def test_app_click_to_gain(benchmark, scara_page):
+    """What a click computes before the page shows K: the design and Theorem 1 (target: well under 100 ms)."""
+    answer = benchmark(scara_page.quick, 3.0, 90.0)
+    assert answer.certified
+
+
+def test_app_click_to_gain_reference(benchmark, scara_page):
+    """The reference of the same run: the Riccati design alone."""
+    benchmark(sr.design, scara_page.model, 3.0, 90.0)
+
+
+def test_app_response(benchmark, scara_page):
+    """The page's 20-s SCARA run on the compiled engine, warm (target: under 300 ms)."""
+    d = scara_page.quick(3.0, 90.0).design
+    resp = benchmark(scara_page.response, d)
+    assert resp.status == "tracking"

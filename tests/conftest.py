@@ -24,7 +24,7 @@ settings.load_profile("ci")
 
 #: Optional extras by marker: the module each one installs.
 EXTRAS = {"lmi": "cvxpy", "dask": "distributed", "parquet": "pyarrow", "compiled": "numba", "robots": "pinocchio",
-          "mujoco": "mujoco"}
+          "mujoco": "mujoco", "app": "bokeh"}
 #: `make test` sets this, so that a missing extra fails the run instead of skipping its tests.
 REQUIRE_EXTRAS = os.environ.get("SCARA_ROBUST_REQUIRE_EXTRAS") == "1"
 
@@ -36,9 +36,9 @@ def _installed(module: str) -> bool:
 #: The test files that take longest, started first: `make test` runs files in this order
 #: (``--no-loadscope-reorder``), so each of its two processes takes one of the long files at
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
-LONGEST_FILES = ("test_readme.py", "test_site.py", "test_lint.py", "test_notebooks.py", "test_simulation.py",
-                 "test_synthesis.py", "test_robust_certificates.py", "test_compiled.py", "test_plant_type.py",
-                 "test_arm.py")
+LONGEST_FILES = ("test_readme.py", "test_site.py", "test_lint.py", "test_app.py", "test_notebooks.py",
+                 "test_simulation.py", "test_synthesis.py", "test_robust_certificates.py", "test_compiled.py",
+                 "test_plant_type.py", "test_arm.py")
 
 
 def pytest_configure(config):

@@ -14,6 +14,7 @@ import json
 import re
 import socket
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -21,11 +22,10 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.cli import build_parser, main
+from scara_robust.cli._app import explorer_of
 
-pytest.importorskip("bokeh", reason="the page needs Bokeh: pip install '.[app]'")
-
-from scara_robust.app import DesignExplorer, start_in_thread  # noqa: E402
-from scara_robust.cli._app import explorer_of  # noqa: E402
+#: Needs the `app` extra (Bokeh): skipped without it, failed under SCARA_ROBUST_REQUIRE_EXTRAS=1.
+pytestmark = pytest.mark.app
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = str(ROOT / "examples" / "robot-paper.toml")
@@ -56,7 +56,6 @@ def test_a_selection_shows_the_library_s_gain_and_theorem1_verdict(motor):
 
 def test_a_new_selection_drops_the_pending_answers_of_the_previous(motor, monkeypatch):
     """A second selection cancels what the first has not started and drops what it was computing."""
-    import time
 
     delivered: list[tuple[int, str]] = []
     monkeypatch.setattr(motor, "slow_answers", lambda d: {"margins": (time.sleep, (3.0,)),
@@ -184,16 +183,28 @@ def _numbers(text: str) -> list[float]:
 
 
 @pytest.fixture(scope="module")
-def page_of_motor():
+def page_of_motor(tmp_path_factory):
+    """``python -m scara_robust app --model examples/plant-dc-motor.toml`` on a free port, opened in Chromium."""
     import shutil
+    import subprocess
+    import sys
 
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("no Chromium on this machine (Debian: apt-get install chromium); .ci/run installs it")
     sync_api = pytest.importorskip("playwright.sync_api", reason="Playwright is not installed: pip install '.[docs]'")
-    explorer = explorer_of(build_parser().parse_args(["app", "--model", MOTOR, *GRID]))
+    argv = ["--model", MOTOR, *GRID]
+    explorer = explorer_of(build_parser().parse_args(["app", *argv]))  # the same grid and model, to check against
     port = _free_port()
-    server, _ = start_in_thread(explorer, port)
+    log = tmp_path_factory.mktemp("app") / "stderr.txt"
+    with open(log, "w", encoding="utf-8") as err:
+        server = subprocess.Popen([sys.executable, "-m", "scara_robust", "app", *argv, "--port", str(port)],
+                                  stdout=subprocess.DEVNULL, stderr=err)
+    deadline = time.monotonic() + 120
+    while "serving the design page" not in log.read_text(encoding="utf-8"):  # said once it listens
+        assert server.poll() is None and time.monotonic() < deadline, log.read_text(encoding="utf-8")
+        time.sleep(0.1)
+    assert f"serving the design page at http://127.0.0.1:{port}/" in log.read_text(encoding="utf-8")
     problems: list[str] = []
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS, headless=True)
@@ -207,11 +218,12 @@ def page_of_motor():
         page.evaluate(RELEASE_JS)
         yield page, explorer, problems
         browser.close()
-    server.io_loop.add_callback(server.io_loop.stop)
+    server.terminate()  # as Ctrl-C: the page and its worker process stop
+    assert server.wait(30) == 0, log.read_text(encoding="utf-8")
     explorer.close()
 
 
-def _click_grid_point(page, explorer: DesignExplorer, i: int, k: int) -> None:
+def _click_grid_point(page, explorer, i: int, k: int) -> None:
     frame = page.evaluate(FRAME_JS)
     x = frame["left"] + (explorer.rhos[i] - frame["x0"]) / (frame["x1"] - frame["x0"]) * frame["width"]
     y = frame["top"] + (1 - (explorer.etas[k] - frame["y0"]) / (frame["y1"] - frame["y0"])) * frame["height"]

@@ -375,6 +375,8 @@ class DesignExplorer:
             value, error, seconds = future.result()
         except (BrokenProcessPool, OSError) as err:  # the worker died (killed, out of memory)
             value, error, seconds = None, f"the worker process stopped: {err}", math.nan
+        except Exception as err:  # noqa: BLE001  # any other failure is shown on the page, not left "computing…"
+            value, error, seconds = None, f"{type(err).__name__}: {err}", math.nan
         if generation == self._generation:
             deliver(Answer(kind, generation, value, error, seconds))
 
@@ -408,11 +410,15 @@ class DesignExplorer:
         return self.exporter(rho, eta, ts, torque_limit)
 
     def close(self) -> None:
-        """Stop the worker thread (pending answers are dropped)."""
+        """Stop the worker thread and process (pending answers are dropped)."""
         self._generation += 1
         self._fast.shutdown(wait=False, cancel_futures=True)
         if self._process is not None:
+            # a worker still computing an answer nobody will read is stopped, not waited for
+            workers = list(getattr(self._process, "_processes", {}).values())
             self._process.shutdown(wait=False, cancel_futures=True)
+            for worker in workers:
+                worker.terminate()
 
 
 def _timed(work: Callable[..., Any], *args: Any) -> tuple[Any, str, float]:

@@ -245,7 +245,10 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             return
         state["selected"] = answer
         design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
-        explorer.submit(answer.design, deliver)
+        try:
+            explorer.submit(answer.design, deliver)
+        except (RuntimeError, OSError) as err:  # no worker process could start
+            message.text = html.escape(f"the slower answers cannot be computed: {err}")
         doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
 
     def mark_pending(answer: QuickAnswer) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import signal
 import sys
 import tempfile
 from functools import partial
@@ -153,10 +154,13 @@ def run(args: argparse.Namespace) -> str:
     except OSError as err:
         why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
         raise CommandLineError(f"`--port` {args.port}: {why}") from None
+    loop = server.io_loop
+    # SIGTERM (a service manager, a test) stops the page as Ctrl-C does: the worker process goes with it
+    signal.signal(signal.SIGTERM, lambda signum, frame: loop.add_callback_from_signal(loop.stop))
     sys.stderr.write(f"serving the design page at http://127.0.0.1:{args.port}/ (Ctrl-C stops it)\n")
     sys.stderr.flush()
     try:
-        server.io_loop.start()
+        loop.start()
     finally:
         explorer.close()
     return ""
