@@ -1,11 +1,11 @@
 """The graphical design as a local web page: the (ρ, η) map, click a design, read its answers.
 
 ``python -m scara_robust app`` serves it (Bokeh server, every asset local);
-:class:`~scara_robust.app.explorer.DesignExplorer` is what it computes, usable without a page.
+:class:`~scara_robust.app.DesignExplorer` is what it computes, usable without a page.
 """
 
-from .explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
-from .page import build_page, serve, start_in_thread
+from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
+from ._page import build_page, serve, start_in_thread
 
 __all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "build_page", "serve",
            "start_in_thread"]

@@ -78,7 +78,7 @@ def physical_plant(args: argparse.Namespace) -> Any:
 
 
 def explorer_of(args: argparse.Namespace) -> Any:
-    """The page's :class:`~scara_robust.app.explorer.DesignExplorer` for the command's options.
+    """The page's :class:`~scara_robust.app.DesignExplorer` for the command's options.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The page: a Bokeh document over a :class:`~scara_robust.app.explorer.DesignExplorer`, and its server.
+"""The page: a Bokeh document over a :class:`~scara_robust.app.DesignExplorer`, and its server.
 
 Left, the (ρ, η) map coloured by the chosen measure with its certification contour; hovering
 shows the value, a click selects the design. Right, the selected design: its gain, Theorem
@@ -32,7 +32,7 @@ from bokeh.plotting.contour import contour_data
 from bokeh.server.server import Server
 
 from ..exceptions import ArgumentError
-from .explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
+from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
 
 __all__ = ["build_page", "serve", "start_in_thread"]
 
