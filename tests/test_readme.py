@@ -157,10 +157,13 @@ def test_python_block_runs(scratch, index):
 ARM_SLOW = ("certify", "margin", "synthesize", "compare", "export")
 
 
-#: SCARA certificates the guide shows twice over (each about 10 s: the LMI over 1024 corners):
+#: SCARA certificates and margins the guide shows (each about 10 s: the LMI over 1024 corners):
 #: the light robot's (tests/test_inputs.py runs that robot end to end) and the derived bounds'
 #: (tests/test_arm.py and tests/test_robust_certificates.py check them); run in `make test-slow`.
-SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "certify --rho 3 --eta 90 --bounds derived")
+SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "certify --rho 3 --eta 90 --bounds derived",
+              # the published bounds' certificate table and both margin tables (10 to 13 s each):
+              # tests/test_robust_certificates.py and tests/test_margins.py check the same tables
+              "certify --rho 3 --eta 90 --bounds paper", "margin --rho 3 --eta 90 --bounds")
 
 
 def _command_param(page: str, line: str) -> object:

@@ -131,7 +131,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                   x_axis_label="ρ [-]", y_axis_label="η [-]", tools="tap,pan,wheel_zoom,reset,save",
                   title=f"{MEASURES[first][0]}: {MEASURES[first][1]}", name="design-map")
     image = fmap.image(image="image", x="x", y="y", dw="dw", dh="dh", source=image_src,
-                       color_mapper=mapper)  # type: ignore[call-arg]  # a property of the Image glyph
+                       color_mapper=mapper)
     fmap.add_tools(HoverTool(renderers=[image], tooltips=[("ρ", "$x{0.000}"), ("η", "$y{0.00}"),
                                                           ("value", "@image{0.0000}")]))
     contour = fmap.contour(rhos, etas, values.T, levels=[_LEVEL[first], _LEVEL[first] + 1e-12],

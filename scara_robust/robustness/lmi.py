@@ -275,7 +275,9 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
         with warnings.catch_warnings():
             # "Solution may be inaccurate" is reported through the status, not as a warning
             warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=solver)  # type: ignore[no-untyped-call]
+            # cvxpy's C++ canonicalization: on the SCARA's 1024 corners it builds the problem in 4.7 s
+            # instead of 6.7 s (the default's choice); the problem and the solver are the same
+            problem.solve(solver=solver, canon_backend=cp.CPP_CANON_BACKEND)  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
         return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
     status = str(problem.status)
