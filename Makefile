@@ -16,7 +16,6 @@ STAMP := $(VENV)/.installed
 # --no-compile: a module is byte-compiled when first imported, not all of every package at install (50 s less)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco,app]"
 	touch $(STAMP)
 

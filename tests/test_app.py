@@ -58,7 +58,7 @@ def test_a_new_selection_drops_the_pending_answers_of_the_previous(motor, monkey
     """A second selection cancels what the first has not started and drops what it was computing."""
 
     delivered: list[tuple[int, str]] = []
-    monkeypatch.setattr(motor, "slow_answers", lambda d: {"margins": (time.sleep, (3.0,)),
+    monkeypatch.setattr(motor, "slow_answers", lambda d: {"margins": (time.sleep, (1.5,)),
                                                           "certificates": (abs, (-1.0,))})
     old = motor.submit(sr.design(motor.model, 1.0, 2.0), lambda a: delivered.append((a.generation, a.kind)))
     first = list(motor._pending)

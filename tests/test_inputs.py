@@ -49,17 +49,20 @@ def test_scenario_file_tables_are_optional(tmp_path):
     assert scen.disturbance == sr.paper_disturbance() and scen.name == "s"
 
 
-@pytest.mark.parametrize("robot", ROBOTS, ids=["paper", "light"])
-@pytest.mark.parametrize(
-    "argv",
-    [
-        ["design", "--rho", "3", "--eta", "90", "--format", "json"],
-        ["surface", "--rho", "1:5:3", "--eta", "10:100:3", "--format", "json"],
-        ["simulate", "--t-final", "6.5", "--format", "json"],
-        ["compare", "--t-final", "6.5", "--format", "json"],
-    ],
-    ids=["design", "surface", "simulate", "compare"],
-)
+#: Each command on both robot files; `compare` of the paper's robot (its file is the paper's robot, whose
+#: comparison tests/test_cli.py runs) is in `make test-slow`.
+END_TO_END = [
+    ["design", "--rho", "3", "--eta", "90", "--format", "json"],
+    ["surface", "--rho", "1:5:3", "--eta", "10:100:3", "--format", "json"],
+    ["simulate", "--t-final", "6.5", "--format", "json"],
+    ["compare", "--t-final", "6.5", "--format", "json"],
+]
+
+
+@pytest.mark.parametrize(("robot", "argv"), [
+    pytest.param(robot, argv, id=f"{argv[0]}-{robot.split('-')[1].split('.')[0]}",
+                 marks=[pytest.mark.slow] if (argv[0], robot) == ("compare", "robot-paper.toml") else [])
+    for argv in END_TO_END for robot in ROBOTS])
 def test_own_robot_end_to_end(capsys, robot, argv):
     assert main([*argv, "--robot", str(EXAMPLES / robot)]) == 0
     out = json.loads(capsys.readouterr().out)

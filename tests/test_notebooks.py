@@ -74,9 +74,11 @@ def test_notebook_has_one_parameters_cell_first(name):
 #: Executed by `make test-slow`, `make notebooks` and `make docs` (its gallery): the longest even at
 #: their test sizes, the three time responses of the paper (run_scenario and plot_response,
 #: which tests/test_simulation.py and tests/test_plotting.py check in make test) and Figure 2's
-#: surface (design_surface and plot_surface: tests/test_surface.py, tests/test_plotting.py).
+#: surface (design_surface and plot_surface: tests/test_surface.py, tests/test_plotting.py), and the
+#: deployment walk-through (its steps: tests/test_deploy.py and the deployment guide in tests/test_readme.py).
 SLOW_NOTEBOOKS = ("robustness_margins.ipynb", "comparison.ipynb", "robot_arm.ipynb", "figure3_pid_large_ic.ipynb",
-                  "figure6_pid_small_ic.ipynb", "figures4_5_sliding_mode.ipynb", "figure2_design_surface.ipynb")
+                  "figure6_pid_small_ic.ipynb", "figures4_5_sliding_mode.ipynb", "figure2_design_surface.ipynb",
+                  "deployment.ipynb")
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, id=n, marks=[pytest.mark.slow] if n in SLOW_NOTEBOOKS else [])

@@ -111,7 +111,7 @@ def test_an_inaccurate_answer_is_never_certified():
     assert not doubtful.certified and "optimal_inaccurate" in doubtful.message
 
 
-@pytest.mark.parametrize("mass_max", [180.0, 215.0], ids=["180kg", "215kg"])
+@pytest.mark.parametrize("mass_max", [180.0, pytest.param(215.0, marks=pytest.mark.slow)], ids=["180kg", "215kg"])
 def test_robot_certified_at_a_rate_beyond_the_common_p_payload_margin(paper_design, mass_max):
     # Both masses lie between the common-P payload margin (about 130 kg) and the frozen one
     # (about 271 kg) of `payload_margin`; coarse grids keep this quick, and the answer is

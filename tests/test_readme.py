@@ -76,9 +76,9 @@ REDUCED = {
     "compare": ["--t-final", "6.5"],
     "simulate": ["--t-final", "6.5"],
     "certify": ["--tries", "2"],
-    # two runs in this process on the scipy engine: worker processes would each compile the
-    # numba engine (its disk cache is cold in a fresh clone); tests/test_campaign.py runs both
-    "campaign": ["--runs", "2", "--workers", "1", "--engine", "scipy"],
+    # two runs in this process on the compiled engine, from the disk cache `make test` fills at its start
+    # (tests/conftest.py); worker processes are not started. tests/test_campaign.py runs both engines
+    "campaign": ["--runs", "2", "--workers", "1", "--engine", "compiled"],
     "margin": ["--tol", "0.3", "--tries", "2"],
 }
 #: Flags added for the same reason (the payload margin has its own tests), and the largest NUM of a range.
@@ -163,7 +163,9 @@ ARM_SLOW = ("certify", "margin", "synthesize", "compare", "export")
 SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "certify --rho 3 --eta 90 --bounds derived",
               # the published bounds' certificate table and both margin tables (10 to 13 s each):
               # tests/test_robust_certificates.py and tests/test_margins.py check the same tables
-              "certify --rho 3 --eta 90 --bounds paper", "margin --rho 3 --eta 90 --bounds")
+              "certify --rho 3 --eta 90 --bounds paper", "margin --rho 3 --eta 90 --bounds",
+              # the light robot's comparison: tests/test_inputs.py runs it end to end
+              "compare --robot examples/robot-light.toml")
 
 
 def _command_param(page: str, line: str) -> object:
