@@ -86,7 +86,8 @@ def test_the_scara_page_runs_the_compiled_engine():
         resp = explorer.response(answer.design)
         ref = sr.run_scenario("pid", "large", K=answer.design.K, t_final=20.0, method="compiled")
         assert np.array_equal(resp.errors, ref.e) and resp.status == ref.status == "tracking"
-        assert resp.error_labels == ("e₁ [rad]", "e₂ [rad]") and resp.input_unit == "N·m"
+        error_labels, _, _, input_unit = explorer.signals
+        assert error_labels == ("e₁ [rad]", "e₂ [rad]") and input_unit == "N·m"
     finally:
         explorer.close()
 

@@ -83,10 +83,7 @@ class Response:
     errors : ndarray, shape (q, k)
         Tracking errors, in the outputs' unit.
     inputs : ndarray, shape (m, k)
-        Controller outputs, in the inputs' unit.
-    error_labels, input_labels : tuple of str
-        Legend entries with units.
-    error_unit, input_unit : str
+        Controller outputs, in the inputs' unit (legends and units: :attr:`DesignExplorer.signals`).
     status : str
     reason : str
     seconds : float
@@ -96,10 +93,6 @@ class Response:
     t: Array
     errors: Array
     inputs: Array
-    error_labels: tuple[str, ...]
-    input_labels: tuple[str, ...]
-    error_unit: str
-    input_unit: str
     status: str
     reason: str
     seconds: float
@@ -293,11 +286,11 @@ class DesignExplorer:
         if self.robot_signals is not None:
             res = run_scenario("pid", "large", K=d.K, t_final=self.t_final, method="compiled", **self.robot_signals)
             errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
-            return Response(np.asarray(res.t, dtype=float), errors, inputs, *self.signals, res.status,
-                            res.status_reason, time.perf_counter() - start)
+            return Response(np.asarray(res.t, dtype=float), errors, inputs, res.status, res.status_reason,
+                            time.perf_counter() - start)
         assert self.plant is not None
         run = simulate_plant(self.plant, d.K, t_final=self.t_final, n_points=1001)
-        return Response(run.t, run.e, run.u, *self.signals, run.status, run.reason, time.perf_counter() - start)
+        return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start)
 
     # -- slow answers ------------------------------------------------------------------------
 

@@ -59,6 +59,7 @@ __all__ = [
     "add_design_option",
     "resolve_design",
     "resolve_gain",
+    "check_gain_options",
 ]
 
 _Loaded = TypeVar("_Loaded")
@@ -696,6 +697,32 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
     return loaded
 
 
+def check_gain_options(args: argparse.Namespace) -> str | None:
+    """The gain's source: ``--design FILE.json``, or ``--rho`` and ``--eta``, exactly one of the two.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        With ``rho``, ``eta`` and ``design``.
+
+    Returns
+    -------
+    str or None
+        The design file's path, or None when the gain is designed at (ρ, η).
+
+    Raises
+    ------
+    CommandLineError
+        For both, or neither.
+    """
+    path: str | None = getattr(args, "design", None)
+    if path is not None and (args.rho is not None or args.eta is not None):
+        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    if path is None and (args.rho is None or args.eta is None):
+        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json (your own K)")
+    return path
+
+
 def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel) -> tuple[Design, str]:
     """The gain analysed: designed at ``--rho``/``--eta``, or your own from ``--design FILE.json``.
 
@@ -715,12 +742,8 @@ def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicM
     label : str
         How a report names the gain: ``K(rho=3, eta=90)`` or ``the gain of 'FILE.json' (P: ...)``.
     """
-    path = getattr(args, "design", None)
-    if path is not None and (args.rho is not None or args.eta is not None):
-        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
+    path = check_gain_options(args)
     if path is None:
-        if args.rho is None or args.eta is None:
-            raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json (your own K)")
         d = design(model, args.rho, args.eta)
         return d, f"K(rho={d.rho:g}, eta={d.eta:g})"
     loaded = resolve_design(args, (model.n_inputs, model.n_states), "this plant's design form")

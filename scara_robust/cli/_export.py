@@ -20,6 +20,7 @@ from ._common import (
     CommandLineError,
     _load_file,
     add_setup_options,
+    check_gain_options,
     finite_float,
     per_joint_values,
     resolve_bounds,
@@ -111,10 +112,7 @@ def run(args: argparse.Namespace) -> str:
     _check_folder(args.folder)  # before any computation
     if args.prefix is not None:
         _check_prefix(args.prefix)
-    if args.design is not None and (args.rho is not None or args.eta is not None):
-        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
-    if args.design is None and (args.rho is None or args.eta is None):
-        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
+    check_gain_options(args)
     setup = resolve_setup(args)
     plant = resolve_plant(args, setup)
     model = as_model("model", plant)

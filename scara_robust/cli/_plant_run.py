@@ -13,7 +13,7 @@ from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
-from ._common import CommandLineError, resolve_design, write_text
+from ._common import CommandLineError, check_gain_options, resolve_design, write_text
 
 __all__ = ["add_plant_run_options", "plant_gain", "plant_profiles", "plant_run", "run_inputs", "series_output",
            "summary"]
@@ -55,11 +55,8 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
     K : ndarray, shape (m, n)
     label : str
     """
+    check_gain_options(args)
     loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), what)
-    if loaded is not None and (args.rho is not None or args.eta is not None):
-        raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
-    if loaded is None and (args.rho is None or args.eta is None):
-        raise CommandLineError("give the gain: --rho and --eta (designed here), or --design FILE.json")
     if loaded is not None:
         return loaded.K, f"gain of {loaded.path!r}"
     d = design(as_model("model", plant), args.rho, args.eta)
