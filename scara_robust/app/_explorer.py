@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
 import threading
 import time
 from collections.abc import Callable, Mapping
-from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from functools import partial
@@ -23,6 +24,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from threadpoolctl import threadpool_limits
 
 from ..exceptions import ArgumentError
 from ..lyapunov.gain import Design, design
@@ -171,15 +173,13 @@ class DesignExplorer:
     t_final: float = 20.0
     surface: DesignSurface | None = field(default=None, init=False)
     _generation: int = field(default=0, init=False)
-    _pending: list[Future[Answer]] = field(default_factory=list, init=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, init=False)
+    _pending: list[Future[tuple[Any, str, float]]] = field(default_factory=list, init=False)
+    _lock: Any = field(default_factory=threading.RLock, init=False)
     _process: ProcessPoolExecutor | None = field(default=None, init=False)
-    _fast: ThreadPoolExecutor = field(default_factory=lambda: ThreadPoolExecutor(1, "scara-robust-run"), init=False)
+    _runner: ProcessPoolExecutor | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         self.compute_map(self.rhos, self.etas)
-        if self.robot_signals is not None:  # load the compiled engine now, not on the first click
-            self._fast.submit(self.response, design(self.model, float(self.rhos[0]), float(self.etas[0])))
 
     @property
     def signals(self) -> tuple[tuple[str, ...], tuple[str, ...], str, str]:
@@ -282,15 +282,7 @@ class DesignExplorer:
         -------
         Response
         """
-        start = time.perf_counter()
-        if self.robot_signals is not None:
-            res = run_scenario("pid", "large", K=d.K, t_final=self.t_final, method="compiled", **self.robot_signals)
-            errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
-            return Response(np.asarray(res.t, dtype=float), errors, inputs, res.status, res.status_reason,
-                            time.perf_counter() - start)
-        assert self.plant is not None
-        run = simulate_plant(self.plant, d.K, t_final=self.t_final, n_points=1001)
-        return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start)
+        return _response(d, self.robot_signals, self.plant, self.t_final)
 
     # -- slow answers ------------------------------------------------------------------------
 
@@ -308,7 +300,7 @@ class DesignExplorer:
             arguments, run in a worker process.
         """
         answers: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {
-            "response": (self.response, (d,)),
+            "response": (_response_in_worker, (d, self.robot_signals, self.plant_source, self.t_final)),
             "margins": (_margins, (self.model, d)),
             "certificates": (_certificates, (self.model, d, self.plant_source)),
         }
@@ -322,9 +314,9 @@ class DesignExplorer:
     def submit(self, d: Design, deliver: Callable[[Answer], None]) -> int:
         """Start the slow answers of a new selection; drop the pending ones of the previous.
 
-        The response runs on a thread of this process; the other answers in a worker
-        process, so that neither their computation nor Python's interpreter lock slows the
-        page's next click.
+        The response runs in one worker process, the other answers in another (at a lower
+        priority, started once the response is delivered), so that neither their computation
+        nor Python's interpreter lock slows the page's next click.
 
         Parameters
         ----------
@@ -338,22 +330,58 @@ class DesignExplorer:
         int
             The selection's generation.
         """
+        answers = self.slow_answers(d)
+        later = {kind: job for kind, job in answers.items() if kind != "response"}
         with self._lock:
             self._generation += 1
             generation = self._generation
             for future in self._pending:
                 future.cancel()  # not started: never runs; running: its answer is dropped
             self._pending = []
-            for kind, (work, args) in self.slow_answers(d).items():
-                pool: Any = self._fast if kind == "response" else self._workers()
-                future = pool.submit(_timed, work, *args)
+            if "response" in answers:
+                work, args = answers["response"]
+                future = self._run_pool().submit(_timed, work, *args)
+                future.add_done_callback(partial(self._finish, "response", generation, deliver))
+                # the worker process starts once the response is delivered: the click's response then
+                # has the machine's cores to itself (the worker's answers take seconds, not milliseconds)
+                future.add_done_callback(lambda _: self._start_workers(generation, later, deliver))
+                self._pending.append(future)
+            else:
+                self._start_workers(generation, later, deliver)
+        return generation
+
+    def _start_workers(self, generation: int, jobs: Mapping[str, tuple[Callable[..., Any], tuple[Any, ...]]],
+                       deliver: Callable[[Answer], None]) -> None:
+        """Submit `jobs` of selection `generation` to the worker process, unless a newer selection exists."""
+        with self._lock:
+            if generation != self._generation:
+                return
+            for kind, (work, args) in jobs.items():
+                future = self._workers().submit(_timed, work, *args)
                 future.add_done_callback(partial(self._finish, kind, generation, deliver))
                 self._pending.append(future)
-        return generation
+
+    def start_workers(self) -> None:
+        """Start the worker processes now rather than at the first selection (a second or two each).
+
+        The response's worker also runs one response, so that the SCARA's compiled engine is loaded
+        before the first click.
+        """
+        self._workers().submit(int)
+        d = design(self.model, float(self.rhos[0]), float(self.etas[0]))
+        self._run_pool().submit(_response_in_worker, d, self.robot_signals, self.plant_source, self.t_final)
+
+    def _run_pool(self) -> ProcessPoolExecutor:
+        if self._runner is None:
+            self._runner = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                               initializer=threadpool_limits, initargs=(1,))
+        return self._runner
 
     def _workers(self) -> ProcessPoolExecutor:
         if self._process is None:
-            self._process = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+            # at a lower priority: a click's K and response, and the browser, come first on the machine's cores
+            self._process = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=_lower_priority)
         return self._process
 
     @property
@@ -403,15 +431,15 @@ class DesignExplorer:
         return self.exporter(rho, eta, ts, torque_limit)
 
     def close(self) -> None:
-        """Stop the worker thread and process (pending answers are dropped)."""
+        """Stop the worker processes (pending answers are dropped)."""
         self._generation += 1
-        self._fast.shutdown(wait=False, cancel_futures=True)
-        if self._process is not None:
-            # a worker still computing an answer nobody will read is stopped, not waited for
-            workers = list(getattr(self._process, "_processes", {}).values())
-            self._process.shutdown(wait=False, cancel_futures=True)
-            for worker in workers:
-                worker.terminate()
+        for pool in (self._runner, self._process):
+            if pool is not None:
+                # a worker still computing an answer nobody will read is stopped, not waited for
+                workers = list(getattr(pool, "_processes", {}).values())
+                pool.shutdown(wait=False, cancel_futures=True)
+                for worker in workers:
+                    worker.terminate()
 
 
 def _timed(work: Callable[..., Any], *args: Any) -> tuple[Any, str, float]:
@@ -421,6 +449,13 @@ def _timed(work: Callable[..., Any], *args: Any) -> tuple[Any, str, float]:
         return work(*args), "", time.perf_counter() - start
     except (ArgumentError, ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
         return None, " ".join(str(err).split()), time.perf_counter() - start
+
+
+def _lower_priority() -> None:
+    """Lower the calling process's CPU priority (nice +10) where the system has one; one BLAS thread."""
+    if hasattr(os, "nice"):
+        os.nice(10)
+    threadpool_limits(1)
 
 
 def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:
@@ -433,12 +468,38 @@ def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:
 _PLANTS: dict[str, UncertainPlant | None] = {}
 
 
-def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:
-    """Every certificate row (Theorem 1, vertex, physical, LMI, falsifier)."""
+def _plant_of(plant_source: Callable[[], Any] | None) -> UncertainPlant | None:
+    """The plant `plant_source` builds, built once per process."""
     key = repr(plant_source)
     if key not in _PLANTS:
         _PLANTS[key] = None if plant_source is None else plant_source()
-    return certificate_table(model, d, plant=_PLANTS[key], falsifier_tries=5, seed=0)
+    return _PLANTS[key]
+
+
+def _response(d: Design, robot_signals: Mapping[str, Any] | None, plant: UncertainPlant | None,
+              t_final: float) -> Response:
+    """The SCARA's run on the compiled engine (`robot_signals`), or else `plant`'s loop."""
+    start = time.perf_counter()
+    if robot_signals is not None:
+        res = run_scenario("pid", "large", K=d.K, t_final=t_final, method="compiled", **robot_signals)
+        errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
+        return Response(np.asarray(res.t, dtype=float), errors, inputs, res.status, res.status_reason,
+                        time.perf_counter() - start)
+    if plant is None:
+        raise ValueError("this page has no plant to simulate")
+    run = simulate_plant(plant, d.K, t_final=t_final, n_points=1001)
+    return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start)
+
+
+def _response_in_worker(d: Design, robot_signals: Mapping[str, Any] | None,
+                        plant_source: Callable[[], Any] | None, t_final: float) -> Response:
+    """:func:`_response` in a worker process, with the plant `plant_source` builds."""
+    return _response(d, robot_signals, None if robot_signals is not None else _plant_of(plant_source), t_final)
+
+
+def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:
+    """Every certificate row (Theorem 1, vertex, physical, LMI, falsifier)."""
+    return certificate_table(model, d, plant=_plant_of(plant_source), falsifier_tries=5, seed=0)
 
 
 def _payload(d: Design, params: Any, reference: Any) -> Any:

@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 from bokeh.application import Application
 from bokeh.application.handlers.function import FunctionHandler
+from bokeh.core.templates import get_env
 from bokeh.document import Document
-from bokeh.events import Event, Tap
+from bokeh.events import DoubleTap, Event, Tap
 from bokeh.layouts import column, row
-from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d
+from bokeh.models import ColumnDataSource, HoverTool, LinearColorMapper, Range1d, TapTool
 from bokeh.models.annotations import ColorBar, Legend, Title
 from bokeh.models.widgets import Button, Div, Select, TextInput
 from bokeh.palettes import RdBu11
@@ -34,12 +35,25 @@ from bokeh.server.server import Server
 from ..exceptions import ArgumentError
 from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
 
-__all__ = ["build_page", "serve", "start_in_thread"]
+__all__ = ["build_page", "envelope", "serve", "start_in_thread"]
 
 #: Certified is blue, not certified red (RdBu11 runs from dark blue at the low end to dark red).
 _PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11))}
 _LEVEL = {"max_eig": 0.0, "margin": 1.0}
 _TABLE = "style='border-collapse:collapse' cellpadding='3' border='1'"
+#: The page's roots in a grid: the title across, the map on the left, K and then the answers on the right.
+_TEMPLATE = get_env().from_string("""{% extends base %}
+{% block contents %}
+<div style="display: grid; grid-template-columns: 575px 600px; column-gap: 10px; align-items: start">
+  <div style="grid-column: 1 / 3">{{ embed(roots.header) }}</div>
+  <div style="grid-row: 2 / 8">{{ embed(roots.left) }}</div>
+  <div>{{ embed(roots.design) }}</div>
+  <div>{{ embed(roots.response) }}</div>
+  <div>{{ embed(roots.plots) }}</div>
+  <div>{{ embed(roots.answers) }}</div>
+  <div>{{ embed(roots["export-root"]) }}</div>
+</div>
+{% endblock %}""")
 _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 
 
@@ -59,6 +73,41 @@ def _cells(values: np.ndarray) -> tuple[float, float]:
     """Start and width of an image axis whose cells are centred on the grid `values` (evenly spaced)."""
     step = float(values[1] - values[0]) if values.size > 1 else max(abs(float(values[0])) * 0.1, 0.1)
     return float(values[0]) - step / 2, float(values[-1] - values[0]) + step
+
+
+def envelope(t: np.ndarray, y: np.ndarray, buckets: int = 400) -> tuple[np.ndarray, np.ndarray]:
+    """The min-max envelope of a sampled signal: per bucket of samples, its smallest and largest sample.
+
+    A line through these points, in time order, reaches every peak and trough of `y`, with at
+    most ``2 * buckets`` points (a plot a few hundred pixels wide shows nothing more).
+
+    Parameters
+    ----------
+    t : ndarray, shape (k,)
+        Sample times, s, increasing.
+    y : ndarray, shape (k,)
+    buckets : int
+
+    Returns
+    -------
+    t_env, y_env : ndarray, shape (2 * buckets,), or `t` and `y` themselves when k <= 2 * buckets
+    """
+    k = t.size
+    if k <= 2 * buckets:
+        return t, y
+    per = k // buckets
+    starts = np.arange(buckets) * per
+    block = y[:buckets * per].reshape(buckets, per)
+    lo, hi = starts + np.argmin(block, axis=1), starts + np.argmax(block, axis=1)
+    if k > buckets * per:  # the samples after the last whole bucket join it
+        tail = y[buckets * per:]
+        j = buckets * per
+        if tail.min() < y[lo[-1]]:
+            lo[-1] = j + int(np.argmin(tail))
+        if tail.max() > y[hi[-1]]:
+            hi[-1] = j + int(np.argmax(tail))
+    picks = np.column_stack([np.minimum(lo, hi), np.maximum(lo, hi)]).ravel()
+    return t[picks], y[picks]
 
 
 def _title(fig: Any) -> Title:
@@ -128,10 +177,15 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     (x0, dw), (y0, dh) = _cells(rhos), _cells(etas)
     image_src = ColumnDataSource({"image": [values.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]})
     fmap = figure(width=560, height=480, x_range=Range1d(start=x0, end=x0 + dw), y_range=Range1d(start=y0, end=y0 + dh),
-                  x_axis_label="ρ [-]", y_axis_label="η [-]", tools="tap,pan,wheel_zoom,reset,save",
+                  x_axis_label="ρ [-]", y_axis_label="η [-]", tools="pan,wheel_zoom,reset,save",
                   title=f"{MEASURES[first][0]}: {MEASURES[first][1]}", name="design-map")
     image = fmap.image(image="image", x="x", y="y", dw="dw", dh="dh", source=image_src,
                        color_mapper=mapper)
+    # a tap selects no glyph (an image's selection would grow with every click and be sent to the server);
+    # the Tap event on_tap receives is the click's position
+    tap = TapTool(renderers=[])
+    fmap.add_tools(tap)
+    fmap.toolbar.active_tap = tap
     fmap.add_tools(HoverTool(renderers=[image], tooltips=[("ρ", "$x{0.000}"), ("η", "$y{0.00}"),
                                                           ("value", "@image{0.0000}")]))
     contour = fmap.contour(rhos, etas, values.T, levels=[_LEVEL[first], _LEVEL[first] + 1e-12],
@@ -165,12 +219,12 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     finp = figure(width=560, height=200, x_axis_label="time t [s]", y_axis_label="controller output",
                   x_range=ferr.x_range, tools="pan,wheel_zoom,reset,save", name="inputs")
     error_labels, input_labels, out_unit, in_unit = explorer.signals
-    err_src.data = {"t": [], **{f"e{j}": [] for j in range(len(error_labels))}}
-    inp_src.data = {"t": [], **{f"u{j}": [] for j in range(len(input_labels))}}
+    err_src.data = {name: [] for j in range(len(error_labels)) for name in (f"te{j}", f"e{j}")}
+    inp_src.data = {name: [] for j in range(len(input_labels)) for name in (f"tu{j}", f"u{j}")}
     for fig, labels, key in ((ferr, error_labels, "e"), (finp, input_labels, "u")):
         fig.add_layout(Legend(), "right")
         for j, label in enumerate(labels):
-            fig.line("t", f"{key}{j}", source=err_src if key == "e" else inp_src, color=_COLORS[j % 6],
+            fig.line(f"t{key}{j}", f"{key}{j}", source=err_src if key == "e" else inp_src, color=_COLORS[j % 6],
                      legend_label=label)
     ferr.yaxis.axis_label = f"tracking error [{out_unit}]"
     finp.yaxis.axis_label = f"controller output [{in_unit}]"
@@ -194,9 +248,14 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     def draw_response(resp: Response, generation: int) -> None:
         if generation != explorer.generation:
             return
-        err_src.data = {"t": resp.t, **{f"e{j}": resp.errors[j] for j in range(resp.errors.shape[0])}}
-        inp_src.data = {"t": resp.t, **{f"u{j}": resp.inputs[j] for j in range(resp.inputs.shape[0])}}
-        response_div.text = (f"<b>Response</b> <span id='response-status'>{resp.status}</span> "
+        # the envelope of each signal: its peaks as drawn from every sample, a few hundred points sent
+        err_src.data = {name: v for j in range(resp.errors.shape[0])
+                        for name, v in zip((f"te{j}", f"e{j}"), envelope(resp.t, resp.errors[j]), strict=True)}
+        inp_src.data = {name: v for j in range(resp.inputs.shape[0])
+                        for name, v in zip((f"tu{j}", f"u{j}"), envelope(resp.t, resp.inputs[j]), strict=True)}
+        answer = state["selected"]
+        response_div.text = (f"<b id='response-head'>Response at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b>: "
+                             f"<span id='response-status'>{resp.status}</span> "
                              f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
                              f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>")
 
@@ -245,16 +304,16 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             return
         state["selected"] = answer
         design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
-        try:
-            explorer.submit(answer.design, deliver)
-        except (RuntimeError, OSError) as err:  # no worker process could start
-            message.text = html.escape(f"the slower answers cannot be computed: {err}")
         doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
 
     def mark_pending(answer: QuickAnswer) -> None:
         if state["selected"] is not answer:
             return
         message.text = ""
+        try:
+            explorer.submit(answer.design, deliver)
+        except (RuntimeError, OSError) as err:  # no worker process could start
+            message.text = html.escape(f"the slower answers cannot be computed: {err}")
         chosen.data = {"x": [answer.rho], "y": [answer.eta]}
         rho_in.value, eta_in.value = f"{answer.rho:g}", f"{answer.eta:g}"
         kinds = explorer.slow_answers(answer.design)
@@ -265,7 +324,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
         export_div.text = ""
 
     def on_tap(event: Event) -> None:  # the map's grid point nearest the click: its value is what was shown
-        assert isinstance(event, Tap)
+        assert isinstance(event, Tap | DoubleTap)
         if event.x is None or event.y is None:
             return
         i, k = explorer.nearest(float(event.x), float(event.y))
@@ -325,6 +384,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
 
     measure.on_change("value", lambda attr, old, new: set_measure(new))
     fmap.on_event(Tap, on_tap)
+    fmap.on_event(DoubleTap, on_tap)  # a second click within the double-click time is a DoubleTap, not a Tap
     go.on_click(on_select)
     regrid.on_click(on_regrid)
     export_btn.on_click(on_export)
@@ -334,10 +394,16 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                 "<div style='color:#444'>Blue: certified by Theorem 1 (black contour: the boundary). "
                 "Hover for the value, click to select a design.</div>", width=1150)
     left = column(measure, fmap, row(rho_in, eta_in, column(Div(text="&nbsp;"), go)),
-                  row(rho_grid, eta_grid, column(Div(text="&nbsp;"), regrid)), message)
-    right = column(design_div, response_div, ferr, finp, *status.values(),
-                   row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)), export_div)
-    doc.add_root(column(title, row(left, right)))
+                  row(rho_grid, eta_grid, column(Div(text="&nbsp;"), regrid)), message, name="left")
+    plots = column(ferr, finp, name="plots")
+    answers = column(*status.values(), name="answers")
+    export = column(row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)), export_div, name="export-root")
+    # separate roots, placed by the page's template: a text that changes re-lays out its own root only
+    # (in one root, every new K or "computing…" would lay out the map and the response plots again)
+    title.name = "header"
+    for root in (title, left, design_div, response_div, plots, answers, export):
+        doc.add_root(root)
+    doc.template = _TEMPLATE
 
 
 def serve(explorer: DesignExplorer, port: int, *, address: str = "127.0.0.1",

@@ -144,9 +144,14 @@ def run(args: argparse.Namespace) -> str:
     if not 1 <= args.port <= 65535:
         raise CommandLineError(f"`--port` must be a TCP port in 1..65535, found {args.port}")
     try:
+        from threadpoolctl import threadpool_limits
+
         from ..app import serve
     except ImportError as err:
-        raise CommandLineError(f"the page needs Bokeh: pip install '.[app]' ({err})") from None
+        raise CommandLineError(f"the page needs the `app` extra: pip install '.[app]' ({err})") from None
+    # one BLAS thread: a click's matrices are 6 x 6 or smaller, and the page shares the machine's cores
+    # with its browser and its worker process (whose own BLAS is limited the same way)
+    threadpool_limits(1)
     explorer = explorer_of(args)
     try:
         server = serve(explorer, args.port)
@@ -154,6 +159,7 @@ def run(args: argparse.Namespace) -> str:
     except OSError as err:
         why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
         raise CommandLineError(f"`--port` {args.port}: {why}") from None
+    explorer.start_workers()
     loop = server.io_loop
     # SIGTERM (a service manager, a test) stops the page as Ctrl-C does: the worker process goes with it
     signal.signal(signal.SIGTERM, lambda signum, frame: loop.add_callback_from_signal(loop.stop))
