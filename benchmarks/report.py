@@ -77,6 +77,12 @@ def main(argv: list[str]) -> int:
                      f"{riccati:.4g} | {click / riccati:.1f}x |")
     if "test_app_response" in mean:
         lines.append(f"| design page: the 20-s SCARA response, compiled, warm | {mean['test_app_response']:.4g} | | |")
+    page = extra.get("test_app_page_in_chromium", {})
+    for key, what in (("K [ms]", "K and Theorem 1"), ("response [ms]", "the 20-s response")):
+        if key in page:
+            t = page[key]
+            lines.append(f"| design page in Chromium, click to {what} painted ({len(t['all'])} clicks): median, "
+                         f"90th percentile, largest [ms] | {t['median']:.0f} / {t['p90']:.0f} / {t['max']:.0f} | | |")
     print("\n".join(lines))
     return 0
 

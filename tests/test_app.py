@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from page_driver import click_grid_point, design_label, open_page, painted_after_release, response_label, watch
 
 import scara_robust as sr
 from scara_robust.cli import build_parser, main
@@ -138,103 +139,19 @@ def test_the_command_says_when_its_port_is_taken(capsys):
 
 # -- the page in Chromium ----------------------------------------------------------------------
 
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-#: Where the map's plotting frame is on the page, and its data ranges (Bokeh's view of the figure).
-FRAME_JS = """() => {
-  const model = Bokeh.documents[0].get_model_by_name('design-map');
-  const view = Bokeh.index.get_one(model);
-  const bbox = view.frame.bbox, rect = view.canvas_view.el.getBoundingClientRect();
-  return {left: rect.left + bbox.left, top: rect.top + bbox.top, width: bbox.width, height: bbox.height,
-          x0: view.frame.x_range.start, x1: view.frame.x_range.end,
-          y0: view.frame.y_range.start, y1: view.frame.y_range.end};
-}"""
-
-
-#: Milliseconds from the last pointer release (or t0) until an element, searched through Bokeh's shadow roots,
-#: holds `text`; polled at every frame.
-SHOWN_JS = """([id, text, t0]) => {
-  const find = (root) => {
-    const hit = root.getElementById ? root.getElementById(id) : root.querySelector('#' + id);
-    if (hit) return hit;
-    for (const el of root.querySelectorAll('*')) {
-      if (el.shadowRoot) { const f = find(el.shadowRoot); if (f) return f; }
-    }
-    return null;
-  };
-  const el = find(document);
-  return el && el.textContent.includes(text) ? performance.now() - (t0 === null ? window.__released : t0) : false;
-}"""
-#: Records when the mouse button is released anywhere on the page (the click's moment, in the page's clock).
-RELEASE_JS = "() => window.addEventListener('pointerup', () => { window.__released = performance.now(); }, true)"
-
-
-def _shown_after(page, element_id: str, text: str, t0: float | None, timeout: float) -> float:
-    """Milliseconds from the page's clock t0 (None: the last click's release) until `element_id` shows `text`."""
-    handle = page.wait_for_function(SHOWN_JS, arg=[element_id, text, t0], polling="raf", timeout=timeout)
-    return float(handle.json_value())
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _numbers(text: str) -> list[float]:
-    return [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?", text)]
-
 
 @pytest.fixture(scope="module")
 def page_of_motor(tmp_path_factory):
     """``python -m scara_robust app --model examples/plant-dc-motor.toml`` on a free port, opened in Chromium."""
-    import shutil
-    import subprocess
-    import sys
-
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    if chromium is None:
-        pytest.skip("no Chromium on this machine (Debian: apt-get install chromium); .ci/run installs it")
-    sync_api = pytest.importorskip("playwright.sync_api", reason="Playwright is not installed: pip install '.[docs]'")
     argv = ["--model", MOTOR, *GRID]
     explorer = explorer_of(build_parser().parse_args(["app", *argv]))  # the same grid and model, to check against
-    port = _free_port()
-    log = tmp_path_factory.mktemp("app") / "stderr.txt"
-    with open(log, "w", encoding="utf-8") as err:
-        server = subprocess.Popen([sys.executable, "-m", "scara_robust", "app", *argv, "--port", str(port)],
-                                  stdout=subprocess.DEVNULL, stderr=err)
-    deadline = time.monotonic() + 120
-    while "serving the design page" not in log.read_text(encoding="utf-8"):  # said once it listens
-        assert server.poll() is None and time.monotonic() < deadline, log.read_text(encoding="utf-8")
-        time.sleep(0.1)
-    assert f"serving the design page at http://127.0.0.1:{port}/" in log.read_text(encoding="utf-8")
-    problems: list[str] = []
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS, headless=True)
-        page = browser.new_page(viewport={"width": 1250, "height": 1150}, accept_downloads=True)
-        page.on("console", lambda m: problems.append(f"console: {m.text}") if m.type == "error" else None)
-        page.on("requestfailed", lambda r: problems.append(f"failed: {r.url}"))
-        page.on("request", lambda r: problems.append(f"remote: {r.url}")
-                if not r.url.startswith((f"http://127.0.0.1:{port}", f"ws://127.0.0.1:{port}", "data:")) else None)
-        page.goto(f"http://127.0.0.1:{port}/")
-        page.wait_for_selector("text=Click the map", timeout=60_000)
-        page.evaluate(RELEASE_JS)
+    with open_page(argv, tmp_path_factory.mktemp("app") / "stderr.txt") as (page, problems):
         yield page, explorer, problems
-        browser.close()
-    server.terminate()  # as Ctrl-C: the page and its worker process stop
-    assert server.wait(30) == 0, log.read_text(encoding="utf-8")
     explorer.close()
 
 
-def _click_grid_point(page, explorer, i: int, k: int) -> None:
-    """Click the centre of grid point (i, k)'s cell, once the map's frame is laid out."""
-    page.wait_for_function(f"() => ({FRAME_JS})().width > 100", timeout=30_000)
-    frame = page.evaluate(FRAME_JS)
-    u = (explorer.rhos[i] - frame["x0"]) / (frame["x1"] - frame["x0"]) * frame["width"]
-    v = (1 - (explorer.etas[k] - frame["y0"]) / (frame["y1"] - frame["y0"])) * frame["height"]
-    assert 5 < u < frame["width"] - 5 and 5 < v < frame["height"] - 5, (u, v, frame)  # a click the frame receives
-    page.mouse.click(frame["left"] + u, frame["top"] + v)
-    return None
+def _numbers(text: str) -> list[float]:
+    return [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?", text)]
 
 
 def test_the_page_in_chromium(page_of_motor, tmp_path):
@@ -247,10 +164,11 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
     assert values[uncertified] > 0
     times = {}
     for name, (i, k) in (("uncertified", uncertified), ("certified", certified)):
-        start = _click_grid_point(page, explorer, int(i), int(k))
         rho, eta = float(explorer.rhos[i]), float(explorer.etas[k])
-        label = f"Design at ρ = {rho:.4g}, η = {eta:.4g}"
-        times[f"{name}: click to K and Theorem 1 [ms]"] = _shown_after(page, "design-head", label, start, 10_000)
+        watch(page, "design", design_label(rho, eta))
+        watch(page, "response", response_label(rho, eta))
+        click_grid_point(page, explorer.rhos, explorer.etas, int(i), int(k))
+        times[f"{name}: click to K and Theorem 1 [ms]"] = painted_after_release(page, design_label(rho, eta), 10_000)
         verdict = page.locator("#thm1-verdict")
         d = sr.design(explorer.model, rho, eta)
         shown = np.array(_numbers(page.locator("#k-matrix").inner_text())).reshape(d.K.shape[0], -1)[:, 1:]
@@ -259,8 +177,7 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
         assert f"Theorem 1: {expected}" in verdict.inner_text()
         if name == "uncertified":
             continue  # the next click cancels its slow answers
-        times[f"{name}: click to response [ms]"] = _shown_after(page, "response-head", f"Response at ρ = {rho:.4g}, "
-                                                                f"η = {eta:.4g}", start, 120_000)
+        times[f"{name}: click to response [ms]"] = painted_after_release(page, response_label(rho, eta), 120_000)
         times["response run on the server [ms]"] = float(page.locator("#response-ms").inner_text())
         page.locator("#certificate-table").wait_for(timeout=120_000)
         page.wait_for_selector("text=Sample time", timeout=120_000)
@@ -285,9 +202,9 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
     # the same selection typed: button to K and Theorem 1
     page.get_by_label(LABELS["rho"]).fill("2")
     page.get_by_label(LABELS["eta"]).fill("50")
+    watch(page, "design", design_label(2, 50))
     page.get_by_role("button", name="Select (ρ, η)").click()
-    times["typed: Select to K and Theorem 1 [ms]"] = _shown_after(page, "design-head", "Design at ρ = 2, η = 50",
-                                                                  None, 10_000)
+    times["typed: Select to K and Theorem 1 [ms]"] = painted_after_release(page, design_label(2, 50), 10_000)
     (SCREENSHOTS / "app-timings.json").write_text(json.dumps(times, indent=2), encoding="utf-8")
     print(json.dumps(times, indent=2))
     assert not problems, problems
