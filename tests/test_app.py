@@ -22,6 +22,7 @@ import pytest
 from page_driver import click_grid_point, design_label, open_page, painted_after_release, response_label, watch
 
 import scara_robust as sr
+from scara_robust.app import Answer, RunSettings, envelope
 from scara_robust.cli import build_parser, main
 from scara_robust.cli._app import explorer_of
 
@@ -89,20 +90,68 @@ def test_the_scara_page_runs_the_compiled_engine():
         resp = explorer.response(answer.design)
         ref = sr.run_scenario("pid", "large", K=answer.design.K, t_final=20.0, method="compiled")
         assert np.array_equal(resp.errors, ref.e) and resp.status == ref.status == "tracking"
+        # the page's scenario choices: small initial error, no payload, a torque limit
+        explorer.settings = RunSettings("small", False, (30.0, 10.0))
+        resp = explorer.response(answer.design)
+        ref = sr.run_scenario("pid", "small", payload_on=False, torque_limit=[30.0, 10.0], K=answer.design.K,
+                              t_final=20.0, method="compiled")
+        assert np.array_equal(resp.errors, ref.e) and np.array_equal(resp.inputs, ref.torque)
+        assert np.abs(resp.inputs[1]).max() == 10.0  # the limit is reached
         error_labels, _, _, input_unit = explorer.signals
         assert error_labels == ("e₁ [rad]", "e₂ [rad]") and input_unit == "N·m"
     finally:
         explorer.close()
 
 
+def test_a_new_run_replaces_the_response_only_and_figures_are_drawn(motor):
+    """``rerun`` delivers the last run's response of the current selection; ``figures`` draws PNG files."""
+    delivered: list[Answer] = []
+    done = threading.Event()
+    d = sr.design(motor.model, 1.0, 5.0)
+    generation = motor.submit(d, lambda a: delivered.append(a) if a.kind == "response" else None)
+    motor.rerun(d, RunSettings(), delivered.append)
+    motor.rerun(d, RunSettings(), lambda a: (delivered.append(a), done.set()))
+    assert done.wait(120)
+    deadline = time.monotonic() + 60
+    while len(delivered) < 2 and time.monotonic() < deadline:  # the first submit's response, in queue order
+        time.sleep(0.05)
+    assert [a.generation for a in delivered] == [generation, generation] and not any(a.error for a in delivered)
+    assert np.array_equal(delivered[-1].value.errors, motor.response(d).errors)
+    files, error, _ = motor.figures(delivered[-1].value, "margin", (1.0, 5.0)).result(120)
+    assert error == "" and set(files) == {"design-map.png", "response.png"}
+    assert all(data.startswith(b"\x89PNG") and len(data) > 10_000 for data in files.values())
+
+
+def test_the_envelope_keeps_every_peak():
+    t = np.linspace(0.0, 20.0, 20_001)
+    y = np.sin(37 * t) * np.exp(-0.1 * t) + (t > 13.3) * 0.5
+    y[12_345] = 3.0  # a one-sample spike
+    te, ye = envelope(t, y, buckets=400)
+    assert te.size == ye.size == 800 and np.all(np.diff(te) >= 0)
+    assert ye.max() == y.max() == 3.0 and ye.min() == y.min()
+    edges = np.linspace(0, t.size, 401).astype(int)  # every bucket's extremes are in it
+    for b in (0, 7, 200, 399):
+        part = y[edges[b]:edges[b + 1]] if b < 399 else y[edges[b]:]
+        assert part.max() in ye and part.min() in ye
+    assert envelope(t[:500], y[:500])[0] is t[:500] or np.array_equal(envelope(t[:500], y[:500])[1], y[:500])
+
+
+def test_the_page_s_design_file_is_design_s(motor, capsys):
+    text = motor.design_file(1.0, 5.0)
+    assert main(["design", "--model", MOTOR, "--rho", "1.0", "--eta", "5.0", "--format", "json"]) == 0
+    assert text == capsys.readouterr().out
+    loaded = json.loads(text)
+    assert np.array_equal(np.array(loaded["K"]), sr.design(motor.model, 1.0, 5.0).K) and loaded["certified"]
+
+
 def test_the_page_s_export_is_export_s(motor, tmp_path):
-    files = motor.export(1.0, 2.0, 1e-3, [2.0])
+    files = motor.export(1.0, 2.0, 1e-3, [2.0])  # the motor's input: a current, A
     assert main(["export", "--model", MOTOR, "--rho", "1.0", "--eta", "2.0", "--ts", "0.001", "--torque-limit",
                  "2.0", "--output", str(tmp_path)]) == 0
     assert files == {p.name: p.read_text(encoding="utf-8") for p in sorted(tmp_path.iterdir())}
     with pytest.raises(ValueError, match="not certified"):
         motor.export(1.0, 2.0, 0.5, None)
-    with pytest.raises(ValueError, match="torque limit must be > 0 N·m, found 0"):
+    with pytest.raises(ValueError, match="input limit must be > 0 A, found 0"):
         motor.export(1.0, 2.0, 1e-3, [0.0])
 
 
@@ -199,6 +248,11 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
         assert main(["export", "--model", MOTOR, "--rho", repr(rho), "--eta", repr(eta), "--ts", "0.001",
                      "--output", str(out)]) == 0
         assert downloaded == (out / "motor_pid.c").read_text(encoding="utf-8")
+        # the design file: the page's download equals `design --format json`
+        page.get_by_role("button", name="Design file (JSON)").click()
+        with page.expect_download() as download:
+            page.locator(f"#download-design-rho{rho:g}-eta{eta:g}-json").click()
+        assert Path(download.value.path()).read_text(encoding="utf-8") == explorer.design_file(rho, eta)
     # the same selection typed: button to K and Theorem 1
     page.get_by_label(LABELS["rho"]).fill("2")
     page.get_by_label(LABELS["eta"]).fill("50")
@@ -211,14 +265,14 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
 
 
 #: The page's text fields, by their labels.
-LABELS = {"rho": "ρ [-] (> 0)", "eta": "η [-] (>= 1)", "torque-limit": "torque limit [N·m] (blank: none)",
+LABELS = {"rho": "ρ [-] (> 0)", "eta": "η [-] (>= 1)", "torque-limit": "input limit [A] (blank: none)",
           "ts": "Ts [s]", "rho-grid": "ρ grid START:STOP:NUM", "eta-grid": "η grid START:STOP:NUM"}
 
 
 @pytest.mark.parametrize(("field", "value", "button", "message"), [
     ("rho", "-1", "Select (ρ, η)", "ρ must be > 0"),
     ("eta", "abc", "Select (ρ, η)", "η must be a number (-), found 'abc'"),
-    ("torque-limit", "0", "Export C", "the torque limit must be > 0 N·m, found 0"),
+    ("torque-limit", "0", "Export C", "the input limit must be > 0 A, found 0"),
     ("ts", "0.5", "Export C", "is not certified"),
     ("rho-grid", "0.1:10:1250", "Recompute map", "a grid of 1,250,000 points"),
 ], ids=["rho-negative", "eta-text", "torque-limit-zero", "ts-uncertified", "huge-grid"])

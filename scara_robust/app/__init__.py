@@ -4,8 +4,8 @@
 :class:`~scara_robust.app.DesignExplorer` is what it computes, usable without a page.
 """
 
-from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
-from ._page import build_page, serve, start_in_thread
+from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
+from ._page import build_page, envelope, serve, start_in_thread
 
-__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "build_page", "serve",
-           "start_in_thread"]
+__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "RunSettings", "build_page",
+           "envelope", "serve", "start_in_thread"]

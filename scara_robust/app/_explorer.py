@@ -39,7 +39,7 @@ from ..robustness.table import certificate_table
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
 
-__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response"]
+__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "RunSettings"]
 
 Array = NDArray[np.float64]
 
@@ -75,6 +75,25 @@ class QuickAnswer:
 
 
 @dataclass(frozen=True)
+class RunSettings:
+    """The scenario of the SCARA's response on the page.
+
+    Attributes
+    ----------
+    initial : {'large', 'small'}
+        The initial tracking error (:data:`scara_robust.SCENARIOS`).
+    payload_on : bool
+        False: the run without the load (``m_p = 0``).
+    torque_limit : tuple of float, optional
+        Per-joint saturation, N·m (one value: both joints).
+    """
+
+    initial: str = "large"
+    payload_on: bool = True
+    torque_limit: tuple[float, ...] | None = None
+
+
+@dataclass(frozen=True)
 class Response:
     """A closed-loop run of the selected design.
 
@@ -90,6 +109,8 @@ class Response:
     reason : str
     seconds : float
         Wall time of the run, s.
+    result : SimulationResult or PlantRun
+        The run itself (its figure is drawn from it).
     """
 
     t: Array
@@ -98,6 +119,7 @@ class Response:
     status: str
     reason: str
     seconds: float
+    result: Any = None
 
 
 @dataclass(frozen=True)
@@ -145,6 +167,9 @@ class DesignExplorer:
         engine. Without it the response is :func:`scara_robust.simulate_plant` on `plant`.
     sampled : (plants, check, name), optional
         The sampled-data certificate's plants, a set to verify on, and their description.
+    design_file : callable, optional
+        ``design_file(rho, eta) -> text``: the design file (JSON) of (ρ, η), as ``design
+        --format json`` writes it.
     exporter : callable, optional
         ``exporter(rho, eta, Ts, torque_limit) -> {file name: text}``; raises
         ``ValueError`` (or a subclass) with a one-line message when it refuses.
@@ -166,6 +191,7 @@ class DesignExplorer:
     robot_signals: Mapping[str, Any] | None = None
     sampled: tuple[Any, Any, str] | None = None
     exporter: Callable[[float, float, float, list[float] | None], dict[str, str]] | None = None
+    design_file: Callable[[float, float], str] | None = None
     parse_grid: Callable[[str], Array] | None = None
     rhos: Any = field(default_factory=lambda: np.linspace(0.1, 10.0, 100))
     etas: Any = field(default_factory=lambda: np.linspace(1.0, 200.0, 200))
@@ -177,6 +203,8 @@ class DesignExplorer:
     _lock: Any = field(default_factory=threading.RLock, init=False)
     _process: ProcessPoolExecutor | None = field(default=None, init=False)
     _runner: ProcessPoolExecutor | None = field(default=None, init=False)
+    _runs: int = field(default=0, init=False)
+    settings: RunSettings = field(default_factory=RunSettings, init=False)
 
     def __post_init__(self) -> None:
         self.compute_map(self.rhos, self.etas)
@@ -189,6 +217,11 @@ class DesignExplorer:
         out, inp = self.plant.outputs, self.plant.inputs
         return (tuple(f"e {s.name} [{s.unit}]" for s in out), tuple(f"{s.name} [{s.unit}]" for s in inp),
                 out[0].unit, inp[0].unit)
+
+    @property
+    def limit_name(self) -> str:
+        """What the page calls the saturation of the controller's outputs."""
+        return "torque limit" if self.robot_signals is not None or self.plant is None else "input limit"
 
     # -- the map -----------------------------------------------------------------------------
 
@@ -282,7 +315,7 @@ class DesignExplorer:
         -------
         Response
         """
-        return _response(d, self.robot_signals, self.plant, self.t_final)
+        return _response(d, self.robot_signals, self.plant, self.t_final, self.settings)
 
     # -- slow answers ------------------------------------------------------------------------
 
@@ -300,7 +333,8 @@ class DesignExplorer:
             arguments, run in a worker process.
         """
         answers: dict[str, tuple[Callable[..., Any], tuple[Any, ...]]] = {
-            "response": (_response_in_worker, (d, self.robot_signals, self.plant_source, self.t_final)),
+            "response": (_response_in_worker, (d, self.robot_signals, self.plant_source, self.t_final,
+                                               self.settings)),
             "margins": (_margins, (self.model, d)),
             "certificates": (_certificates, (self.model, d, self.plant_source)),
         }
@@ -361,6 +395,51 @@ class DesignExplorer:
                 future.add_done_callback(partial(self._finish, kind, generation, deliver))
                 self._pending.append(future)
 
+    def rerun(self, d: Design, settings: RunSettings, deliver: Callable[[Answer], None]) -> None:
+        """Run the selected design's response again in `settings`; the other answers stay.
+
+        Parameters
+        ----------
+        d : Design
+            The selected design.
+        settings : RunSettings
+        deliver : callable
+            Called with the response's :class:`Answer`, unless a newer selection or run exists.
+        """
+        with self._lock:
+            self.settings = settings
+            self._runs += 1
+            generation, run = self._generation, self._runs
+            work, args = self.slow_answers(d)["response"]
+            future = self._run_pool().submit(_timed, work, *args)
+
+            def finish(done: Future[tuple[Any, str, float]]) -> None:
+                if run == self._runs:
+                    self._finish("response", generation, deliver, done)
+
+            future.add_done_callback(finish)
+            self._pending.append(future)
+
+    def figures(self, response: Response | None, measure: str, mark: tuple[float, float]) -> Future[Any]:
+        """The map (with `mark`) and `response` as PNG files, drawn in a worker process.
+
+        Parameters
+        ----------
+        response : Response, optional
+        measure : str
+            A key of :data:`MEASURES`: the map drawn.
+        mark : (float, float)
+            The selected (ρ, η).
+
+        Returns
+        -------
+        concurrent.futures.Future
+            Of ``(files, error, seconds)``; files: name -> PNG bytes.
+        """
+        assert self.surface is not None
+        return self._run_pool().submit(_timed, _figures, response, self.surface, measure, mark, self.plant_source,
+                                       self.title)
+
     def start_workers(self) -> None:
         """Start the worker processes now rather than at the first selection (a second or two each).
 
@@ -369,7 +448,8 @@ class DesignExplorer:
         """
         self._workers().submit(int)
         d = design(self.model, float(self.rhos[0]), float(self.etas[0]))
-        self._run_pool().submit(_response_in_worker, d, self.robot_signals, self.plant_source, self.t_final)
+        self._run_pool().submit(_response_in_worker, d, self.robot_signals, self.plant_source, self.t_final,
+                                self.settings)
 
     def _run_pool(self) -> ProcessPoolExecutor:
         if self._runner is None:
@@ -410,7 +490,7 @@ class DesignExplorer:
         ts : float
             Sample time, s.
         torque_limit : list of float, optional
-            N·m.
+            Saturation of each controller output, in the inputs' unit (N·m for the SCARA).
 
         Returns
         -------
@@ -427,7 +507,7 @@ class DesignExplorer:
         if not (math.isfinite(ts) and ts > 0):
             raise ValueError(f"Ts must be a sample time > 0 s, found {ts:g}")
         if torque_limit is not None and min(torque_limit) <= 0:
-            raise ValueError(f"the torque limit must be > 0 N·m, found {min(torque_limit):g}")
+            raise ValueError(f"the {self.limit_name} must be > 0 {self.signals[3]}, found {min(torque_limit):g}")
         return self.exporter(rho, eta, ts, torque_limit)
 
     def close(self) -> None:
@@ -477,24 +557,59 @@ def _plant_of(plant_source: Callable[[], Any] | None) -> UncertainPlant | None:
 
 
 def _response(d: Design, robot_signals: Mapping[str, Any] | None, plant: UncertainPlant | None,
-              t_final: float) -> Response:
-    """The SCARA's run on the compiled engine (`robot_signals`), or else `plant`'s loop."""
+              t_final: float, settings: RunSettings = RunSettings()) -> Response:
+    """The SCARA's run on the compiled engine (`robot_signals`, in `settings`), or else `plant`'s loop."""
     start = time.perf_counter()
     if robot_signals is not None:
-        res = run_scenario("pid", "large", K=d.K, t_final=t_final, method="compiled", **robot_signals)
+        res = run_scenario("pid", settings.initial, payload_on=settings.payload_on, K=d.K, t_final=t_final,
+                           torque_limit=None if settings.torque_limit is None else list(settings.torque_limit),
+                           method="compiled", **robot_signals)
         errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
         return Response(np.asarray(res.t, dtype=float), errors, inputs, res.status, res.status_reason,
-                        time.perf_counter() - start)
+                        time.perf_counter() - start, res)
     if plant is None:
         raise ValueError("this page has no plant to simulate")
     run = simulate_plant(plant, d.K, t_final=t_final, n_points=1001)
-    return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start)
+    return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start, run)
 
 
 def _response_in_worker(d: Design, robot_signals: Mapping[str, Any] | None,
-                        plant_source: Callable[[], Any] | None, t_final: float) -> Response:
+                        plant_source: Callable[[], Any] | None, t_final: float,
+                        settings: RunSettings = RunSettings()) -> Response:
     """:func:`_response` in a worker process, with the plant `plant_source` builds."""
-    return _response(d, robot_signals, None if robot_signals is not None else _plant_of(plant_source), t_final)
+    return _response(d, robot_signals, None if robot_signals is not None else _plant_of(plant_source), t_final,
+                     settings)
+
+
+def _figures(response: Response | None, surface: DesignSurface, measure: str, mark: tuple[float, float],
+             plant_source: Callable[[], Any] | None, title: str) -> dict[str, bytes]:
+    """PNG files: the map with the selected design marked, and the response (when there is one)."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plotting import plot_margin_map, plot_plant_run, plot_response, plot_surface_contour
+
+    def png(fig: Any) -> bytes:
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=130, bbox_inches="tight")
+        plt.close(fig)
+        return buffer.getvalue()
+
+    ax = (plot_margin_map if measure == "margin" else plot_surface_contour)(surface, mark=mark)
+    files = {"design-map.png": png(ax.figure)}
+    if response is not None and response.result is not None:
+        name = f"{title} at ρ = {mark[0]:.4g}, η = {mark[1]:.4g}"
+        plant = _plant_of(plant_source)
+        if plant is not None and not hasattr(response.result, "torque"):
+            fig = plot_plant_run(response.result, plant, title=name)
+        else:
+            fig = plot_response(response.result, title=name)
+        files["response.png"] = png(fig)
+    return files
 
 
 def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:

@@ -33,7 +33,7 @@ from bokeh.plotting.contour import contour_data
 from bokeh.server.server import Server
 
 from ..exceptions import ArgumentError
-from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response
+from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
 
 __all__ = ["build_page", "envelope", "serve", "start_in_thread"]
 
@@ -110,6 +110,12 @@ def envelope(t: np.ndarray, y: np.ndarray, buckets: int = 400) -> tuple[np.ndarr
     return t[picks], y[picks]
 
 
+def _link(name: str, data: bytes, mime: str) -> str:
+    """A download link for a file of the page (a data URL: nothing is stored on the server)."""
+    return (f"<a download='{html.escape(name)}' id='download-{html.escape(name.replace('.', '-'))}' "
+            f"href='data:{mime};base64,{base64.b64encode(data).decode()}'>{html.escape(name)}</a>")
+
+
 def _title(fig: Any) -> Title:
     """A figure's title object (figure() always makes one)."""
     title = fig.title
@@ -168,7 +174,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     explorer : DesignExplorer
     """
     doc.title = f"scara_robust: {explorer.title}"
-    state: dict[str, Any] = {"measure": "max_eig", "selected": None}
+    state: dict[str, Any] = {"measure": "max_eig", "selected": None, "response": None}
     first = list(MEASURES)[0]
     values = explorer.measure(first)
     low, high = _color_range(first, values)
@@ -229,9 +235,17 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     ferr.yaxis.axis_label = f"tracking error [{out_unit}]"
     finp.yaxis.axis_label = f"controller output [{in_unit}]"
     ts_in = TextInput(title="Ts [s]", value="0.001", width=110, name="ts")
-    limit_in = TextInput(title="torque limit [N·m] (blank: none)", value="", width=200, name="torque-limit")
+    limit_in = TextInput(title=f"{explorer.limit_name} [{in_unit}] (blank: none)", value="", width=200,
+                         name="torque-limit")
     export_btn = Button(label="Export C", width=110, name="export")
+    design_btn = Button(label="Design file (JSON)", width=150, name="design-file")
+    figures_btn = Button(label="Figures (PNG)", width=130, name="figures")
     export_div = Div(text="", width=560, name="export-result")
+    robot = explorer.robot_signals is not None
+    initial = Select(title="initial error", value="large", width=130, name="initial",
+                     options=[("large", "large (e₀ = (−1.5, 2.5) rad)"), ("small", "small (e₀ = (0.05, 0.05) rad)")])
+    payload = Select(title="payload", value="on", width=130, name="payload",
+                     options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
 
     def set_measure(key: str) -> None:
         state["measure"] = key
@@ -253,8 +267,15 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                         for name, v in zip((f"te{j}", f"e{j}"), envelope(resp.t, resp.errors[j]), strict=True)}
         inp_src.data = {name: v for j in range(resp.inputs.shape[0])
                         for name, v in zip((f"tu{j}", f"u{j}"), envelope(resp.t, resp.inputs[j]), strict=True)}
+        state["response"] = resp
         answer = state["selected"]
-        response_div.text = (f"<b id='response-head'>Response at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b>: "
+        run = explorer.settings
+        scenario = "" if not robot else (
+            f" ({run.initial} initial error, payload {'on' if run.payload_on else 'off'}, "
+            + ("no torque limit" if run.torque_limit is None else
+               "torque limit " + ", ".join(f"{v:g}" for v in run.torque_limit) + " N·m") + ")")
+        response_div.text = (f"<b id='response-head'>Response at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b>"
+                             f"{scenario}: "
                              f"<span id='response-status'>{resp.status}</span> "
                              f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
                              f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>")
@@ -302,7 +323,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
         except ArgumentError as err:
             message.text = html.escape(f"{err.argument} {err.problem}".replace("rho", "ρ").replace("eta", "η"))
             return
-        state["selected"] = answer
+        state["selected"], state["response"] = answer, None
         design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
         doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
 
@@ -362,6 +383,57 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
         fmap.x_range.update(start=x0, end=x0 + dw)
         fmap.y_range.update(start=y0, end=y0 + dh)
 
+    def limits() -> list[float] | None:
+        """The limit field's values (blank: none); raises ValueError with the field's message."""
+        if not limit_in.value.strip():
+            return None
+        values = [_number(v, f"the {explorer.limit_name}", in_unit) for v in limit_in.value.split(",")]
+        if min(values) <= 0:
+            raise ValueError(f"the {explorer.limit_name} must be > 0 {in_unit}, found {min(values):g}")
+        return values
+
+    def on_scenario() -> None:
+        try:
+            limit = limits()
+        except ValueError as err:
+            message.text = html.escape(str(err))
+            return
+        message.text = ""
+        settings = RunSettings(initial.value, payload.value == "on", None if limit is None else tuple(limit))
+        answer = state["selected"]
+        if answer is None:
+            explorer.settings = settings
+            return
+        response_div.text = "<b>Response</b>: computing…"
+        explorer.rerun(answer.design, settings, deliver)
+
+    def on_design_file() -> None:
+        answer = state["selected"]
+        if answer is None or explorer.design_file is None:
+            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+            return
+        name = f"design-rho{answer.rho:g}-eta{answer.eta:g}.json"
+        export_div.text = "Design file (for --design and load_design): " + _link(name, explorer.design_file(
+            answer.rho, answer.eta).encode(), "application/json")
+
+    def on_figures() -> None:
+        answer = state["selected"]
+        if answer is None:
+            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+            return
+        export_div.text = "Figures: drawing…"
+        future = explorer.figures(state["response"], state["measure"], (answer.rho, answer.eta))
+        future.add_done_callback(lambda done: doc.add_next_tick_callback(partial(show_figures, answer, done)))
+
+    def show_figures(answer: QuickAnswer, done: Any) -> None:
+        if state["selected"] is not answer:
+            return
+        files, error, _ = done.result()
+        if error:
+            export_div.text = f"<span style='color:#b31d28'>figures: {html.escape(error)}</span>"
+            return
+        export_div.text = "Figures: " + " ".join(_link(name, data, "image/png") for name, data in files.items())
+
     def on_export() -> None:
         answer = state["selected"]
         if answer is None:
@@ -369,17 +441,11 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             return
         try:
             ts = _number(ts_in.value, "Ts", "s")
-            limit = None
-            if limit_in.value.strip():
-                limit = [_number(v, "the torque limit", "N·m") for v in limit_in.value.split(",")]
-            files = explorer.export(answer.rho, answer.eta, ts, limit)
+            files = explorer.export(answer.rho, answer.eta, ts, limits())
         except (ValueError, ArgumentError) as err:
             export_div.text = f"<span style='color:#b31d28' id='export-error'>{html.escape(str(err))}</span>"
             return
-        links = " ".join(
-            f"<a download='{html.escape(name)}' id='download-{html.escape(name.replace('.', '-'))}' "
-            f"href='data:text/plain;charset=utf-8;base64,{base64.b64encode(text.encode()).decode()}'>"
-            f"{html.escape(name)}</a>" for name, text in files.items())
+        links = " ".join(_link(name, text.encode(), "text/plain;charset=utf-8") for name, text in files.items())
         export_div.text = f"Controller at Ts = {ts:g} s, certified: {links}"
 
     measure.on_change("value", lambda attr, old, new: set_measure(new))
@@ -388,6 +454,10 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     go.on_click(on_select)
     regrid.on_click(on_regrid)
     export_btn.on_click(on_export)
+    design_btn.on_click(on_design_file)
+    figures_btn.on_click(on_figures)
+    for widget in (initial, payload, limit_in) if robot else ():  # a plant file's run has no scenario choices
+        widget.on_change("value", lambda attr, old, new: on_scenario())
 
     title = Div(text=f"<h2 style='margin:0'>Robust PID design: {html.escape(explorer.title)} (Theorem 1 over "
                 f"elements {html.escape(explorer.elements)})</h2>"
@@ -395,9 +465,10 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                 "Hover for the value, click to select a design.</div>", width=1150)
     left = column(measure, fmap, row(rho_in, eta_in, column(Div(text="&nbsp;"), go)),
                   row(rho_grid, eta_grid, column(Div(text="&nbsp;"), regrid)), message, name="left")
-    plots = column(ferr, finp, name="plots")
+    plots = column(*([row(initial, payload)] if robot else []), ferr, finp, name="plots")
     answers = column(*status.values(), name="answers")
-    export = column(row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)), export_div, name="export-root")
+    export = column(row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)),
+                    row(design_btn, figures_btn), export_div, name="export-root")
     # separate roots, placed by the page's template: a text that changes re-lays out its own root only
     # (in one root, every new K or "computing…" would lay out the map and the response plots again)
     title.name = "header"

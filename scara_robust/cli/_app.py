@@ -22,6 +22,8 @@ from ._common import (
     resolve_setup,
     sampled_plants,
 )
+from ._design import add_parser as add_design_parser
+from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
 
@@ -120,13 +122,24 @@ def explorer_of(args: argparse.Namespace) -> Any:
             return {name: open(os.path.join(folder, name), encoding="utf-8").read()
                     for name in sorted(os.listdir(folder))}
 
+    design_parser = Parser(prog="scara_robust")
+    add_design_parser(design_parser.add_subparsers(dest="command", parser_class=Parser))
+    plant_argv = [v for option in ("robot", "model", "bounds") if getattr(args, option, None) is not None
+                  for v in (f"--{option}", str(getattr(args, option)))]
+
+    def design_file(rho: float, eta: float) -> str:
+        argv = ["design", "--rho", repr(rho), "--eta", repr(eta), "--format", "json", "--elements", args.elements,
+                *plant_argv]
+        return design_run(design_parser.parse_args(argv)) + "\n"
+
     title = model.name if args.model is not None else (
         f"SCARA of {args.robot!r}" if args.robot is not None else "the paper's SCARA")
     source = None if physical is None else partial(physical_plant, argparse.Namespace(**vars(args)))
     return DesignExplorer(model, title, plant=physical,  # type: ignore[arg-type]  # model: a box, checked above
                           plant_source=source,
                           robot_signals=setup.signals() if args.model is None else None,
-                          sampled=sampled_plants(args, plant, model), exporter=exporter, parse_grid=parse_range,
+                          sampled=sampled_plants(args, plant, model), exporter=exporter, design_file=design_file,
+                          parse_grid=parse_range,
                           rhos=args.rho, etas=args.eta, elements=args.elements)
 
 
