@@ -109,8 +109,6 @@ class Response:
     reason : str
     seconds : float
         Wall time of the run, s.
-    result : SimulationResult or PlantRun
-        The run itself (its figure is drawn from it).
     """
 
     t: Array
@@ -119,7 +117,6 @@ class Response:
     status: str
     reason: str
     seconds: float
-    result: Any = None
 
 
 @dataclass(frozen=True)
@@ -420,12 +417,13 @@ class DesignExplorer:
             future.add_done_callback(finish)
             self._pending.append(future)
 
-    def figures(self, response: Response | None, measure: str, mark: tuple[float, float]) -> Future[Any]:
-        """The map (with `mark`) and `response` as PNG files, drawn in a worker process.
+    def figures(self, d: Design | None, measure: str, mark: tuple[float, float]) -> Future[Any]:
+        """The map (with `mark`) and the response of `d` (in :attr:`settings`) as PNG files, drawn in a worker.
 
         Parameters
         ----------
-        response : Response, optional
+        d : Design, optional
+            The selected design (None: the map only).
         measure : str
             A key of :data:`MEASURES`: the map drawn.
         mark : (float, float)
@@ -437,8 +435,8 @@ class DesignExplorer:
             Of ``(files, error, seconds)``; files: name -> PNG bytes.
         """
         assert self.surface is not None
-        return self._run_pool().submit(_timed, _figures, response, self.surface, measure, mark, self.plant_source,
-                                       self.title)
+        return self._run_pool().submit(_timed, _figures, d, self.robot_signals, self.plant_source, self.t_final,
+                                       self.settings, self.surface, measure, mark, self.title)
 
     def start_workers(self) -> None:
         """Start the worker processes now rather than at the first selection (a second or two each).
@@ -556,21 +554,29 @@ def _plant_of(plant_source: Callable[[], Any] | None) -> UncertainPlant | None:
     return _PLANTS[key]
 
 
-def _response(d: Design, robot_signals: Mapping[str, Any] | None, plant: UncertainPlant | None,
-              t_final: float, settings: RunSettings = RunSettings()) -> Response:
-    """The SCARA's run on the compiled engine (`robot_signals`, in `settings`), or else `plant`'s loop."""
-    start = time.perf_counter()
+def _run(d: Design, robot_signals: Mapping[str, Any] | None, plant: UncertainPlant | None, t_final: float,
+         settings: RunSettings) -> Any:
+    """The SCARA's :class:`~scara_robust.SimulationResult` on the compiled engine (`robot_signals`, in
+    `settings`), or else `plant`'s :class:`~scara_robust.PlantRun`."""
     if robot_signals is not None:
-        res = run_scenario("pid", settings.initial, payload_on=settings.payload_on, K=d.K, t_final=t_final,
-                           torque_limit=None if settings.torque_limit is None else list(settings.torque_limit),
-                           method="compiled", **robot_signals)
-        errors, inputs = np.asarray(res.e, dtype=float), np.asarray(res.torque, dtype=float)
-        return Response(np.asarray(res.t, dtype=float), errors, inputs, res.status, res.status_reason,
-                        time.perf_counter() - start, res)
+        return run_scenario("pid", settings.initial, payload_on=settings.payload_on, K=d.K, t_final=t_final,
+                            torque_limit=None if settings.torque_limit is None else list(settings.torque_limit),
+                            method="compiled", **robot_signals)
     if plant is None:
         raise ValueError("this page has no plant to simulate")
-    run = simulate_plant(plant, d.K, t_final=t_final, n_points=1001)
-    return Response(run.t, run.e, run.u, run.status, run.reason, time.perf_counter() - start, run)
+    return simulate_plant(plant, d.K, t_final=t_final, n_points=1001)
+
+
+def _response(d: Design, robot_signals: Mapping[str, Any] | None, plant: UncertainPlant | None,
+              t_final: float, settings: RunSettings = RunSettings()) -> Response:
+    """The run of :func:`_run`, as the page draws it."""
+    start = time.perf_counter()
+    res = _run(d, robot_signals, plant, t_final, settings)
+    if robot_signals is not None:
+        return Response(np.asarray(res.t, dtype=float), np.asarray(res.e, dtype=float),
+                        np.asarray(res.torque, dtype=float), res.status, res.status_reason,
+                        time.perf_counter() - start)
+    return Response(res.t, res.e, res.u, res.status, res.reason, time.perf_counter() - start)
 
 
 def _response_in_worker(d: Design, robot_signals: Mapping[str, Any] | None,
@@ -581,9 +587,10 @@ def _response_in_worker(d: Design, robot_signals: Mapping[str, Any] | None,
                      settings)
 
 
-def _figures(response: Response | None, surface: DesignSurface, measure: str, mark: tuple[float, float],
-             plant_source: Callable[[], Any] | None, title: str) -> dict[str, bytes]:
-    """PNG files: the map with the selected design marked, and the response (when there is one)."""
+def _figures(d: Design | None, robot_signals: Mapping[str, Any] | None, plant_source: Callable[[], Any] | None,
+             t_final: float, settings: RunSettings, surface: DesignSurface, measure: str, mark: tuple[float, float],
+             title: str) -> dict[str, bytes]:
+    """PNG files: the map with the selected design marked, and the response of `d` (run again here)."""
     import io
 
     import matplotlib
@@ -601,14 +608,14 @@ def _figures(response: Response | None, surface: DesignSurface, measure: str, ma
 
     ax = (plot_margin_map if measure == "margin" else plot_surface_contour)(surface, mark=mark)
     files = {"design-map.png": png(ax.figure)}
-    if response is not None and response.result is not None:
+    if d is not None:
         name = f"{title} at ρ = {mark[0]:.4g}, η = {mark[1]:.4g}"
-        plant = _plant_of(plant_source)
-        if plant is not None and not hasattr(response.result, "torque"):
-            fig = plot_plant_run(response.result, plant, title=name)
+        plant = None if robot_signals is not None else _plant_of(plant_source)
+        result = _run(d, robot_signals, plant, t_final, settings)
+        if plant is not None:
+            files["response.png"] = png(plot_plant_run(result, plant, title=name))
         else:
-            fig = plot_response(response.result, title=name)
-        files["response.png"] = png(fig)
+            files["response.png"] = png(plot_response(result, title=name))
     return files
 
 

@@ -174,7 +174,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     explorer : DesignExplorer
     """
     doc.title = f"scara_robust: {explorer.title}"
-    state: dict[str, Any] = {"measure": "max_eig", "selected": None, "response": None}
+    state: dict[str, Any] = {"measure": "max_eig", "selected": None}
     first = list(MEASURES)[0]
     values = explorer.measure(first)
     low, high = _color_range(first, values)
@@ -242,9 +242,9 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     figures_btn = Button(label="Figures (PNG)", width=130, name="figures")
     export_div = Div(text="", width=560, name="export-result")
     robot = explorer.robot_signals is not None
-    initial = Select(title="initial error", value="large", width=130, name="initial",
+    initial = Select(title="initial error", value="large", width=250, name="initial",
                      options=[("large", "large (e₀ = (−1.5, 2.5) rad)"), ("small", "small (e₀ = (0.05, 0.05) rad)")])
-    payload = Select(title="payload", value="on", width=130, name="payload",
+    payload = Select(title="payload", value="on", width=200, name="payload",
                      options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
 
     def set_measure(key: str) -> None:
@@ -267,7 +267,6 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                         for name, v in zip((f"te{j}", f"e{j}"), envelope(resp.t, resp.errors[j]), strict=True)}
         inp_src.data = {name: v for j in range(resp.inputs.shape[0])
                         for name, v in zip((f"tu{j}", f"u{j}"), envelope(resp.t, resp.inputs[j]), strict=True)}
-        state["response"] = resp
         answer = state["selected"]
         run = explorer.settings
         scenario = "" if not robot else (
@@ -323,7 +322,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
         except ArgumentError as err:
             message.text = html.escape(f"{err.argument} {err.problem}".replace("rho", "ρ").replace("eta", "η"))
             return
-        state["selected"], state["response"] = answer, None
+        state["selected"] = answer
         design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
         doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
 
@@ -422,7 +421,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             export_div.text = "<span style='color:#b31d28'>select a design first</span>"
             return
         export_div.text = "Figures: drawing…"
-        future = explorer.figures(state["response"], state["measure"], (answer.rho, answer.eta))
+        future = explorer.figures(answer.design, state["measure"], (answer.rho, answer.eta))
         future.add_done_callback(lambda done: doc.add_next_tick_callback(partial(show_figures, answer, done)))
 
     def show_figures(answer: QuickAnswer, done: Any) -> None:
