@@ -22,7 +22,7 @@ import pytest
 from page_driver import click_grid_point, design_label, open_page, painted_after_release, response_label, watch
 
 import scara_robust as sr
-from scara_robust.app import Answer, RunSettings, envelope
+from scara_robust.app import PAYLOAD_MAP_TOL, Answer, RunSettings, envelope
 from scara_robust.cli import build_parser, main
 from scara_robust.cli._app import explorer_of
 
@@ -120,6 +120,31 @@ def test_a_new_run_replaces_the_response_only_and_figures_are_drawn(motor):
     files, error, _ = motor.figures(d, "margin", (1.0, 5.0)).result(120)
     assert error == "" and set(files) == {"design-map.png", "response.png"}
     assert all(data.startswith(b"\x89PNG") and len(data) > 10_000 for data in files.values())
+
+
+def test_the_payload_map_is_payload_margin_s_on_a_coarse_grid():
+    """The SCARA's payload map: each point is payload_margin's design-P mass of the design there."""
+    explorer = explorer_of(build_parser().parse_args(["app", "--robot", ROBOT, "--rho", "1:5:5", "--eta", "10:90:5",
+                                                      "--elements", "A"]))
+    try:
+        done = threading.Event()
+        columns: list[int] = []
+        values = explorer.start_payload_map(lambda i, masses: (columns.append(i), len(columns) == 2 and done.set()),
+                                            n=2)
+        assert np.isnan(values).all() or not done.is_set()
+        assert done.wait(120) and sorted(columns) == [0, 1] and np.isfinite(values).all()
+        rhos, etas = explorer.payload_grid(2)
+        assert np.array_equal(rhos, [1.0, 5.0]) and np.array_equal(etas, [10.0, 90.0])
+        d = sr.design(explorer.model, 5.0, 90.0)
+        signals = explorer.robot_signals
+        table = sr.payload_margin(d, signals["params"], signals["reference"], tol=PAYLOAD_MAP_TOL,
+                                  methods=("payload-design-P",))
+        assert values[1, 1] == float(table["mass [kg]"].iloc[0]) > 0
+        assert explorer.payload_level == pytest.approx(2 * 0.3 * signals["params"].m2)  # the paper's profile's peak
+        explorer.compute_map(np.linspace(1, 5, 3), np.linspace(10, 90, 3))  # a new grid drops the payload map
+        assert explorer.payload_values is None
+    finally:
+        explorer.close()
 
 
 def test_the_envelope_keeps_every_peak():

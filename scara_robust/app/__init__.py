@@ -4,8 +4,17 @@
 :class:`~scara_robust.app.DesignExplorer` is what it computes, usable without a page.
 """
 
-from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
+from ._explorer import (
+    MEASURES,
+    PAYLOAD_MAP_POINTS,
+    PAYLOAD_MAP_TOL,
+    Answer,
+    DesignExplorer,
+    QuickAnswer,
+    Response,
+    RunSettings,
+)
 from ._page import build_page, envelope, serve, start_in_thread
 
-__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "RunSettings", "build_page",
-           "envelope", "serve", "start_in_thread"]
+__all__ = ["MEASURES", "PAYLOAD_MAP_POINTS", "PAYLOAD_MAP_TOL", "Answer", "DesignExplorer", "QuickAnswer", "Response",
+           "RunSettings", "build_page", "envelope", "serve", "start_in_thread"]

@@ -31,6 +31,7 @@ from ..lyapunov.gain import Design, design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant
+from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
@@ -39,7 +40,8 @@ from ..robustness.table import certificate_table
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
 
-__all__ = ["MEASURES", "Answer", "DesignExplorer", "QuickAnswer", "Response", "RunSettings"]
+__all__ = ["MEASURES", "PAYLOAD_MAP_POINTS", "PAYLOAD_MAP_TOL", "Answer", "DesignExplorer", "QuickAnswer", "Response",
+           "RunSettings"]
 
 Array = NDArray[np.float64]
 
@@ -48,7 +50,14 @@ MEASURES: dict[str, tuple[str, str]] = {
     "max_eig": ("max λ(Z) [-]", "Theorem 1: certified where max λ(Z) < 0"),
     "margin": ("margin θ [-]", "Theorem 1 margin: the largest scaling of every element range it certifies "
                                "(certified where θ >= 1)"),
+    "payload": ("certified payload [kg]", "the largest peak payload the design's P certifies, on a coarse grid "
+                                          "(certified where it reaches the robot's payload)"),
 }
+
+#: Points per axis of the payload map (one payload bisection per point, about half a second each).
+PAYLOAD_MAP_POINTS = 12
+#: Relative tolerance of the payload map's bisections.
+PAYLOAD_MAP_TOL = 5e-2
 
 
 @dataclass(frozen=True)
@@ -201,6 +210,9 @@ class DesignExplorer:
     _process: ProcessPoolExecutor | None = field(default=None, init=False)
     _runner: ProcessPoolExecutor | None = field(default=None, init=False)
     _runs: int = field(default=0, init=False)
+    _mapper: ProcessPoolExecutor | None = field(default=None, init=False)
+    _map_jobs: list[Future[Any]] = field(default_factory=list, init=False)
+    payload_values: Array | None = field(default=None, init=False)
     settings: RunSettings = field(default_factory=RunSettings, init=False)
 
     def __post_init__(self) -> None:
@@ -241,7 +253,77 @@ class DesignExplorer:
         """
         surface = design_surface(self.model, rhos, etas, self.elements, measure="margin")
         self.surface, self.rhos, self.etas = surface, surface.rhos, surface.etas
+        self._stop_payload_map()
         return surface
+
+    # -- the payload map (the SCARA) ------------------------------------------------------------
+
+    @property
+    def payload_level(self) -> float:
+        """The robot's payload peak, kg: the payload map's certification level."""
+        if self.robot_signals is None:
+            raise ValueError("the payload map needs the SCARA")
+        profile = self.robot_signals.get("payload") or paper_payload(self.robot_signals.get("params"))
+        return float(profile.bounds[1])
+
+    def payload_grid(self, n: int = PAYLOAD_MAP_POINTS) -> tuple[Array, Array]:
+        """The payload map's grid: `n` evenly spaced values over each axis of the map's range.
+
+        Parameters
+        ----------
+        n : int
+
+        Returns
+        -------
+        rhos, etas : ndarray, shape (n,)
+        """
+        return (np.linspace(self.rhos[0], self.rhos[-1], n), np.linspace(self.etas[0], self.etas[-1], n))
+
+    def start_payload_map(self, on_column: Callable[[int, Array], None], n: int = PAYLOAD_MAP_POINTS) -> Array:
+        """Compute the certified payload over :meth:`payload_grid`, one ρ column per job, in a worker process.
+
+        The column's values go into the returned array as it finishes, then `on_column(i,
+        masses)` is called (on a worker thread). A new map grid stops the computation.
+
+        Parameters
+        ----------
+        on_column : callable
+        n : int
+            Points per axis.
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            NaN until each column arrives, then the largest certified peak payload, kg.
+        """
+        if self.robot_signals is None:
+            raise ValueError("the payload map needs the SCARA")
+        self._stop_payload_map()
+        rhos, etas = self.payload_grid(n)
+        values = np.full((n, n), np.nan)
+        self.payload_values = values
+        if self._mapper is None:  # its own worker: the map's minute of work never delays a click's answers
+            self._mapper = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                               initializer=_lower_priority)
+        params, reference = self.robot_signals.get("params"), self.robot_signals.get("reference")
+
+        def finish(i: int, done: Future[Array]) -> None:
+            if done.cancelled() or self.payload_values is not values:
+                return
+            values[i] = done.result()
+            on_column(i, values[i])
+
+        for i, rho in enumerate(rhos):
+            future = self._mapper.submit(_payload_column, self.model, float(rho), etas, params, reference)
+            future.add_done_callback(partial(finish, i))
+            self._map_jobs.append(future)
+        return values
+
+    def _stop_payload_map(self) -> None:
+        for future in self._map_jobs:
+            future.cancel()
+        self._map_jobs = []
+        self.payload_values = None
 
     def measure(self, key: str) -> Array:
         """The map's values of one measure.
@@ -511,7 +593,8 @@ class DesignExplorer:
     def close(self) -> None:
         """Stop the worker processes (pending answers are dropped)."""
         self._generation += 1
-        for pool in (self._runner, self._process):
+        self._stop_payload_map()
+        for pool in (self._runner, self._process, self._mapper):
             if pool is not None:
                 # a worker still computing an answer nobody will read is stopped, not waited for
                 workers = list(getattr(pool, "_processes", {}).values())
@@ -627,6 +710,16 @@ def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[]
 def _payload(d: Design, params: Any, reference: Any) -> Any:
     """The SCARA's payload bracket in kg: the design's P below, a frozen unstable payload above."""
     return payload_margin(d, params, reference, tol=1e-2, methods=("payload-design-P", "payload-frozen"))
+
+
+def _payload_column(model: UncertainLTVModel, rho: float, etas: Array, params: Any, reference: Any) -> Array:
+    """The largest certified peak payload (kg, the design's P) of the designs (ρ, η) for each η of `etas`."""
+    masses = np.empty(len(etas))
+    for k, eta in enumerate(etas):
+        table = payload_margin(design(model, rho, float(eta)), params, reference, tol=PAYLOAD_MAP_TOL,
+                               methods=("payload-design-P",))
+        masses[k] = float(table["mass [kg]"].iloc[0])
+    return masses
 
 
 def _sample_time(plants: Any, check: Any, d: Design) -> Any:

@@ -33,13 +33,13 @@ from bokeh.plotting.contour import contour_data
 from bokeh.server.server import Server
 
 from ..exceptions import ArgumentError
-from ._explorer import MEASURES, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
+from ..model.initial import SCENARIOS
+from ._explorer import MEASURES, PAYLOAD_MAP_TOL, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
 
 __all__ = ["build_page", "envelope", "serve", "start_in_thread"]
 
 #: Certified is blue, not certified red (RdBu11 runs from dark blue at the low end to dark red).
-_PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11))}
-_LEVEL = {"max_eig": 0.0, "margin": 1.0}
+_PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11)), "payload": tuple(reversed(RdBu11))}
 _TABLE = "style='border-collapse:collapse' cellpadding='3' border='1'"
 #: The page's roots in a grid: the title across, the map on the left, K and then the answers on the right.
 _TEMPLATE = get_env().from_string("""{% extends base %}
@@ -57,13 +57,13 @@ _TEMPLATE = get_env().from_string("""{% extends base %}
 _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 
 
-def _color_range(key: str, values: np.ndarray) -> tuple[float, float]:
+def _color_range(key: str, values: np.ndarray, level: float) -> tuple[float, float]:
     """A colour scale centred on the certification level, wide enough for most of the map."""
     finite = values[np.isfinite(values)]
-    if key == "margin":
-        top = float(np.percentile(finite, 95)) if finite.size else 2.0
-        half = max(abs(top - 1.0), 0.5)
-        return 1.0 - half, 1.0 + half
+    if key in ("margin", "payload"):
+        top = float(np.percentile(finite, 95)) if finite.size else 2.0 * level
+        half = max(abs(top - level), 0.5 * level)
+        return level - half, level + half
     half = float(np.percentile(np.abs(finite), 90)) if finite.size else 1.0
     half = half if half > 0 else 1.0
     return -half, half
@@ -177,14 +177,14 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     state: dict[str, Any] = {"measure": "max_eig", "selected": None}
     first = list(MEASURES)[0]
     values = explorer.measure(first)
-    low, high = _color_range(first, values)
+    low, high = _color_range(first, values, 0.0)
     mapper = LinearColorMapper(palette=_PALETTE[first], low=low, high=high, nan_color="#cccccc")
     rhos, etas = explorer.rhos, explorer.etas
     (x0, dw), (y0, dh) = _cells(rhos), _cells(etas)
     image_src = ColumnDataSource({"image": [values.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]})
     fmap = figure(width=560, height=480, x_range=Range1d(start=x0, end=x0 + dw), y_range=Range1d(start=y0, end=y0 + dh),
                   x_axis_label="ρ [-]", y_axis_label="η [-]", tools="pan,wheel_zoom,reset,save",
-                  title=f"{MEASURES[first][0]}: {MEASURES[first][1]}", name="design-map")
+                  title=f"{MEASURES[first][0]}: certified where < 0", name="design-map")
     image = fmap.image(image="image", x="x", y="y", dw="dw", dh="dh", source=image_src,
                        color_mapper=mapper)
     # a tap selects no glyph (an image's selection would grow with every click and be sent to the server);
@@ -194,14 +194,15 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     fmap.toolbar.active_tap = tap
     fmap.add_tools(HoverTool(renderers=[image], tooltips=[("ρ", "$x{0.000}"), ("η", "$y{0.00}"),
                                                           ("value", "@image{0.0000}")]))
-    contour = fmap.contour(rhos, etas, values.T, levels=[_LEVEL[first], _LEVEL[first] + 1e-12],
+    contour = fmap.contour(rhos, etas, values.T, levels=[0.0, 1e-12],
                            line_color="black", line_width=2)
     colorbar = ColorBar(color_mapper=mapper, title=MEASURES[first][0], width=12)
     fmap.add_layout(colorbar, "right")
     chosen = ColumnDataSource({"x": [], "y": []})
     fmap.scatter("x", "y", source=chosen, marker="x", size=16, line_width=3, color="black")
 
-    options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items()]
+    robot = explorer.robot_signals is not None
+    options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items() if robot or k != "payload"]
     measure = Select(title="Map colour", value=first, options=options, width=260,
                      name="measure")
     rho_in = TextInput(title="ρ [-] (> 0)", value="3", width=120, name="rho")
@@ -241,23 +242,42 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     design_btn = Button(label="Design file (JSON)", width=150, name="design-file")
     figures_btn = Button(label="Figures (PNG)", width=130, name="figures")
     export_div = Div(text="", width=560, name="export-result")
-    robot = explorer.robot_signals is not None
     initial = Select(title="initial error", value="large", width=250, name="initial",
-                     options=[("large", "large (e₀ = (−1.5, 2.5) rad)"), ("small", "small (e₀ = (0.05, 0.05) rad)")])
+                     options=[(name, f"{name} (e₀ = ({', '.join(f'{v:g}' for v in SCENARIOS[name].e0)}) rad)")
+                              for name in ("large", "small")])
     payload = Select(title="payload", value="on", width=200, name="payload",
                      options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
 
     def set_measure(key: str) -> None:
         state["measure"] = key
-        vals = explorer.measure(key)
-        lo, hi = _color_range(key, vals)
+        if key == "payload":
+            vals = explorer.payload_values
+            if vals is None:
+                vals = explorer.start_payload_map(lambda i, masses: doc.add_next_tick_callback(payload_column))
+            grid_r, grid_e = explorer.payload_grid(vals.shape[0])
+            level = explorer.payload_level
+        else:
+            vals, grid_r, grid_e = explorer.measure(key), explorer.rhos, explorer.etas
+            level = 0.0 if key == "max_eig" else 1.0
+        lo, hi = _color_range(key, vals, level)
         mapper.update(low=lo, high=hi, palette=_PALETTE[key])
-        (x0, dw), (y0, dh) = _cells(explorer.rhos), _cells(explorer.etas)
+        (x0, dw), (y0, dh) = _cells(grid_r), _cells(grid_e)
         image_src.data = {"image": [vals.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]}
-        contour.set_data(contour_data(explorer.rhos, explorer.etas, vals.T,
-                                      levels=[_LEVEL[key], _LEVEL[key] + 1e-12]))
+        done = bool(np.isfinite(vals).all())
+        contour.visible = done
+        if done:
+            contour.set_data(contour_data(grid_r, grid_e, vals.T, levels=[level, level + 1e-12]))
         colorbar.title = MEASURES[key][0]
-        _title(fmap).text = f"{MEASURES[key][0]}: {MEASURES[key][1]}"
+        what = {"max_eig": "certified where < 0", "margin": "certified where θ >= 1"}.get(key, "")
+        if key == "payload":
+            what = f"{vals.shape[0]} × {vals.shape[1]} points, to {PAYLOAD_MAP_TOL:.0%}; blue: >= {level:.3g} kg"
+            if not done:
+                what += f" (computing… {int(np.isfinite(vals).all(axis=1).sum())}/{vals.shape[0]})"
+        _title(fmap).text = f"{MEASURES[key][0]}: {what}"
+
+    def payload_column() -> None:  # a new column of the payload map: drawn if it is the map shown
+        if state["measure"] == "payload":
+            set_measure("payload")
 
     def draw_response(resp: Response, generation: int) -> None:
         if generation != explorer.generation:
