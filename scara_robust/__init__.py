@@ -4,7 +4,7 @@ Use as ``import scara_robust as sr``. Every name below is re-exported from the
 subpackage that defines it; each subpackage's ``__all__`` is the one source of the API.
 The layers, bottom to top (each imports only those before it)::
 
-    paper, exceptions  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
+    paper, exceptions, results  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
                        ->  io  ->  export  ->  studies  ->  plotting  ->  cli (front end)
 
 The paper's numbers (:mod:`scara_robust.paper`)
@@ -14,11 +14,15 @@ The paper's numbers (:mod:`scara_robust.paper`)
     PAPER_PAYLOAD_FRACTION, PAPER_CP -- payload m_p = 0.3 m2 (sin t + 1), I_p = c_p m_p
     PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD -- ±5 N·m square waves, period π/5 s
     PAPER_INITIAL_ERRORS            -- the large and small initial conditions
+Results (:mod:`scara_robust.results`)
+    AnalysisResult, RESULT_FIELDS   -- base of every certificate and bound: certified, verdict, status, message
+    CertificateRow, verdict_of      -- one row of certificate_table; the verdict of a yes/no/unknown answer
 Errors (:mod:`scara_robust.exceptions`)
     ScaraRobustError                -- base of every error raised on purpose
     ArgumentError, ArgumentValueError, ArgumentTypeError -- a bad argument, named by its parameter
     InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
 Model (:mod:`scara_robust.model`)
+    UncertainSystem, CAPABILITIES   -- what every uncertain system is, and what it can do (intervals, vertices, ...)
     ScaraParams, PARAM_UNITS, PARAM_LIMITS, paper_params -- robot data (SI, plausible ranges), the paper's by default
     SinusoidalPayload, ConstantPayload, paper_payload, payload_range -- payload mass profiles m_p(t)
     mass_matrix, coriolis, forward_dynamics, kinetic_energy -- Eq. (1)
@@ -46,10 +50,15 @@ The controller on a board (:mod:`scara_robust.controller`)
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
-    design_surface, DesignSurface, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Figure 2)
+    design_surface, DesignSurface, SURFACE_FORMULATIONS, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Fig. 2)
     MAX_SURFACE_POINTS              -- the largest grid of one call and its memory
     SURFACE_MEASURES, MARGIN_MAP_METHODS -- design_surface(measure='margin'): the margin θ(ρ, η) map
 Beyond Theorem 1 (:mod:`scara_robust.robustness`)
+    AnalysisMethod, register_method, unregister_method -- one registry of every analysis method, by family
+    analysis_methods, get_method, checked_result -- its names, one method, the check of a method's result
+    METHOD_FAMILIES, METHOD_BOUNDS, METHOD_NEEDS -- certificate, margin, parameter, payload; lower/upper; needs
+    CertificateContext, PayloadContext -- what a registered method is given
+    bisect, MIDPOINTS               -- the one bisection of every margin, range, rate and sample-time search
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
     lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
     LMI_VERDICTS                    -- what an LMI answer proves: certified, infeasible, inaccurate, unknown
@@ -61,6 +70,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
     l2_gain, L2Gain, L2_INFLATION   -- worst-case L2 gain: bounded-real LMI (upper, inflated), frozen H∞ norms (lower)
+    rate_bounded_l2_gain, RateL2Gain, verify_rate_bounded_l2 -- the L2 gain for |ṗ| <= ν, P(p) = P0 + p·P1
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     max_certified_rate, RateMargin  -- the largest certified rate ν, by bisection
@@ -98,6 +108,7 @@ Files (:mod:`scara_robust.io`)
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
+    ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)
@@ -133,6 +144,8 @@ from .paper import *  # noqa: F403
 from .paper import __all__ as _paper
 from .plotting import *  # noqa: F403
 from .plotting import __all__ as _plotting
+from .results import *  # noqa: F403
+from .results import __all__ as _results
 from .robustness import *  # noqa: F403
 from .robustness import __all__ as _robustness
 from .simulation import *  # noqa: F403
@@ -146,6 +159,7 @@ __all__ = [
     *_model,
     *_controller,
     *_lyapunov,
+    *_results,
     *_robustness,
     *_simulation,
     *_io,

@@ -16,6 +16,7 @@ import numpy as np
 from ._validation import check_choice, check_real
 from .exceptions import ArgumentValueError
 from .paper import PAPER_TRANSIENT
+from .robustness.registry import analysis_methods
 
 if TYPE_CHECKING:
     from .lyapunov.surface import DesignSurface
@@ -41,6 +42,9 @@ __all__ = [
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
 SIGNALS = {"error": "joint error [rad]", "torque": "control torque [N·m]"}
+
+#: Markers of the margin methods, in the registry's order.
+_MARGIN_MARKERS = ("o", "s", "D", "x", "+", "^", "v", "<", ">", "*")
 
 #: Legend text size, pt (figures are 7-11 inches wide: 10 pt is about 12 px at 800 px wide).
 _LEGEND_SIZE = 10
@@ -736,7 +740,7 @@ def plot_margin_bracket(tables: dict[str, Any], ax: Any = None) -> Any:
         raise ArgumentValueError("tables", "must hold at least one margin table, found none")
     if ax is None:
         _, ax = plt.subplots(figsize=(7, 1.4 + 0.9 * len(tables)))
-    markers = {"theorem1": "o", "vertex": "s", "lmi": "D", "frozen": "x", "falsifier": "+"}
+    markers = dict(zip(analysis_methods("margin"), _MARGIN_MARKERS))  # one marker per registered method
     for y, table in enumerate(tables.values()):
         rows = table.set_index("method")
         lo, hi = float(rows.loc["bracket", "lo"]), float(rows.loc["bracket", "hi"])
@@ -806,7 +810,7 @@ def plot_anti_windup(study: AntiWindupStudy, torque_limit: float, *, t_torque: f
     bands = f"±{study.band:g} rad band / ±{torque_limit:g} N·m"
     handles += [Line2D([], [], color="k", lw=0.6, ls=":", label=bands)]
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
-    fig.suptitle(f"Sampled PID (Ts = {study.sample_time * 1e3:g} ms) under a torque limit "
+    fig.suptitle(f"Sampled PID (Ts = {study.Ts * 1e3:g} ms) under a torque limit "
                  "(the no-limit torque leaves the window at the start)", fontsize=10)
     return fig
 

@@ -20,7 +20,7 @@ PACKAGE = "scara_robust"
 
 #: Layers, bottom first. A module belongs to the first entry that is its name or a prefix of it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("scara_robust.exceptions", "scara_robust.paper"),
+    ("scara_robust.exceptions", "scara_robust.paper", "scara_robust.results", "scara_robust._deprecation"),
     ("scara_robust._validation", "scara_robust._resources"),
     ("scara_robust.model",),
     ("scara_robust.controller",),
@@ -202,7 +202,7 @@ def test_the_checker_finds_each_fault(tmp_path, files, expected):
 
 
 #: The uncertainty descriptions: only ``model/`` may ask which one it holds.
-MODEL_TYPES = frozenset({"UncertainLTVModel", "PolytopicModel", "UncertainPlant"})
+MODEL_TYPES = frozenset({"UncertainLTVModel", "PolytopicModel", "UncertainPlant", "PhysicalSamples", "RobotArm"})
 
 
 def _type_names(node: ast.AST) -> set[str]:
@@ -255,3 +255,121 @@ def test_the_model_type_checker_finds_each_form(tmp_path, source):
     (root / "model").mkdir()
     (root / "model" / "y.py").write_text(source)  # allowed inside model/
     assert [p.split(":")[0] for p in model_type_tests(root)] == [f"{PACKAGE}.robustness.x"]
+
+
+# --- one registry of methods, one place that knows the plant's kind -------------------------------
+
+#: The one module of the command line that chooses the plant's kind from the arguments.
+SYSTEM_LOADER = f"{PACKAGE}.cli._system"
+#: The arguments that name the plant's kind: read by the loader alone.
+KIND_ARGUMENTS = frozenset({"model", "robot", "arm_file"})
+#: Method lists allowed outside the registry, and why.
+METHOD_LIST_EXCEPTIONS = {
+    f"{PACKAGE}.lyapunov.surface": "MARGIN_MAP_METHODS: the surface's own vectorized formulas of the two exact "
+                                    "margins, a layer below the registry",
+}
+
+
+def registered_names() -> dict[str, frozenset[str]]:
+    """Every registered method name, by family (the package's own registry)."""
+    import scara_robust as sr
+
+    return {family: frozenset(sr.analysis_methods(family)) for family in sr.METHOD_FAMILIES}
+
+
+def method_lists(root: Path = ROOT, names: dict[str, frozenset[str]] | None = None) -> list[str]:
+    """Literal lists of method names outside the registry: three or more of one family, or a ``*_METHODS`` constant."""
+    names = registered_names() if names is None else names
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        module = module_name(path, root)
+        if module in METHOD_LIST_EXCEPTIONS:
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        constants = {id(node.value) for node in ast.walk(tree) if isinstance(node, (ast.Assign, ast.AnnAssign))
+                     and any(isinstance(t, ast.Name) and t.id.endswith("_METHODS")
+                             for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Dict):
+                items = node.keys
+            elif isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+                items = node.elts
+            else:
+                continue
+            strings = {e.value for e in items if isinstance(e, ast.Constant) and isinstance(e.value, str)}
+            for family, registered in names.items():
+                count = len(strings & registered)
+                if count >= 3 or (count >= 2 and id(node) in constants):
+                    found.append(f"{module}:{node.lineno} lists {count} {family} methods")
+                    break
+    return found
+
+
+def kind_branches(root: Path = ROOT) -> list[str]:
+    """Branches on the plant's kind outside ``model/`` and the command line's loader."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        module = module_name(path, root)
+        if module.startswith(f"{PACKAGE}.model.") or module in (f"{PACKAGE}.model", SYSTEM_LOADER, f"{PACKAGE}.io"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare) and isinstance(node.left, ast.Attribute) and node.left.attr == "kind":
+                values = {c.value for c in node.comparators if isinstance(c, ast.Constant)}
+                if values & {"box", "polytope"}:
+                    found.append(f"{module}:{node.lineno} compares .kind with {sorted(values)}")
+            elif (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "args"
+                  and node.attr in KIND_ARGUMENTS):
+                found.append(f"{module}:{node.lineno} reads args.{node.attr}")
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "getattr" \
+                    and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant) \
+                    and node.args[1].value in KIND_ARGUMENTS:
+                found.append(f"{module}:{node.lineno} probes getattr(..., {node.args[1].value!r})")
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "is_arm_file":
+                found.append(f"{module}:{node.lineno} calls is_arm_file")
+    return found
+
+
+def test_no_method_list_outside_the_registry():
+    # the tables, the command line and the page iterate the registry (scara_robust.analysis_methods)
+    assert method_lists() == []
+
+
+def test_no_branch_on_the_plant_kind_outside_the_model_and_the_loader():
+    # code above the model asks what a system can do (capabilities); the command line loads it once
+    assert kind_branches() == []
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [("choices = ('all', 'theorem1', 'vertex', 'lmi')\n", "lists 3 margin methods"),
+     ("MY_METHODS = ('lmi-box', 'lmi-physical')\n", "lists 2 certificate methods"),
+     ("rows = {'theorem1': 1, 'vertex': 2, 'frozen': 3}\n", "lists 3 margin methods")],
+    ids=["choices", "constant", "dict"],
+)
+def test_the_method_list_checker_finds_each_form(tmp_path, source, expected):
+    root = tmp_path / PACKAGE
+    (root / "cli").mkdir(parents=True)
+    (root / "__init__.py").write_text("")
+    (root / "cli" / "x.py").write_text(source)
+    (root / "cli" / "y.py").write_text("pick = ('vertex', 'frozen')\n")  # two chosen by name: a choice, not a list
+    names = {"margin": frozenset({"theorem1", "vertex", "lmi", "frozen"}),
+             "certificate": frozenset({"lmi-box", "lmi-physical"})}
+    found = method_lists(root, names)
+    assert len(found) == 1 and found[0].startswith(f"{PACKAGE}.cli.x:1 {expected}"), found
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [("if model.kind == 'box':\n    pass\n", "compares .kind"), ("x = args.arm_file\n", "reads args.arm_file"),
+     ("x = getattr(args, 'model', None)\n", "probes getattr"), ("is_arm_file(path)\n", "calls is_arm_file")],
+    ids=["kind", "args", "getattr", "arm-file"],
+)
+def test_the_kind_checker_finds_each_form(tmp_path, source, expected):
+    root = tmp_path / PACKAGE
+    for folder in ("cli", "model"):
+        (root / folder).mkdir(parents=True)
+        (root / folder / "x.py").write_text(source)
+    (root / "__init__.py").write_text("")
+    (root / "cli" / "_system.py").write_text(source)  # the loader may
+    found = kind_branches(root)
+    assert len(found) == 1 and found[0].startswith(f"{PACKAGE}.cli.x:") and expected in found[0], found

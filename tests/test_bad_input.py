@@ -63,7 +63,8 @@ API_CASES = [
     ("certify-design-type", lambda: sr.certify(PAPER, "K"), TypeError, r"`design`"),
     ("surface-rhos-negative", lambda: sr.design_surface(PAPER, [-1.0, 1.0], [1.0]), ValueError, r"`rhos`"),
     ("surface-etas-empty", lambda: sr.design_surface(PAPER, [1.0], []), ValueError, r"`etas`"),
-    ("surface-method", lambda: sr.design_surface(PAPER, [1.0], [1.0], method="fast"), ValueError, r"`method`"),
+    ("surface-method", lambda: sr.design_surface(PAPER, [1.0], [1.0], formulation="fast"), ValueError,
+     r"`formulation`"),
     ("surface-2d-grid", lambda: sr.design_surface(PAPER, [[1.0]], [1.0]), ValueError, r"`rhos`"),
     # beyond Theorem 1
     ("vertex-elements", lambda: sr.vertex_certificate(PAPER, DESIGN, "all-of-them"), ValueError, r"`elements`"),

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.compiled
 def _loop(name, payload=None, **options):
     ctrl = sr.make_controller(name, **options)
     return ClosedLoop(ctrl, sr.ScaraParams(), payload or sr.paper_payload(), sr.paper_reference(),
-                      sr.paper_disturbance(), sr.CONTROLLERS[name].sample_time)
+                      sr.paper_disturbance(), sr.CONTROLLERS[name].Ts)
 
 
 @pytest.mark.parametrize("name", ["pid", "smc", "smc-sign"])

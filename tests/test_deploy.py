@@ -44,11 +44,11 @@ def test_sampled_loop_diverges_well_above_the_frozen_limit(design, limit):
 
 def test_registry_entry_runs_sampled_with_its_sample_time():
     kind = sr.CONTROLLERS["pid-sampled"]
-    assert kind.sample_time == 1e-3
+    assert kind.Ts == 1e-3
     res = sr.run_scenario("pid-sampled", "small", t_final=6.5, torque_limit=50.0)
     assert res.method == "rk4" and res.status == "tracking"
-    with pytest.raises(ValueError, match=r"`sample_time` must be the discrete-time controller's dt"):
-        sr.simulate(sr.make_controller("pid-sampled"), "small", sample_time=2e-3, t_final=1.0)
+    with pytest.raises(ValueError, match=r"`Ts` must be the discrete-time controller's dt"):
+        sr.simulate(sr.make_controller("pid-sampled"), "small", Ts=2e-3, t_final=1.0)
 
 
 def test_simulation_runs_what_step_runs(design):
@@ -150,7 +150,7 @@ def test_failed_export_leaves_nothing(design, tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("scara_robust.export.os.replace", fail)
+    monkeypatch.setattr("scara_robust.export._write.os.replace", fail)
     with pytest.raises(OSError, match="No space"):
         sr.export_controller(design.discretize(1e-3), tmp_path)
     assert list(tmp_path.iterdir()) == []

@@ -131,7 +131,7 @@ def test_ultimate_bound_makes_vdot_negative(paper, paper_design):
         (lambda m: sr.design_surface(m, [1], [0.5]), ValueError, "`etas` must be >= 1"),
         (lambda m: sr.design_surface(m, [[1, 2]], [1]), ValueError, "`rhos` must have 1 dimension"),
         (lambda m: sr.design_surface(m, [], [1]), ValueError, "`rhos` must hold at least one"),
-        (lambda m: sr.design_surface(m, [1], [1], method="fast"), ValueError, "`method` must be one of"),
+        (lambda m: sr.design_surface(m, [1], [1], formulation="fast"), ValueError, "`formulation` must be one of"),
     ],
     ids=[
         "rho0",

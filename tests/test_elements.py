@@ -85,7 +85,7 @@ def test_theorem1_on_the_subset_equals_a_model_built_by_hand(elements):
 def test_surface_uses_the_same_lower_bounds(elements):
     rhos, etas = np.array([0.5, 1.0, 2.0]), np.array([1.0, 2.0, 5.0])
     structured = sr.design_surface(MODEL, rhos, etas, elements)
-    reference = sr.design_surface(MODEL, rhos, etas, elements, method="reference")
+    reference = sr.design_surface(MODEL, rhos, etas, elements, formulation="reference")
     assert np.allclose(structured.max_eig, reference.max_eig, rtol=1e-9)
     i, k = 1, 1
     assert reference.max_eig[i, k] == pytest.approx(sr.certify(MODEL, sr.design(MODEL, 1.0, 2.0), elements).max_eig)

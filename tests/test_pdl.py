@@ -67,7 +67,7 @@ def test_bisection_certifies_at_least_the_hand_rate_and_the_common_p_fails():
     lo, hi = result.bracket
     assert lo == result.rate and lo < hi <= lo * (1 + 1.1e-2)
     cert = result.certificate
-    assert cert.certified and cert.margin > 0 and cert.check_margin > 0 and cert.rate == lo
+    assert cert.certified and cert.decay_rate > 0 and cert.check_decay_rate > 0 and cert.rate == lo
     assert "certifies" in result.message
 
 
@@ -105,9 +105,9 @@ def test_a_narrow_range_has_a_common_p_so_every_rate_is_certified():
 
 def test_an_inaccurate_answer_is_never_certified():
     good = sr.rate_bounded_certificate(*GRID, 0.1)
-    doubtful = sr.RateCertificate("optimal_inaccurate", good.P0, good.P1, 0.1, good.margin, np.nan, np.nan,
+    doubtful = sr.RateCertificate("optimal_inaccurate", good.P0, good.P1, 0.1, good.decay_rate, np.nan, np.nan,
                                   good.n_samples, 0, "optimal_inaccurate", 0.0)
-    assert good.certified and good.margin > 0
+    assert good.certified and good.decay_rate > 0
     assert not doubtful.certified and "optimal_inaccurate" in doubtful.message
 
 
@@ -124,8 +124,8 @@ def test_robot_certified_at_a_rate_beyond_the_common_p_payload_margin(paper_desi
     assert sr.rate_bounded_certificate(closed, masses, np.inf).status == "infeasible"
     check = payload_closed_loops(paper_design, mass_max, n_times=25, n_masses=9)[:2]
     cert = sr.rate_bounded_certificate(closed, masses, 50.0, check=check)
-    assert cert.certified and cert.margin > 0 and cert.check_margin > 0 and cert.n_checked == 225
-    assert sr.verify_rate_bounded(*check, cert.P0, cert.P1, 50.0) == pytest.approx(cert.check_margin)
+    assert cert.certified and cert.decay_rate > 0 and cert.check_decay_rate > 0 and cert.n_checked == 225
+    assert sr.verify_rate_bounded(*check, cert.P0, cert.P1, 50.0) == pytest.approx(cert.check_decay_rate)
 
 
 def test_robot_fast_payload_ramps_diverge_where_slow_ones_are_certified(paper_design):

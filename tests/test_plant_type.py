@@ -142,12 +142,12 @@ def test_rate_of_a_wider_range_is_certified_and_verified(motor):
     assert math.isinf(sr.parameter_rate(motor, d).rate)  # the file's range: a common P, any rate
     wide = motor.with_ranges({"J": (2e-4, 0.12)})  # past the common-P limit (0.0619 kg·m²), below the frozen one
     bracket = sr.rate_bracket(wide, d)
-    assert 0 < bracket.certified < math.inf
+    assert 0 < bracket.rate < math.inf
     cert = bracket.margin.certificate
     assert cert is not None and cert.certified
     fine = wide.samples({"J": 4 * wide.parameter("J").samples - 3})
     assert sr.verify_rate_bounded(fine.closed_loops(d.K), fine.column("J"), cert.P0, cert.P1,
-                                  bracket.certified) > 0
+                                  bracket.rate) > 0
     # above it: no periodic ramp the scan tried makes this loop grow, and the bracket says so
     assert math.isinf(bracket.unstable) and "no growing periodic ramp" in bracket.message
 
@@ -158,7 +158,7 @@ def test_rate_bracket_finds_growth_above_the_certificate():
     k = sr.Parameter("k", "1/s²", (1.0, 9.0))
     oscillator = sr.UncertainPlant.from_expressions([k], [[0, 1], ["-k", -0.1]], [[0], [1]], form="state")
     bracket = sr.rate_bracket(oscillator, np.zeros((1, 2)))
-    assert 0 < bracket.certified < bracket.unstable < math.inf
+    assert 0 < bracket.rate < bracket.unstable < math.inf
     # the other side, recomputed: a growing Floquet multiplier at the upper rate
     ramp = 8.0 / bracket.unstable
     assert max(sr.parameter_switching_growth(oscillator, np.zeros((1, 2)), "k", bracket.unstable, hold_high=h,

@@ -113,7 +113,7 @@ def test_derived_bounds_contain_the_jacobians(t, fraction):
 def test_structured_surface_matches_reference(seed, rho_list, eta_list):
     model = _model(seed)
     fast = sr.design_surface(model, rho_list, eta_list)
-    slow = sr.design_surface(model, rho_list, eta_list, method="reference")
+    slow = sr.design_surface(model, rho_list, eta_list, formulation="reference")
     assert np.allclose(fast.max_eig, slow.max_eig, rtol=1e-9, atol=1e-9 * np.abs(slow.max_eig).max())
     assert np.array_equal(fast.hurwitz, slow.hurwitz)
 

@@ -41,7 +41,7 @@ def test_table_shape_and_types(table):
 def test_certificate_rows_match_an_independent_computation(table, paper, paper_design):
     assert _row(table, "max λ(Z(3, 90))")["package"] == pytest.approx(sr.certify(paper, paper_design).max_eig)
     assert not _row(table, "max λ(Z(3, 90))")["holds"]
-    surf = sr.design_surface(paper, np.linspace(0.01, 10, 200), np.linspace(1, 200, 200), method="structured")
+    surf = sr.design_surface(paper, np.linspace(0.01, 10, 200), np.linspace(1, 200, 200), formulation="structured")
     assert _row(table, "(ρ, η) with max λ(Z) < 0")["package"] == surf.certified.sum()
     matched = _row(table, "K(3, 90)")
     assert matched["package"] == 9 and not matched["holds"]

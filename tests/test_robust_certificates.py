@@ -132,14 +132,14 @@ def test_lmi_finds_and_numpy_confirms_a_common_p(paper, paper_design):
     worst = max(scipy.linalg.eigh(A.T @ P + P @ A, eigvals_only=True)[-1] for A in vertices)
     assert worst < 0
     # the state's decay rate α, V̇ <= −2αV
-    assert result.margin == pytest.approx(-worst / (2 * scipy.linalg.eigh(P, eigvals_only=True)[-1]), rel=1e-9)
+    assert result.decay_rate == pytest.approx(-worst / (2 * scipy.linalg.eigh(P, eigvals_only=True)[-1]), rel=1e-9)
 
 
 @needs_cvxpy
 def test_lmi_infeasible_when_a_vertex_is_unstable(paper, paper_design):
     result = sr.lmi_certificate(box_closed_loops(paper, paper_design.K))
     assert result.status == "infeasible" and result.P is None
-    assert not result.certified and np.isnan(result.margin)
+    assert not result.certified and np.isnan(result.decay_rate)
 
 
 @needs_cvxpy

@@ -191,7 +191,7 @@ def test_every_engine_returns_the_same_result_type(by_engine, method, tolerance)
 def test_default_engine_follows_the_controller():
     assert sr.simulate("pid", "small", t_final=0.2).method == "lsoda"
     sampled = sr.simulate("smc-sign", "small", t_final=0.2)
-    assert sampled.method == "rk4" and sr.CONTROLLERS["smc-sign"].sample_time == 1e-3
+    assert sampled.method == "rk4" and sr.CONTROLLERS["smc-sign"].Ts == 1e-3
     assert np.allclose(np.diff(sampled.t), 1e-3)
 
 

@@ -12,7 +12,7 @@ def test_structured_matches_reference(seed, elements):
     model = random_model(seed)
     rhos, etas = [0.3, 1.0, 4.0], [1.0, 7.5, 60.0]
     fast = sr.design_surface(model, rhos, etas, elements)
-    slow = sr.design_surface(model, rhos, etas, elements, method="reference")
+    slow = sr.design_surface(model, rhos, etas, elements, formulation="reference")
     assert np.allclose(fast.max_eig, slow.max_eig, rtol=1e-9, atol=1e-9 * np.abs(slow.max_eig).max())
     assert np.array_equal(fast.hurwitz, slow.hurwitz)
 

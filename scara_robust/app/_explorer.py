@@ -30,11 +30,13 @@ from ..exceptions import ArgumentError
 from ..lyapunov.gain import Design, design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
+from ..model.base import CAPABILITIES
 from ..model.plant import UncertainPlant
 from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
+from ..robustness.registry import analysis_methods, get_method
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
 from ..simulation.plants import simulate_plant
@@ -619,10 +621,17 @@ def _lower_priority() -> None:
     threadpool_limits(1)
 
 
+def _cheap(family: str, capabilities: frozenset[str]) -> tuple[str, ...]:
+    """The registered methods of a family that answer in milliseconds and apply to these capabilities."""
+    methods = (get_method(family, name) for name in analysis_methods(family, defaults=True))
+    return tuple(m.name for m in methods if m.cheap and m.needs & CAPABILITIES.keys() <= capabilities)
+
+
 def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:
-    """The margin bracket: Theorem 1 and the vertex test below, a frozen unstable plant above."""
-    rows = {m: robustness_margin(model, d, m, tol=1e-3) for m in ("theorem1", "vertex", "frozen")}
-    return {"lower": max(rows["theorem1"].theta, rows["vertex"].theta), "upper": rows["frozen"].theta, "rows": rows}
+    """The margin bracket of the cheap methods (Theorem 1 and the vertex test below, a frozen unstable plant above)."""
+    rows = {m: robustness_margin(model, d, m, tol=1e-3) for m in _cheap("margin", model.capabilities)}
+    return {"lower": max(r.theta for r in rows.values() if r.bound == "lower"),
+            "upper": min(r.theta for r in rows.values() if r.bound == "upper"), "rows": rows}
 
 
 #: The worker process's plants, by the repr of the call that builds them (built once per process).
@@ -709,7 +718,8 @@ def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[]
 
 def _payload(d: Design, params: Any, reference: Any) -> Any:
     """The SCARA's payload bracket in kg: the design's P below, a frozen unstable payload above."""
-    return payload_margin(d, params, reference, tol=1e-2, methods=("payload-design-P", "payload-frozen"))
+    return payload_margin(d, params, reference, tol=1e-2,
+                          methods=_cheap("payload", frozenset({"parameters", "intervals", "vertices"})))
 
 
 def _payload_column(model: UncertainLTVModel, rho: float, etas: Array, params: Any, reference: Any) -> Array:

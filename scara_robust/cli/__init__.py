@@ -2,7 +2,8 @@
 campaign, campaign-report, export).
 
 The front end of the package: it imports the library and nothing in the library imports
-it. One private module per command, each with ``add_parser(sub)`` and ``run(args) -> str``.
+it. One private module per command, each with ``add_parser(sub)`` and ``run(args, system) -> str``, where
+``system`` is the :class:`~._system.LoadedSystem` of the arguments (:func:`~._system.load_system`).
 Every command accepts ``--help``. Bad input prints one line on stderr and exits 2.
 Output files are written to a temporary file in the target folder and renamed, so an
 interrupted or failed run never leaves a half-written file.
@@ -18,7 +19,8 @@ from collections.abc import Sequence
 from .. import __version__
 from ..exceptions import ScaraRobustError
 from . import _app, _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
-from ._common import CommandLineError, Parser, check_outputs, emit, error_message, route_arm_file
+from ._common import CommandLineError, Parser, check_outputs, emit, error_message
+from ._system import load_system
 
 __all__ = ["main", "build_parser", "CommandLineError"]
 
@@ -140,9 +142,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         if extras:
             _refuse_unknown(parser, args.command, extras)
-        route_arm_file(args)
+        system = load_system(args)  # the one place that tells the SCARA, an arm and a plant file apart
         check_outputs(args)
-        text = args.func(args)
+        text = args.func(args, system)
         emit(text, getattr(args, "output", None))
     except (CommandLineError, ScaraRobustError, ValueError, TypeError, OSError, ImportError) as err:
         sys.stderr.write(f"scara_robust: error: {error_message(err)}\n")

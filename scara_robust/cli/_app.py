@@ -8,24 +8,14 @@ import os
 import signal
 import sys
 import tempfile
-from functools import partial
 from typing import Any
 
-from ..model.plant import as_model, as_plant
-from ._common import (
-    RANGE_HELP,
-    CommandLineError,
-    Parser,
-    add_setup_options,
-    parse_range,
-    resolve_plant,
-    resolve_setup,
-    sampled_plants,
-)
+from ._common import RANGE_HELP, CommandLineError, Parser, add_setup_options, parse_range
 from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
+from ._system import LoadedSystem, load_system, physical_plant_of, plant_source
 
 __all__ = ["add_parser", "run", "explorer_of", "physical_plant"]
 
@@ -55,16 +45,6 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _setup_argv(args: argparse.Namespace) -> list[str]:
-    """The options that chose the plant, to hand to ``export``."""
-    argv: list[str] = []
-    for option in ("robot", "model", "bounds", "scenario"):
-        value = getattr(args, option, None)
-        if value is not None:
-            argv += [f"--{option}", str(value)]
-    return argv
-
-
 def physical_plant(args: argparse.Namespace) -> Any:
     """The plant with physical parameters of the options (None for an interval or polytope file).
 
@@ -76,15 +56,17 @@ def physical_plant(args: argparse.Namespace) -> Any:
     -------
     UncertainPlant or None
     """
-    return as_plant("model", resolve_plant(args, resolve_setup(args)))
+    return physical_plant_of(args)
 
 
-def explorer_of(args: argparse.Namespace) -> Any:
+def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) -> Any:
     """The page's :class:`~scara_robust.app.DesignExplorer` for the command's options.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem, optional
+        The system of `args` (default: :func:`~._system.load_system` of them).
 
     Returns
     -------
@@ -92,20 +74,14 @@ def explorer_of(args: argparse.Namespace) -> Any:
     """
     from ..app import DesignExplorer
 
-    if getattr(args, "arm_file", None) is not None:
-        raise CommandLineError(f"`--robot` {args.arm_file!r} is a URDF arm; the page takes the SCARA's robot files "
-                               "and plant files (an arm's design: the design, certify and margin commands)")
-    setup = resolve_setup(args)
-    plant = resolve_plant(args, setup)
-    model = as_model("model", plant)
+    system = load_system(args) if system is None else system
+    model = system.model
     if model.kind != "box":
-        raise CommandLineError(f"`--model` {args.model!r} is a polytope; the map of Theorem 1 needs an interval "
+        raise CommandLineError(f"`--model` {system.file!r} is a polytope; the map of Theorem 1 needs an interval "
                                "model (elements with ranges, or physical parameters)")
-    physical = as_plant("model", plant)
-    if args.model is not None and physical is None:
-        raise CommandLineError(f"`--model` {args.model!r} has no physical parameters to simulate; the page needs a "
-                               "plant file with [parameters]")
-    setup_argv = _setup_argv(args)
+    physical = system.require_physical(f"`--model` {system.file!r} has no physical parameters to simulate; the page "
+                                       "needs a plant file with [parameters]")
+    setup_argv = system.argv("robot", "model", "bounds", "scenario")
     parser = Parser(prog="scara_robust")
     add_export_parser(parser.add_subparsers(dest="command", parser_class=Parser))
 
@@ -116,7 +92,8 @@ def explorer_of(args: argparse.Namespace) -> Any:
             if torque_limit is not None:
                 argv += ["--torque-limit", ",".join(repr(v) for v in torque_limit)]
             try:
-                export_run(parser.parse_args(argv))
+                export_args = parser.parse_args(argv)
+                export_run(export_args, load_system(export_args))
             except CommandLineError as err:
                 raise ValueError(str(err)) from None
             return {name: open(os.path.join(folder, name), encoding="utf-8").read()
@@ -124,31 +101,29 @@ def explorer_of(args: argparse.Namespace) -> Any:
 
     design_parser = Parser(prog="scara_robust")
     add_design_parser(design_parser.add_subparsers(dest="command", parser_class=Parser))
-    plant_argv = [v for option in ("robot", "model", "bounds") if getattr(args, option, None) is not None
-                  for v in (f"--{option}", str(getattr(args, option)))]
+    plant_argv = system.argv("robot", "model", "bounds")
 
     def design_file(rho: float, eta: float) -> str:
         argv = ["design", "--rho", repr(rho), "--eta", repr(eta), "--format", "json", "--elements", args.elements,
                 *plant_argv]
-        return design_run(design_parser.parse_args(argv)) + "\n"
+        design_args = design_parser.parse_args(argv)
+        return design_run(design_args, load_system(design_args)) + "\n"
 
-    title = model.name if args.model is not None else (
-        f"SCARA of {args.robot!r}" if args.robot is not None else "the paper's SCARA")
-    source = None if physical is None else partial(physical_plant, argparse.Namespace(**vars(args)))
-    return DesignExplorer(model, title, plant=physical,  # type: ignore[arg-type]  # model: a box, checked above
-                          plant_source=source,
-                          robot_signals=setup.signals() if args.model is None else None,
-                          sampled=sampled_plants(args, plant, model), exporter=exporter, design_file=design_file,
+    return DesignExplorer(model, system.title(), plant=physical,  # type: ignore[arg-type]  # a box, checked above
+                          plant_source=plant_source(args, system),
+                          robot_signals=system.robot_signals(),
+                          sampled=system.sampled(), exporter=exporter, design_file=design_file,
                           parse_grid=parse_range,
                           rhos=args.rho, etas=args.eta, elements=args.elements)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Serve the page until interrupted.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -165,7 +140,7 @@ def run(args: argparse.Namespace) -> str:
     # one BLAS thread: a click's matrices are 6 x 6 or smaller, and the page shares the machine's cores
     # with its browser and its worker process (whose own BLAS is limited the same way)
     threadpool_limits(1)
-    explorer = explorer_of(args)
+    explorer = explorer_of(args, system)
     try:
         server = serve(explorer, args.port)
         server.start()

@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..io import load_arm
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.arm import ArmSetup
@@ -19,8 +18,9 @@ from ..robustness.parameters import parameter_margin
 from ..robustness.synthesis import decay_rate, synthesize
 from ..simulation.arm import ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
-from ._common import CommandLineError, _load_file, resolve_design, save_figure
+from ._common import CommandLineError, resolve_design, save_figure
 from ._plant_run import plant_gain, plant_profiles, series_output
+from ._system import LoadedSystem
 
 __all__ = ["run_arm", "compare_arm"]
 
@@ -28,26 +28,21 @@ __all__ = ["run_arm", "compare_arm"]
 _NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "method", "torque_limit", "disturbance")
 
 
-def _refuse(args: argparse.Namespace) -> None:
+def _refuse(args: argparse.Namespace, system: LoadedSystem) -> None:
     given = [o for o in _NOT_FOR_ARMS if getattr(args, o, None) is not None]
     if getattr(args, "reference", "1") != "1":
         given.append("reference")
     if given:
         raise CommandLineError(f"`--{given[0].replace('_', '-')}` is not an option of a URDF robot's runs (its "
-                               f"reference and payload range are in {args.arm_file!r}; --profile drives the payload)")
+                               f"reference and payload range are in {system.file!r}; --profile drives the payload)")
     if getattr(args, "parameter", None) not in (None, "m_p"):
         raise CommandLineError(f"`--parameter` of an arm's run is its payload m_p, found {args.parameter!r}")
-    args.parameter = "m_p"
-
-
-def _setup(args: argparse.Namespace) -> ArmSetup:
-    return _load_file("--robot", args.arm_file, load_arm)
 
 
 def _payload(args: argparse.Namespace, setup: ArmSetup, t_final: float) -> Any:
     if not setup.plant.parameter("m_p").varies:
         return None
-    return plant_profiles(args, setup.plant, t_final)[1]["m_p"]
+    return plant_profiles(args, setup.plant, t_final, parameter="m_p")[1]["m_p"]  # --profile drives the payload
 
 
 def _lines(run: ArmRun, elapsed: float) -> list[str]:
@@ -63,19 +58,21 @@ def _lines(run: ArmRun, elapsed: float) -> list[str]:
     return lines
 
 
-def run_arm(args: argparse.Namespace) -> str:
+def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``simulate --robot F`` on an arm: the nonlinear loop (Pinocchio's ABA) under the PID.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
+        An arm (:meth:`LoadedSystem.arm`).
 
     Returns
     -------
     str
     """
-    _refuse(args)
-    setup = _setup(args)
+    _refuse(args, system)
+    setup = system.arm()
     plant = setup.plant
     n = setup.arm.n_joints
     K, gain = plant_gain(args, plant, f"this arm's PID form ({n} joints)")
@@ -99,7 +96,8 @@ def run_arm(args: argparse.Namespace) -> str:
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
 
 
-def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFrame:
+def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta: float,
+                t_final: float | None) -> pd.DataFrame:
     """``compare --robot F`` on an arm: the Riccati PID, the synthesized PID and design files side by side.
 
     Each row: the gain's size, Theorem 1 on the interval box (with the Riccati design's
@@ -111,15 +109,19 @@ def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFram
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
+        An arm (:meth:`LoadedSystem.arm`).
     rho, eta : float
         The Riccati design point.
+    t_final : float or None
+        Horizon of the runs, s (None: 20 s).
 
     Returns
     -------
     pandas.DataFrame
     """
-    _refuse(args)
-    setup = _setup(args)
+    _refuse(args, system)
+    setup = system.arm()
     plant = setup.plant
     model = plant.interval_model()
     n = setup.arm.n_joints
@@ -137,7 +139,7 @@ def compare_arm(args: argparse.Namespace, rho: float, eta: float) -> pd.DataFram
         loaded = resolve_design(argparse.Namespace(design=path), (n, 3 * n), f"this arm's PID form ({n} joints)")
         assert loaded is not None
         designs[f"file {path}"] = (loaded.K, loaded.P)
-    t_final = 20.0 if args.t_final is None else args.t_final
+    t_final = 20.0 if t_final is None else t_final
     payload = _payload(args, setup, t_final)
     rows = []
     for name, des in designs.items():

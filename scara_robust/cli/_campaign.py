@@ -8,7 +8,8 @@ from typing import Any
 
 from ..studies.campaign.runner import CAMPAIGN_ENGINES, SCHEDULERS, run_campaign
 from ..studies.campaign.spec import SPEC_FIELDS, load_spec
-from ._common import CommandLineError, output_exists, resolve_setup
+from ._common import CommandLineError, output_exists
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -45,20 +46,21 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Run the campaign; the summary line to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
+        The SCARA of ``--robot``, whose parameters replace the spec's.
 
     Returns
     -------
     str
     """
     spec = load_spec(args.spec)
-    if args.robot is not None:
-        spec = replace(spec, robot=resolve_setup(args).params)
+    spec = replace(spec, robot=system.robot_params(spec.robot))
     output = args.results_output or "results.csv"
     if output_exists(output) and not args.resume:
         raise CommandLineError(f"`--output` {output!r} exists; pass --resume to continue it, or choose another file")

@@ -8,19 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from ..model.plant import as_model, as_plant
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
-from ._common import (
-    CommandLineError,
-    add_setup_options,
-    finite_float,
-    resolve_bounds,
-    resolve_gain,
-    resolve_plant,
-    resolve_setup,
-    sampled_plants,
-)
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_gain
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -58,12 +49,13 @@ def _json_value(value: Any) -> Any:
     return value
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Run the certificate table; the text or JSON to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -71,25 +63,21 @@ def run(args: argparse.Namespace) -> str:
     """
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
-    setup = resolve_setup(args)
-    plant = resolve_plant(args, setup)
-    model = as_model("model", plant)
-    physical = as_plant("model", plant)
+    model = system.model
     d, label = resolve_gain(args, model)
-    table = certificate_table(model, d, plant=physical, falsifier_tries=args.tries, seed=args.seed)
+    table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed)
     limit = None
     if args.max_ts:
-        plants, check, set_name = sampled_plants(args, plant, model)
-        static = physical is not None and physical.form != "pid"  # u = −K x(t_k) held, on the design form
-        limit = max_sample_time(plants, d.K if static else d, check=check, rtol=1e-3)
+        plants, check, set_name = system.sampled()
+        # a state-form plant's gain: u = −K x(t_k) held, on the design form
+        limit = max_sample_time(plants, d.K if system.state_feedback else d, check=check, rtol=1e-3)
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         if limit is not None:
             records.append({"method": "max-ts", "certified_ts [s]": _json_value(limit.certified_ts),
                             "unstable_ts [s]": _json_value(limit.unstable_ts), "detail": limit.message})
         return json.dumps(records, indent=2)
-    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
-    header = f"certificates of {label}, {source}"
+    header = f"certificates of {label}, {system.source(model)}"
     shown = table.drop(columns="detail").assign(
         certified=table["certified"].map({True: "yes", False: "no", None: "-"})
     )

@@ -8,33 +8,25 @@ mapped to the option a user typed; :func:`error_message` uses it to render a lib
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, NoReturn, TypeVar
 
 import numpy as np
 
 from ..exceptions import ArgumentError, InputFileError
-from ..io import DesignFile, is_arm_file, load_design, load_model, load_robot, load_scenario, write_atomic
+from ..io import DesignFile, load_design, write_atomic
 from ..lyapunov.gain import Design, design
-from ..model.initial import SCENARIOS, Scenario
-from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.polytopic import PolytopicModel
-from ..model.robot import PayloadProfile, ScaraParams
-from ..model.scara import SCARA_BOUNDS, scara_uncertain_plant
-from ..model.signals import Reference, SquareWave
+from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
-from ..robustness.sampled import interior_grid
 
 __all__ = [
     "BOUNDS",
     "OPTION_NAMES",
     "CommandLineError",
     "Parser",
-    "Setup",
     "add_setup_options",
     "emit",
     "error_message",
@@ -44,14 +36,7 @@ __all__ = [
     "finite_float",
     "per_joint_values",
     "parse_range",
-    "resolve_bounds",
-    "resolve_model",
-    "route_arm_file",
-    "resolve_plant",
-    "sampled_plants",
     "add_range_option",
-    "with_ranges",
-    "resolve_setup",
     "RANGE_HELP",
     "save_figure",
     "FIGURE_FORMATS",
@@ -280,7 +265,8 @@ def _figure_format(option: str, path: str) -> str:
 
 
 #: Attributes of a command's arguments that name files it writes, and their options.
-OUTPUT_OPTIONS = {"output": "--output", "series_output": "--output", "results_output": "--output", "plot": "--plot"}
+OUTPUT_OPTIONS = {"output": "--output", "series_output": "--output", "results_output": "--output",
+                  "design_output": "--output", "plot": "--plot"}
 
 
 def check_outputs(args: argparse.Namespace) -> None:
@@ -338,39 +324,6 @@ def save_figure(option: str, path: str, fig: Any) -> None:
         _write(option, path, lambda tmp: fig.savefig(tmp, dpi=120, format=fmt))
     finally:
         plt.close(fig)
-
-
-@dataclass(frozen=True)
-class Setup:
-    """Robot and signals of one command, from ``--robot`` and ``--scenario``.
-
-    Attributes
-    ----------
-    params : ScaraParams
-    reference, payload, disturbance
-        None where the paper's apply.
-    initial : Scenario or None
-        Initial condition (named, or from the scenario file).
-    robot_file : bool
-        True when a robot file was given: the bounds then default to those derived from it.
-    """
-
-    params: ScaraParams
-    reference: Reference | None
-    payload: PayloadProfile | None
-    disturbance: SquareWave | None
-    initial: Scenario | None
-    robot_file: bool
-
-    def signals(self) -> dict[str, Any]:
-        """Keyword arguments for :func:`scara_robust.run_scenario` and :func:`scara_robust.compare_controllers`.
-
-        Returns
-        -------
-        dict
-        """
-        return {"params": self.params, "reference": self.reference, "payload": self.payload,
-                "disturbance": self.disturbance}
 
 
 def add_setup_options(
@@ -433,182 +386,6 @@ def _load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loade
         raise CommandLineError(f"`{option}` {err}") from err
 
 
-#: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
-ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface")
-
-
-def route_arm_file(args: argparse.Namespace) -> None:
-    """Send ``--robot F`` to the plant path when F names a URDF (an arm, not the SCARA's data).
-
-    Sets ``args.arm_file`` (the file, or None) and, for an arm, ``args.model`` to it.
-
-    Raises
-    ------
-    CommandLineError
-        If the command does not take an arm, or an option of the built-in SCARA goes with one.
-    """
-    robot = getattr(args, "robot", None)
-    args.arm_file = None
-    if robot is None or not is_arm_file(robot):
-        return
-    if args.command not in ARM_COMMANDS:
-        raise CommandLineError(f"`--robot` {robot!r} names a URDF; `{args.command}` runs on the built-in SCARA only "
-                               f"(a URDF robot goes with {', '.join(ARM_COMMANDS)})")
-    if getattr(args, "model", None) is not None:
-        raise CommandLineError("`--robot` and `--model` each name the plant; give one")
-    for option in ("bounds", "scenario"):
-        if getattr(args, option, None) is not None:
-            raise CommandLineError(f"`--{option}` describes the built-in SCARA; a URDF robot's reference, payload "
-                                   f"and linearization are in its file {robot!r}")
-    args.arm_file, args.model, args.robot = robot, robot, None
-
-
-def resolve_setup(args: argparse.Namespace) -> Setup:
-    """Load the files named by ``--robot`` and ``--scenario``.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-
-    Returns
-    -------
-    Setup
-
-    Raises
-    ------
-    CommandLineError
-        Naming the option and the file.
-    """
-    params = ScaraParams()
-    robot = getattr(args, "robot", None)
-    if robot is not None:
-        params = _load_file("--robot", robot, load_robot)
-    scenario = getattr(args, "scenario", None)
-    reference = payload = disturbance = None
-    initial: Scenario | None = None
-    if scenario is not None and scenario in SCENARIOS:
-        if getattr(args, "scenario_kind", "run") != "run":
-            raise CommandLineError(
-                f"`--scenario` takes a scenario file here (its reference and payload); an initial condition "
-                f"such as {scenario!r} means nothing for this command"
-            )
-        initial = SCENARIOS[scenario]
-    elif scenario is not None:
-        if not scenario.lower().endswith((".toml", ".json")):
-            named = ", ".join(repr(n) for n in SCENARIOS)
-            raise CommandLineError(f"`--scenario` must be {named} or a .toml/.json scenario file, found {scenario!r}")
-        scen = _load_file("--scenario", scenario, load_scenario)
-        reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
-    return Setup(params, reference, payload, disturbance, initial, robot is not None)
-
-
-def resolve_bounds(args: argparse.Namespace, setup: Setup) -> str:
-    """``--bounds``, or its default: ``'derived'`` with a robot file, else ``'paper'``.
-
-    A scenario file never changes the default: the bounds belong to the robot.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-    setup : Setup
-
-    Returns
-    -------
-    {'paper', 'derived'}
-    """
-    return getattr(args, "bounds", None) or ("derived" if setup.robot_file else "paper")
-
-
-def resolve_model(args: argparse.Namespace, setup: Setup) -> UncertainLTVModel | PolytopicModel:
-    """The uncertainty set of :func:`resolve_plant`: a plant's interval hull, or the file's set."""
-    return as_model("model", resolve_plant(args, setup))
-
-
-def resolve_plant(args: argparse.Namespace, setup: Setup) -> UncertainPlant | UncertainLTVModel | PolytopicModel:
-    """The plant of ``--model``, or the SCARA as a plant with the interval view of ``--bounds``.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-    setup : Setup
-
-    Returns
-    -------
-    UncertainPlant, UncertainLTVModel or PolytopicModel
-        A file with physical parameters, or the SCARA, gives a plant; a file of elements
-        or vertices gives the set itself.
-
-    Raises
-    ------
-    CommandLineError
-        If published bounds are asked for with a robot file, or ``--model`` with an
-        option of the robot.
-    """
-    model_file = getattr(args, "model", None)
-    if model_file is not None:
-        robot_options = [f"--{o}" for o in ("robot", "bounds", "scenario") if getattr(args, o, None) is not None]
-        if robot_options:
-            raise CommandLineError(
-                f"`--model` is your own plant; {', '.join(robot_options)} describe the SCARA and cannot go with it"
-            )
-        return _load_file("--robot" if getattr(args, "arm_file", None) else "--model", model_file, load_model)
-    if resolve_bounds(args, setup) == "paper":
-        if setup.robot_file:
-            raise CommandLineError(
-                "`--bounds paper` holds only for the paper's robot (Tables 1-2); with --robot use --bounds derived"
-            )
-        return scara_uncertain_plant(bounds="paper")
-    return scara_uncertain_plant(setup.params, setup.reference, setup.payload, bounds="derived")
-
-
-#: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
-CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
-
-
-def sampled_plants(args: argparse.Namespace, plant: Any, model: Any) -> tuple[Any, Any, str]:
-    """The plants the sampled-data certificate runs on, a second set to verify on, and their name.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-    plant : UncertainPlant, UncertainLTVModel or PolytopicModel
-        From :func:`resolve_plant`.
-    model : UncertainLTVModel or PolytopicModel
-        Its uncertainty set.
-
-    Returns
-    -------
-    plants, check : set or tuple (A, B)
-    name : str
-    """
-    physical = as_plant("model", plant)
-    arm = getattr(args, "arm_file", None)
-    if args.model is not None and physical is not None and arm is None:
-        on, fine = physical.samples(), physical.samples(physical.fine_points())
-        return (on.A, on.B), (fine.A, fine.B), (
-            f"the plant of {args.model!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
-            f"{fine.n_samples})")
-    if args.model is not None and arm is None:
-        if model.kind == "box":
-            grid = interior_grid(model)
-            return model, grid, (f"the {2 ** model.n_elements} corners of the box of {args.model!r} "
-                                 f"(verified on a {len(grid[0])}-plant grid of the box)")
-        return model, None, f"the {model.n_vertices} vertices of the polytope of {args.model!r}"
-    assert physical is not None
-    if arm is not None:  # the arm's own grids: the LMI's coarse one, verified on the file's
-        on, fine = physical.samples(physical.coarse_points()), physical.samples()
-        return (on.A, on.B), (fine.A, fine.B), (
-            f"the arm of {arm!r}: its error dynamics linearized along the reference at e = 0, payload over its "
-            f"range ({on.n_samples} samples, verified on {fine.n_samples})")
-    coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
-    fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
-    plants, check = (coarse.A, coarse.B), (fine.A, fine.B)
-    robot = f"the robot of {args.robot!r}" if args.robot is not None else "the paper's robot"
-    return plants, check, (f"{robot}: its error dynamics linearized along the reference at e = 0, payload over "
-                           f"its range ({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
-                           f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
-
-
 def add_range_option(p: argparse.ArgumentParser, verb: str) -> None:
     """Add ``--range NAME=LO:HI`` (repeatable) to a sub-command that takes ``--model``.
 
@@ -621,43 +398,6 @@ def add_range_option(p: argparse.ArgumentParser, verb: str) -> None:
     p.add_argument("--range", action="append", metavar="NAME=LO:HI", default=None,
                    help=f"with --model: {verb} the plant with this parameter's range replaced (its units; nominal "
                    "at LO); repeatable")
-
-
-def with_ranges(args: argparse.Namespace, plant: Any) -> Any:
-    """The plant with the ranges of ``--range NAME=LO:HI`` (a plant file with parameters only).
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-    plant : UncertainPlant, UncertainLTVModel or PolytopicModel
-
-    Returns
-    -------
-    The plant, its ranges replaced.
-    """
-    if not args.range:
-        return plant
-    physical = as_plant("model", plant)
-    if physical is None or args.model is None:
-        raise CommandLineError("`--range` changes a parameter of a plant file with [parameters] (--model)")
-    ranges: dict[str, tuple[float, float]] = {}
-    for text in args.range:
-        name, _, bounds = text.partition("=")
-        lo_text, _, hi_text = bounds.partition(":")
-        try:
-            lo, hi = float(lo_text), float(hi_text)
-        except ValueError:
-            raise CommandLineError(f"`--range` must be NAME=LO:HI, found {text!r}") from None
-        if name not in physical.names:
-            raise CommandLineError(f"`--range` names {name!r}, which is not a parameter of {args.model!r} "
-                                   f"({', '.join(physical.names)})")
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise CommandLineError(f"`--range` {name} must have finite LO <= HI, found {lo:g}:{hi:g}")
-        ranges[name] = (lo, hi)
-    try:
-        return physical.with_ranges(ranges)
-    except ArgumentError as err:
-        raise CommandLineError(f"`--range` {err}") from err
 
 
 def add_design_option(p: argparse.ArgumentParser) -> None:

@@ -7,28 +7,22 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 import pandas as pd
 
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
-from ..model.plant import as_model, as_plant
+from ..model.plant import as_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
 from ..studies.comparison import compare_controllers, compare_plant_designs
 from ._arm_run import compare_arm
-from ._common import (
-    CommandLineError,
-    add_setup_options,
-    finite_float,
-    resolve_design,
-    resolve_model,
-    resolve_plant,
-    resolve_setup,
-)
+from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -79,12 +73,16 @@ def _markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Run the comparison; the table to print.
+
+    The runs are the system's closed loop (:attr:`Capabilities.run`): the SCARA's
+    controllers, or the designs for an arm or a plant file side by side.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -95,16 +93,19 @@ def run(args: argparse.Namespace) -> str:
             f"`--t-final` must be > {PAPER_TRANSIENT:g} s (metrics are taken after {PAPER_TRANSIENT:g} s), "
             f"found {args.t_final}"
         )
-    if args.model is not None:
-        return _compare_plant(args)
+    return _COMPARES[system.capabilities.run](args, system)
+
+
+def _compare_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``compare`` on the SCARA: PID against sliding-mode control on both scenarios."""
     plant_only = [o for o in ("rho", "eta", "parameter", "disturbance", "tolerance") if getattr(args, o) is not None]
     plant_only += [o for o, default in (("profile", "constant"), ("reference", "1"), ("no_synthesis", False))
                    if getattr(args, o) != default]
     if plant_only:
         raise CommandLineError(f"`--{plant_only[0].replace('_', '-')}` describes the comparison for --model's plant")
-    args.payload = args.payload or "on"
-    setup = resolve_setup(args)
-    K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
+    payload = args.payload or "on"
+    setup = system.setup
+    K = design(system.model, *PAPER_DESIGN_POINT).K
     scenarios = list(SCENARIOS) if setup.initial is None else [setup.initial]
     designs = {}
     for path in args.design or []:
@@ -114,7 +115,7 @@ def run(args: argparse.Namespace) -> str:
     start = time.perf_counter()
     table = compare_controllers(
         scenarios=scenarios,
-        payload_on=args.payload == "on",
+        payload_on=payload == "on",
         t_final=args.t_final,
         progress=sys.stderr.isatty() or args.progress,
         K=K,
@@ -134,28 +135,28 @@ def run(args: argparse.Namespace) -> str:
     return str(shown.to_string(index=False, float_format="%.4g"))
 
 
-def _compare_plant(args: argparse.Namespace) -> str:
+def _compare_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``compare --robot F`` on an arm: the designs side by side, with runs of the nonlinear arm."""
+    rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
+    eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
+    if args.payload is not None:
+        raise CommandLineError("`--payload` is the SCARA's; an arm's payload follows --profile")
+    arm_table = compare_arm(args, system, rho, eta, None if args.t_final == PAPER_T_FINAL else args.t_final)
+    if args.format == "json":
+        return json.dumps(arm_table.to_dict(orient="records"), indent=2, default=str)
+    if args.format == "csv":
+        return str(arm_table.to_csv(index=False))
+    head = f"{system.file}: designs side by side on the arm; runs of the nonlinear arm, payload {args.profile}"
+    return "\n".join([head, str(arm_table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")),
+                      *arm_table.attrs.get("notes", [])])
+
+
+def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``compare --model F``: the Riccati PID, the synthesized PID and design files for the plant file."""
-    if args.arm_file is not None:
-        rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
-        eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
-        if args.payload is not None:
-            raise CommandLineError("`--payload` is the SCARA's; an arm's payload follows --profile")
-        args.t_final = None if args.t_final == PAPER_T_FINAL else args.t_final
-        arm_table = compare_arm(args, rho, eta)
-        if args.format == "json":
-            return json.dumps(arm_table.to_dict(orient="records"), indent=2, default=str)
-        if args.format == "csv":
-            return str(arm_table.to_csv(index=False))
-        head = f"{args.arm_file}: designs side by side on the arm; runs of the nonlinear arm, payload {args.profile}"
-        return "\n".join([head, str(arm_table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")),
-                          *arm_table.attrs.get("notes", [])])
     if args.payload is not None:
         raise CommandLineError("`--payload` is the robot's; it cannot go with --model")
-    setup = resolve_setup(args)
-    plant = as_plant("model", resolve_plant(args, setup))
-    if plant is None:
-        raise CommandLineError("`--model` must have [parameters] to be compared (runs need a plant to simulate)")
+    plant = system.require_physical("`--model` must have [parameters] to be compared (runs need a plant to "
+                                    "simulate)")
     model = as_model("model", plant)
     rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
     eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
@@ -187,3 +188,8 @@ def _compare_plant(args: argparse.Namespace) -> str:
     head = f"{plant.name}: designs side by side; runs of {t_final:g} s, profile {args.profile}" + (
         f" of {name}" if name else "")
     return "\n".join([head, str(table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")), *notes])
+
+
+#: The comparison of each system's closed loop (:attr:`Capabilities.run`).
+_COMPARES: dict[str, Callable[[argparse.Namespace, LoadedSystem], str]] = {
+    "scara": _compare_scara, "arm": _compare_arm, "plant": _compare_plant}

@@ -14,7 +14,8 @@ from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
-from ._common import add_setup_options, finite_float, resolve_bounds, resolve_model, resolve_setup
+from ._common import add_setup_options, finite_float
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "add_model_options", "run"]
 
@@ -47,26 +48,26 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Design and certify; the text or JSON to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
     str
     """
-    setup = resolve_setup(args)
-    model = resolve_model(args, setup)
+    model = system.model
     d = design(model, args.rho, args.eta)
-    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
+    source = system.source(model)
     out: dict[str, Any] = {
         "rho": d.rho,
         "eta": d.eta,
         "model": model.name,
-        "bounds": None if args.model is not None else resolve_bounds(args, setup),
+        "bounds": system.bounds,
         "elements": args.elements,
         "K": d.K.tolist(),
         "closed_loop_poles_real": np.sort(d.poles.real).tolist(),

@@ -11,10 +11,10 @@ import numpy as np
 
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
-from ..export import DEFAULT_PREFIX, EXPORT_FORMATS, PRECISIONS, _check_prefix, export_controller
+from ..export import DEFAULT_PREFIX, PRECISIONS, export_controller, export_targets
+from ..export._common import _check_prefix
 from ..io import load_design
 from ..lyapunov.gain import design
-from ..model.plant import as_model, as_plant
 from ..robustness.sampled import check_sample_time
 from ._common import (
     CommandLineError,
@@ -23,12 +23,9 @@ from ._common import (
     check_gain_options,
     finite_float,
     per_joint_values,
-    resolve_bounds,
     resolve_gain,
-    resolve_plant,
-    resolve_setup,
-    sampled_plants,
 )
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -69,7 +66,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--allow-uncertified", action="store_true",
                    help="write the controller even where the sampled-data certificate fails at --ts (the header "
                    "and the JSON say so); by default such a Ts is refused")
-    p.add_argument("--format", choices=EXPORT_FORMATS, default="c")
+    p.add_argument("--format", choices=export_targets(), default="c")  # every registered export target
     p.add_argument("--prefix", default=None,
                    help=f"C identifier of the names and files (default: the plant file's `prefix`, {DEFAULT_PREFIX} "
                    "for the robot)")
@@ -91,12 +88,13 @@ def _check_folder(folder: str) -> None:
     os.unlink(probe)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Design (or read), discretize, certify at Ts and write the files; the list of files written.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -113,20 +111,17 @@ def run(args: argparse.Namespace) -> str:
     if args.prefix is not None:
         _check_prefix(args.prefix)
     check_gain_options(args)
-    setup = resolve_setup(args)
-    plant = resolve_plant(args, setup)
-    model = as_model("model", plant)
-    physical = as_plant("model", plant)
-    prefix = args.prefix or (physical.prefix if physical is not None else DEFAULT_PREFIX)
-    signals: dict[str, Any] = {} if physical is None else {"outputs": physical.outputs, "inputs": physical.inputs}
+    model = system.model
+    prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)
+    signals: dict[str, Any] = system.signal_names()
     options = {"integrator": args.integrator, "derivative": args.derivative, "N": args.filter_n,
                "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
                "anti_windup": not args.no_anti_windup}
-    static = physical is not None and physical.form != "pid"
-    if static:
+    if system.state_feedback:
+        physical = system.physical
         assert physical is not None
         if physical.form == "integral":
-            raise CommandLineError(f"`--model` {args.model!r}: export writes a PID (form 'pid') or static state "
+            raise CommandLineError(f"`--model` {system.file!r}: export writes a PID (form 'pid') or static state "
                                    "feedback u = -K x (form 'state'); a gain on the integral form [∫(r - Cx), x] "
                                    "needs its integrator on the controller and is not exported")
         changed = [o for o, v, default in (("--integrator", args.integrator, "tustin"),
@@ -136,7 +131,7 @@ def run(args: argparse.Namespace) -> str:
                                            ("--tracking-time", args.tracking_time, None),
                                            ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
         if changed:
-            raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {args.model!r} is in the state "
+            raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {system.file!r} is in the state "
                                    "form, whose controller is u = -K x(t_k) held")
         d, gain = resolve_gain(args, model)
         controller: DiscretePID | SampledStateFeedback = SampledStateFeedback(d.K, args.ts)
@@ -161,18 +156,19 @@ def run(args: argparse.Namespace) -> str:
         controller = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
-    plants, check, set_name = sampled_plants(args, plant, model)
+    plants, check, set_name = system.sampled()
     result = check_sample_time(plants, controller, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
         raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
     meta["certificate"] = result.record()
-    meta["plant_file"] = args.model if args.model is not None else args.robot
+    meta["plant_file"] = system.file
     notes = [f"Sampled-data certificate: {result.message}."]
     if not result.certified:
         notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
                         "without your own analysis.")
-    source = f"model {model.name}" if args.model is not None else f"bounds {resolve_bounds(args, setup)}"
+    source = system.source(model, sep=" ")
     meta["precision"] = args.precision
+    # export_controller dispatches through the registry (get_target) and writes the target's files, all or none
     files = export_controller(controller, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
                               precision=args.precision, **signals)
     if isinstance(controller, SampledStateFeedback):

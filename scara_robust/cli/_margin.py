@@ -11,22 +11,12 @@ from typing import Any
 import pandas as pd
 
 from ..lyapunov.gain import Design
-from ..model.plant import UncertainPlant, as_model, as_plant
+from ..model.plant import UncertainPlant, as_model
 from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, robustness_margin
 from ..robustness.parameters import parameter_margin, rate_bracket
-from ..robustness.payload import payload_margin
-from ._common import (
-    CommandLineError,
-    add_range_option,
-    add_setup_options,
-    finite_float,
-    resolve_bounds,
-    resolve_gain,
-    resolve_plant,
-    resolve_setup,
-    with_ranges,
-)
+from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, resolve_gain
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -76,12 +66,13 @@ def _number(value: Any) -> Any:
     return None if isinstance(value, float) and not math.isfinite(value) else value
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Compute the margins; the table to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -91,16 +82,16 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--tol` must be > 0, found {args.tol}")
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
-    setup = resolve_setup(args)
-    plant = with_ranges(args, resolve_plant(args, setup))
+    plant = system.with_ranges(args.range)
     model = as_model("model", plant)
     d, label = resolve_gain(args, model)
-    if getattr(args, "arm_file", None) is not None:
-        return _margin_arm(args, plant, d, label)
-    physical = as_plant("model", plant) if args.model is not None else None
-    if args.rate and as_plant("model", plant) is None:
-        raise CommandLineError("`--rate` needs a plant with physical parameters (a plant file with [parameters], or "
-                               "the robot); this file describes the set by elements or vertices")
+    if not system.capabilities.element_margins:
+        return _margin_arm(args, system, system.require_physical("the arm has no physical parameters", plant), d, label)
+    rated = None
+    if args.rate:
+        rated = system.require_physical("`--rate` needs a plant with physical parameters (a plant file with "
+                                        "[parameters], or the robot); this file describes the set by elements or "
+                                        "vertices", plant)
     if args.anchor == "center" and args.elements != "all":
         raise CommandLineError(f"`--anchor center` scales every element; it cannot go with --elements {args.elements}")
     if args.method == "all":
@@ -116,15 +107,13 @@ def run(args: argparse.Namespace) -> str:
     if args.anchor == "lower" and args.elements == "all" and args.method == "all":
         beside = [robustness_margin(model, d, method, tol=args.tol, anchor="center") for method in ("vertex", "frozen")]
     payload = units = None
-    if args.model is None and not args.no_payload:
-        payload = payload_margin(d, setup.params, setup.reference, tol=max(args.tol, 1e-3))
-    if physical is not None and not args.no_payload:
-        units = parameter_margin(physical, d, tol=max(args.tol, 1e-3))
+    if not args.no_payload:  # the robot's payload in kg, or a plant file's parameters in their units
+        payload = system.payload_margin(d, tol=max(args.tol, 1e-3))
+        units = system.unit_margin(plant, d, tol=max(args.tol, 1e-3))
     rate = rate_text = None
-    rated = as_plant("model", plant)
-    if args.rate and rated is not None:
+    if rated is not None:
         rate, rate_text = _rate(rated, d)
-    source = f"model: {model.name}" if args.model is not None else f"bounds: {resolve_bounds(args, setup)}"
+    source = system.source(model)
     if args.format == "json":
         rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         rows += [{"method": f"{m.method}-center", "kind": m.kind, "anchor": "center", "theta": _number(m.theta),
@@ -162,7 +151,7 @@ def run(args: argparse.Namespace) -> str:
     return "\n".join(lines)
 
 
-def _margin_arm(args: argparse.Namespace, plant: UncertainPlant, d: Design, label: str) -> str:
+def _margin_arm(args: argparse.Namespace, system: LoadedSystem, plant: UncertainPlant, d: Design, label: str) -> str:
     """``margin --robot F`` on an arm: the certified payload range in kg, and with ``--rate`` its rate in kg/s.
 
     The interval box of an arm has too many corners for the element margins; the payload
@@ -182,7 +171,7 @@ def _margin_arm(args: argparse.Namespace, plant: UncertainPlant, d: Design, labe
         if rate is not None:
             rows.append({"table": "rate", **{k: _number(v) for k, v in rate.items()}})
         return json.dumps(rows, indent=2)
-    lines = [f"payload margin of {label} on {args.arm_file!r}: the payload range "
+    lines = [f"payload margin of {label} on {system.file!r}: the payload range "
              f"[{m.range[0]:g}, {m.range[1]:g}] kg scaled about the nominal {m.nominal:g} kg by `scale`, the "
              "reference time kept whole; the range each method certifies:",
              table.drop(columns=[c for c in table.columns if c.startswith("t_ref")] + ["message"]).to_string(
@@ -198,15 +187,15 @@ def _rate(plant: UncertainPlant, d: Design) -> tuple[dict[str, Any], str]:
     result = rate_bracket(plant, d)
     p = plant.parameter(result.parameter)
     unit = f"{p.unit}/s"
-    record = {"parameter": p.name, f"certified rate [{unit}]": result.certified,
+    record = {"parameter": p.name, f"certified rate [{unit}]": result.rate,
               f"growing at [{unit}]": result.unstable, "seconds": result.seconds, "message": result.message}
     where = f"rate of {p.name} over [{p.range[0]:.6g}, {p.range[1]:.6g}] {p.unit}"
-    if math.isinf(result.certified):
+    if math.isinf(result.rate):
         text = f"{where}: certified for any |d{p.name}/dt| (it may vary arbitrarily fast within the range)"
-    elif math.isnan(result.certified):
+    elif math.isnan(result.rate):
         text = f"{where}: not certified, not even frozen with an affine P({p.name})"
     else:
-        text = (f"{where}: certified for |d{p.name}/dt| <= {result.certified:.6g} {unit}"
+        text = (f"{where}: certified for |d{p.name}/dt| <= {result.rate:.6g} {unit}"
                 + (f"; a periodic variation at {result.unstable:.6g} {unit} grows" if math.isfinite(result.unstable)
                    else ""))
     text += f"\n  {result.message}"

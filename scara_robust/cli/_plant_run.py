@@ -101,7 +101,8 @@ def _floats(option: str, text: str) -> list[float]:
     return values
 
 
-def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: float) -> tuple[str, dict[str, Any]]:
+def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: float,
+                   parameter: str | None = None) -> tuple[str, dict[str, Any]]:
     """The parameter driven and its profile, from ``--parameter`` and ``--profile``.
 
     Parameters
@@ -110,6 +111,8 @@ def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: flo
     plant : UncertainPlant
     t_final : float
         Horizon, s.
+    parameter : str, optional
+        The parameter driven, instead of ``--parameter`` (an arm's payload ``m_p``).
 
     Returns
     -------
@@ -120,7 +123,7 @@ def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: flo
     varying = [p.name for p in plant.varying]
     if not varying:
         return "", {}
-    name = args.parameter
+    name = args.parameter if parameter is None else parameter
     if name is None:
         rated = [p.name for p in plant.varying if p.rate is not None]
         name = rated[0] if rated else varying[-1]

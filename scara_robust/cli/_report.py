@@ -20,6 +20,7 @@ from ..studies.campaign.report import (
 from ..studies.campaign.runner import read_results
 from ..studies.campaign.spec import SPEC_FIELDS
 from ._common import CommandLineError, save_figure
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -64,12 +65,14 @@ def _with_unit(label: str, units: dict[str, str]) -> str:
     return f"{label} [{unit}]" if unit else label
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Summarize a results file; the statistics and worst runs to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
+        Unused: the results file holds the runs' inputs.
 
     Returns
     -------

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -12,7 +13,6 @@ import numpy as np
 from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
-from ..model.plant import as_plant
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_plant_run, plot_response
 from ..simulation.controllers import CONTROLLERS
@@ -30,13 +30,11 @@ from ._common import (
     finite_float,
     per_joint_values,
     resolve_design,
-    resolve_model,
-    resolve_plant,
-    resolve_setup,
     save_figure,
     write_text,
 )
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -130,12 +128,16 @@ def _announce_compilation(method: str | None) -> None:
         sys.stderr.flush()
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Simulate; the summary, CSV or JSON to print.
+
+    The closed loop is the system's (:attr:`Capabilities.run`): the SCARA's engine, the
+    arm's or a plant file's.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -149,46 +151,49 @@ def run(args: argparse.Namespace) -> str:
             raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {limit[0] if len(limit) == 1 else limit}")
     if args.tolerance is not None and args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0, found {args.tolerance}")
-    if args.model is not None:
-        return _run_plant(args)
+    return _RUNS[system.capabilities.run](args, system)
+
+
+def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``simulate`` on the SCARA: a run of its engine, or the replay of a campaign's run."""
     plant_only = [o for o in ("rho", "eta") if getattr(args, o) is not None]
     plant_only += [o for o, default in (("profile", "constant"), ("reference", "1")) if getattr(args, o) != default]
     plant_only += [o for o in ("parameter", "disturbance", "ts", "x0") if getattr(args, o) is not None]
     if plant_only:
         raise CommandLineError(f"`--{plant_only[0]}` describes a run of --model's plant; the robot's runs take "
                                "--design, --scenario and --payload")
-    args.tolerance = TRACKING_TOLERANCE if args.tolerance is None else args.tolerance
+    tolerance = TRACKING_TOLERANCE if args.tolerance is None else args.tolerance
     loaded = None
     if args.from_campaign is not None:
-        res = _replay(args)
+        res, controller = _replay(args, system, tolerance)
         payload = "drawn"
     else:
         if args.index is not None:
             raise CommandLineError("`--index` picks a run of a campaign table; it goes with --from-campaign")
-        args.controller = args.controller or "pid"
+        controller = args.controller or "pid"
         payload = args.payload or "on"
-        setup = resolve_setup(args)
+        setup = system.setup
         loaded = resolve_design(args)
-        pid_like = args.controller in ("pid", "pid-sampled")
+        pid_like = controller in ("pid", "pid-sampled")
         if loaded is not None and not pid_like:
             raise CommandLineError(
-                f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {args.controller!r}"
+                f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {controller!r}"
             )
         K: np.ndarray | None = None
         if loaded is not None:
             K = loaded.K
         elif pid_like:
-            K = design(resolve_model(args, setup), *PAPER_DESIGN_POINT).K
+            K = design(system.model, *PAPER_DESIGN_POINT).K
         _announce_compilation(args.method)
         res = run_scenario(
-            args.controller,
+            controller,
             setup.initial or SCENARIOS["large"],
             payload_on=payload == "on",
             t_final=PAPER_T_FINAL if args.t_final is None else args.t_final,
             torque_limit=args.torque_limit,
             method=args.method,
             K=K,
-            tracking_tolerance=args.tolerance,
+            tracking_tolerance=tolerance,
             **setup.signals(),
         )
     files = []
@@ -199,7 +204,7 @@ def run(args: argparse.Namespace) -> str:
     if as_json:
         series = json.dumps(
             {
-                "controller": args.controller,
+                "controller": controller,
                 "scenario": res.scenario,
                 "payload": payload,
                 "status": res.status,
@@ -224,13 +229,14 @@ def run(args: argparse.Namespace) -> str:
     return _summary(res, payload, files) if args.format == "text" else ""
 
 
-#: Options that describe a run's inputs; a replayed run takes them from its campaign table.
-_INPUT_OPTIONS = ("robot", "scenario", "bounds", "design", "payload", "torque_limit")
+#: Options that describe a run's inputs beside the robot's; a replayed run takes them from its campaign table.
+_INPUT_OPTIONS = ("design", "payload", "torque_limit")
 
 
-def _replay(args: argparse.Namespace) -> SimulationResult:
-    """The run of ``--from-campaign`` at ``--index``, from the inputs stored in its row."""
-    given = [f"--{name.replace('_', '-')}" for name in _INPUT_OPTIONS if getattr(args, name, None) is not None]
+def _replay(args: argparse.Namespace, system: LoadedSystem, tolerance: float) -> tuple[SimulationResult, str | None]:
+    """The run of ``--from-campaign`` at ``--index``, from the inputs stored in its row, and its controller."""
+    given = [option for option, _ in system.options("robot", "scenario", "bounds")]
+    given += [f"--{name.replace('_', '-')}" for name in _INPUT_OPTIONS if getattr(args, name, None) is not None]
     if given:
         raise CommandLineError(
             f"`--from-campaign` replays a run from the inputs in its table; {', '.join(given)} cannot go with it"
@@ -245,37 +251,34 @@ def _replay(args: argparse.Namespace) -> SimulationResult:
     except ArgumentError as err:
         raise CommandLineError(f"`--from-campaign` {err.problem}") from err
     rows = results[results["scenario"] == args.index]
-    if args.controller is None and len(rows):
-        args.controller = str(rows["controller"].iloc[0])  # the default of replay_scenario, named for the output
+    controller = args.controller
+    if controller is None and len(rows):
+        controller = str(rows["controller"].iloc[0])  # the default of replay_scenario, named for the output
     try:
-        return replay_scenario(
+        res = replay_scenario(
             results,
             args.index,
-            args.controller,
+            controller,
             method=args.method,
             t_final=args.t_final,
-            tracking_tolerance=args.tolerance,
+            tracking_tolerance=tolerance,
         )
     except ArgumentError as err:
         if err.argument != "results":
             raise
         raise CommandLineError(f"`--from-campaign` {path!r} {err.problem}") from err
+    return res, controller
 
 
-def _run_plant(args: argparse.Namespace) -> str:
+def _run_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``simulate --model F``: the plant file's closed loop under the chosen parameter profile."""
-    if args.arm_file is not None:
-        return run_arm(args)
     robot_only = [o for o in ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
                   if getattr(args, o, None) is not None]
     if robot_only:
         raise CommandLineError(f"`--{robot_only[0].replace('_', '-')}` is an option of the robot's runs; it cannot go "
                                "with --model")
-    setup = resolve_setup(args)
-    plant = as_plant("model", resolve_plant(args, setup))
-    if plant is None:
-        raise CommandLineError("`--model` must have [parameters] to be simulated (a plant file with physical "
-                               "parameters); this file describes only the uncertainty set")
+    plant = system.require_physical("`--model` must have [parameters] to be simulated (a plant file with physical "
+                                    "parameters); this file describes only the uncertainty set")
     K, gain = plant_gain(args, plant, "this plant's design form")
     t_final = 20.0 if args.t_final is None else args.t_final
     run_ = plant_run(args, plant, K, t_final)
@@ -293,3 +296,8 @@ def _run_plant(args: argparse.Namespace) -> str:
     head = f"{plant.name}, {gain}{sampling}, {t_final:g} s, profile {args.profile}"
     return "\n".join([*summary(run_, plant, head),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
+
+
+#: The run of each system's closed loop (:attr:`Capabilities.run`).
+_RUNS: dict[str, Callable[[argparse.Namespace, LoadedSystem], str]] = {
+    "scara": _run_scara, "arm": run_arm, "plant": _run_plant}

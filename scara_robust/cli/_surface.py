@@ -22,11 +22,10 @@ from ._common import (
     CommandLineError,
     finite_float,
     parse_range,
-    resolve_model,
-    resolve_setup,
     save_figure,
 )
 from ._design import add_model_options
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
 
@@ -82,12 +81,13 @@ def _check_mark(mark: tuple[float, float], rhos: np.ndarray, etas: np.ndarray) -
             )
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Evaluate the surface; the text, CSV or JSON to print.
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError("`--mark` marks a point on the --plot figure; give --plot FILE.png too")
     if args.mark is not None:
         _check_mark(args.mark, args.rho, args.eta)
-    model = resolve_model(args, resolve_setup(args))
+    model = system.model
     note = ""
     if model.kind == "polytope":  # Theorem 1 needs intervals: the box around the polytope
         model = model.interval_hull()

@@ -10,22 +10,13 @@ from typing import Any
 import numpy as np
 
 from ..io import design_record, write_design
-from ..model.plant import as_model, as_plant
-from ..model.scara import physical_samples
+from ..model.plant import as_model
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
-from ._common import (
-    CommandLineError,
-    add_range_option,
-    add_setup_options,
-    finite_float,
-    resolve_model,
-    resolve_plant,
-    resolve_setup,
-    with_ranges,
-)
+from ._common import CommandLineError, add_range_option, add_setup_options, finite_float
+from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
 
@@ -67,7 +58,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--gain-bound", type=finite_float, default=GAIN_BOUND,
                    help=f"bound on ||K||_2 (default {GAIN_BOUND:g})")
     p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--output", metavar="FILE.json",
+    # dest is not `output`: the design file goes there, the summary to stdout
+    p.add_argument("--output", dest="design_output", metavar="FILE.json",
                    help="write a design file (read by simulate/compare --design) instead of printing JSON")
     p.set_defaults(func=run)
 
@@ -95,12 +87,13 @@ def _text(result: Synthesis, what: str, margin: str) -> str:
     return "\n".join(lines)
 
 
-def run(args: argparse.Namespace) -> str:
+def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Synthesize; the text or JSON to print (or the design file written).
 
     Parameters
     ----------
     args : argparse.Namespace
+    system : LoadedSystem
 
     Returns
     -------
@@ -110,45 +103,21 @@ def run(args: argparse.Namespace) -> str:
         raise CommandLineError(f"`--gain-bound` must be > 0, found {args.gain_bound:g}")
     if args.decay is not None and args.decay < 0:
         raise CommandLineError(f"`--decay` must be >= 0 1/s, found {args.decay:g}")
-    if args.output is not None and not args.output.lower().endswith(".json"):
-        raise CommandLineError(f"`--output` {args.output!r}: a design file is .json")
-    setup = resolve_setup(args)
-    chosen = args.uncertainty_set
-    arm = getattr(args, "arm_file", None)
-    if arm is not None and chosen != "box":
-        chosen = "physical"  # an arm's interval box has too many corners for an LMI over them
-    if args.model is not None and chosen == "physical" and arm is None:
-        raise CommandLineError("`--set physical` is the SCARA's own variation; with --model use --set box")
-    if chosen == "physical" and args.bounds is not None:
-        raise CommandLineError("`--bounds` chooses an interval model; it goes with --set box")
-    uncertainty_set = chosen or ("box" if args.model is not None or args.bounds is not None else "physical")
+    output = args.design_output
+    if output is not None and not output.lower().endswith(".json"):
+        raise CommandLineError(f"`--output` {output!r}: a design file is .json")
+    uncertainty_set = system.synthesis_set(args.uncertainty_set)
     if args.range and uncertainty_set != "box":
         raise CommandLineError("`--range` changes a parameter of a plant file (--model); it goes with --set box")
-    model = as_model("model", with_ranges(args, resolve_plant(args, setup))) if uncertainty_set == "box" else None
-    if uncertainty_set == "physical" and arm is not None:
-        plant = as_plant("model", resolve_plant(args, setup))
-        assert plant is not None
-        objective = args.objective or "decay"
+    model = as_model("model", system.with_ranges(args.range)) if uncertainty_set == "box" else None
+    if uncertainty_set == "physical":  # the SCARA's physical set, or an arm's samples
+        physical = system.physical_set(PHYSICAL_GRID, CHECK_GRID)
+        objective = args.objective or physical.objective
         if objective == "margin":
             raise CommandLineError("`--objective margin` scales an interval box; it goes with --set box")
-        on, check_on = plant.samples(plant.coarse_points()), plant.samples()
-        result = synthesize((on.A, on.B), objective=objective, decay=args.decay, gain_bound=args.gain_bound,
-                            check=(check_on.A, check_on.B), nominal=as_model("model", plant))
-        what = (f"the arm of {arm!r} on its samples, {on.n_samples} (checked on {check_on.n_samples}), "
-                f"objective {objective}")
-    elif uncertainty_set == "physical":
-        nominal = resolve_model(args, setup)
-        objective = args.objective or "l2"
-        if objective == "margin":
-            raise CommandLineError("`--objective margin` scales an interval box; it goes with --set box")
-        samples = physical_samples(setup.params, setup.reference, setup.payload,
-                                   times=np.linspace(0, 2 * np.pi, PHYSICAL_GRID[0]), n_masses=PHYSICAL_GRID[1])
-        check = physical_samples(setup.params, setup.reference, setup.payload,
-                                 times=np.linspace(0, 2 * np.pi, CHECK_GRID[0]), n_masses=CHECK_GRID[1])
-        result = synthesize((samples.A, samples.B), objective=objective, decay=args.decay,
-                            gain_bound=args.gain_bound, check=(check.A, check.B), nominal=nominal)
-        what = (f"the robot's physical set, {PHYSICAL_GRID[0]} times x {PHYSICAL_GRID[1]} payloads "
-                f"(checked on {CHECK_GRID[0]} x {CHECK_GRID[1]}), objective {objective}")
+        result = synthesize(physical.plants, objective=objective, decay=args.decay, gain_bound=args.gain_bound,
+                            check=physical.check, nominal=physical.nominal)
+        what = f"{physical.description}, objective {objective}"
     else:
         assert model is not None
         structured = model.B.shape[0] == 3 * model.B.shape[1]
@@ -162,6 +131,7 @@ def run(args: argparse.Namespace) -> str:
     margin_value: dict[str, Any] = {}
     if result.design is not None and result.certified:
         if uncertainty_set == "physical" and result.K is not None and result.K.shape == (2, 6):
+            setup = system.setup  # the SCARA's robot and reference (an arm's run on the paper's, as before)
             row = payload_margin(result.design, setup.params, setup.reference, methods=("payload-design-P",)).iloc[0]
             margin = (f"payload margin with this P: peak payload up to {row['mass [kg]']:.4g} kg certified "
                       f"(bracket {row['bracket [kg]']} kg)")
@@ -179,15 +149,14 @@ def run(args: argparse.Namespace) -> str:
         "solver_status": result.solver_status, **margin_value,
     }
     info = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in info.items()}
-    if args.output is not None:
+    if output is not None:  # the design file; main() prints the summary
         if result.K is None:
-            raise CommandLineError(f"`--output` {args.output!r} not written: {result.message}")
-        path, args.output = args.output, None  # main() prints the summary instead of writing it there
+            raise CommandLineError(f"`--output` {output!r} not written: {result.message}")
         try:
-            write_design(path, result.K, result.P, **info)
+            write_design(output, result.K, result.P, **info)
         except OSError as err:
-            raise CommandLineError(f"`--output` {path!r}: {err.strerror or err}") from err
-        return _text(result, what, margin) + f"\ndesign file: {path}"
+            raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
+        return _text(result, what, margin) + f"\ndesign file: {output}"
     if args.format == "json":
         if result.K is None:
             return json.dumps(info, indent=2)

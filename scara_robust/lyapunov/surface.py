@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_argument
 from .._resources import check_memory
 from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
@@ -37,6 +38,7 @@ from .theorem1 import affine_margin, certify, rank2_positive_part
 __all__ = [
     "DesignSurface",
     "design_surface",
+    "SURFACE_FORMULATIONS",
     "SURFACE_METHODS",
     "SURFACE_MEASURES",
     "MARGIN_MAP_METHODS",
@@ -45,7 +47,9 @@ __all__ = [
 
 Array = NDArray[np.float64]
 #: How the surface is computed: ``Z = Z₀(ρ) + η Z₁(ρ)`` per ρ, or design and certify point by point.
-SURFACE_METHODS = ("structured", "reference")
+SURFACE_FORMULATIONS = ("structured", "reference")
+#: Deprecated name of :data:`SURFACE_FORMULATIONS` (``method`` names an analysis method).
+SURFACE_METHODS = SURFACE_FORMULATIONS
 #: What a surface holds besides max λ(Z): nothing more, or the robustness margin θ.
 SURFACE_MEASURES = ("max_eig", "margin")
 #: Certificates of a margin map: Theorem 1, or the design's P at the box's vertices.
@@ -246,9 +250,10 @@ def design_surface(
     etas: ArrayLike,
     elements: str = "all",
     *,
-    method: str = "structured",
+    formulation: str = "structured",
     measure: str = "max_eig",
     margin_method: str = "theorem1",
+    method: str | None = None,
 ) -> DesignSurface:
     """Evaluate ``max λ(Z)`` of Theorem 1 on the grid ``rhos × etas``.
 
@@ -261,16 +266,18 @@ def design_surface(
         η values (>= 1).
     elements : {'all', 'A', 'B'}
         Which uncertain elements vary and enter Z; the others stay at their lower bounds.
-    method : {'structured', 'reference'}
+    formulation : {'structured', 'reference'}
         ``'structured'`` (default) uses ``Z = Z₀(ρ) + η Z₁(ρ)``; ``'reference'`` runs
         :func:`design` and :func:`certify` point by point, literally as the paper does.
     measure : {'max_eig', 'margin'}
         ``'margin'`` also computes the robustness margin θ(ρ, η) of every design: the
         largest scaling of every element range about the nominal that `margin_method`
         certifies (exact, no bisection: Z is affine in θ; see
-        ``scara_robust.lyapunov.theorem1.affine_margin``). Structured method only.
+        ``scara_robust.lyapunov.theorem1.affine_margin``). Structured formulation only.
     margin_method : {'theorem1', 'vertex'}
         Theorem 1's Z, or the design's P at every vertex of the box (2^N per point).
+    method : str, optional
+        Deprecated name of `formulation`.
 
     Returns
     -------
@@ -296,11 +303,12 @@ def design_surface(
     rho_grid = _grid("rhos", rhos, 0.0, strict=True)
     eta_grid = _grid("etas", etas, 1.0, strict=False)
     check_choice("elements", elements, ELEMENT_SETS)
-    check_choice("method", method, SURFACE_METHODS)
+    formulation = renamed_argument("design_surface", "method", "formulation", method, formulation, "structured")
+    check_choice("formulation", formulation, SURFACE_FORMULATIONS)
     check_choice("measure", measure, SURFACE_MEASURES)
     check_choice("margin_method", margin_method, MARGIN_MAP_METHODS)
-    if measure == "margin" and method != "structured":
-        raise ArgumentValueError("method", f"must be 'structured' for measure='margin', found {method!r}")
+    if measure == "margin" and formulation != "structured":
+        raise ArgumentValueError("formulation", f"must be 'structured' for measure='margin', found {formulation!r}")
     if measure == "margin" and model.n_elements == 0:
         raise ArgumentValueError("model", "has no uncertain elements: there is no margin to compute")
     shape = (rho_grid.size, eta_grid.size)
@@ -313,7 +321,7 @@ def design_surface(
             f"× `etas` is a grid of {shape[0] * shape[1]:,} points (about {need:.3g} GB of memory); "
             f"at most {MAX_SURFACE_POINTS:,} points are evaluated in one call",
         )
-    if method == "reference":
+    if formulation == "reference":
         max_eig = np.empty(shape)
         hurwitz = np.empty(shape, dtype=bool)
         for i, rho in enumerate(rho_grid):

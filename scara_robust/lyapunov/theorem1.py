@@ -24,6 +24,7 @@ from .._validation import check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..model.plant import ModelLike, as_box
 from ..model.uncertain import ANCHORS, ELEMENT_SETS
+from ..results import AnalysisResult, verdict_of
 from .gain import Design
 
 __all__ = ["Certificate", "UltimateBound", "certify"]
@@ -195,7 +196,7 @@ class UltimateBound:
 
 
 @dataclass(frozen=True)
-class Certificate:
+class Certificate(AnalysisResult):
     """Theorem 1 evaluated for one design.
 
     Attributes
@@ -234,6 +235,22 @@ class Certificate:
     P: Array
     lyapunov_residual: float
     riccati_mismatch: float
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` or ``'not certified'``."""
+        return verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict (Theorem 1 is a closed-form test: nothing can fail to converge)."""
+        return self.verdict
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        return (f"Theorem 1 over the {self.elements!r} elements: max eig Z = {self.max_eig:.6g}"
+                + ("" if self.hurwitz else "; the design loop is not Hurwitz"))
 
     def contributions(self) -> pd.DataFrame:
         """Each element's share of Z.

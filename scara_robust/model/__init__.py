@@ -8,6 +8,8 @@ from .arm import *  # noqa: F403
 from .arm import __all__ as _arm
 from .augment import *  # noqa: F403
 from .augment import __all__ as _augment
+from .base import *  # noqa: F403
+from .base import __all__ as _base
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
 from .plant import *  # noqa: F403
@@ -23,4 +25,4 @@ from .signals import __all__ as _signals
 from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
-__all__ = [*_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm]
+__all__ = [*_base, *_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm]

@@ -761,6 +761,19 @@ class UncertainPlant:
         A_aug, B_aug = self.design_form(A, B)
         return ParameterSamples(self.names, grid, np.asarray(A_aug), np.asarray(B_aug))
 
+    @property
+    def capabilities(self) -> frozenset[str]:
+        """``{'intervals', 'vertices', 'parameters'}``, and ``'rates'`` when a parameter has a rate bound.
+
+        Its interval hull (:meth:`interval_model`) gives the intervals and their corners.
+        """
+        rates = {"rates"} if any(p.rate is not None for p in self.parameters) else set()
+        return frozenset({"intervals", "vertices", "parameters", *rates})
+
+    def interval_hull(self) -> UncertainLTVModel:
+        """The interval box holding the plant's frozen plants on its grid (:meth:`interval_model` at θ = 1)."""
+        return self.interval_model()
+
     def interval_model(self, theta: float = 1.0) -> UncertainLTVModel:
         """The interval hull of the design-form family over the (scaled) box.
 

@@ -137,6 +137,11 @@ class PolytopicModel:
         return "polytope"
 
     @property
+    def capabilities(self) -> frozenset[str]:
+        """``{'vertices'}`` (see :data:`~scara_robust.CAPABILITIES`)."""
+        return frozenset({"vertices"})
+
+    @property
     def is_fixed(self) -> bool:
         """True when every vertex is the same plant."""
         return bool(np.ptp(self.vertices_A, axis=0).max() == 0 and np.ptp(self.vertices_B, axis=0).max() == 0)

@@ -349,6 +349,11 @@ class UncertainLTVModel:
         return "box"
 
     @property
+    def capabilities(self) -> frozenset[str]:
+        """``{'intervals', 'vertices'}`` (see :data:`~scara_robust.CAPABILITIES`)."""
+        return frozenset({"intervals", "vertices"})
+
+    @property
     def is_fixed(self) -> bool:
         """True when nothing varies (no elements)."""
         return self.n_elements == 0

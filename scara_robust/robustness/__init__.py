@@ -1,12 +1,20 @@
 """Beyond Theorem 1: exact polytope tests, common-P LMIs, the falsifier, the certificate table.
 
-Imports :mod:`scara_robust.model` and :mod:`scara_robust.lyapunov` below it.
+Every method is registered by name in :mod:`~scara_robust.robustness.registry` (the tables and
+the command line iterate it); every search for the end of an interval is
+:func:`~scara_robust.robustness.search.bisect`. Imports :mod:`scara_robust.model` and
+:mod:`scara_robust.lyapunov` below it.
 """
 
+from . import certificates as _certificates  # noqa: F401  (the built-in rows register first, in the table's order)
+from .context import *  # noqa: F403
+from .context import __all__ as _context
 from .falsifier import *  # noqa: F403
 from .falsifier import __all__ as _falsifier
 from .l2gain import *  # noqa: F403
 from .l2gain import __all__ as _l2gain
+from .l2rate import *  # noqa: F403
+from .l2rate import __all__ as _l2rate
 from .lmi import *  # noqa: F403
 from .lmi import __all__ as _lmi
 from .margins import *  # noqa: F403
@@ -19,12 +27,16 @@ from .pdl import *  # noqa: F403
 from .pdl import __all__ as _pdl
 from .polytope import *  # noqa: F403
 from .polytope import __all__ as _polytope
+from .registry import *  # noqa: F403
+from .registry import __all__ as _registry
 from .sampled import *  # noqa: F403
 from .sampled import __all__ as _sampled
+from .search import *  # noqa: F403
+from .search import __all__ as _search
 from .synthesis import *  # noqa: F403
 from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
 __all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters,
-           *_payload]
+           *_payload, *_registry, *_context, *_search, *_l2rate]

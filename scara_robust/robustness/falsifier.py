@@ -28,6 +28,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_int, check_real, check_symmetric
+from ..results import AnalysisResult
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
@@ -42,7 +43,7 @@ FALSIFIER_RULES = ("norm", "lyapunov", "random")
 
 
 @dataclass(frozen=True)
-class FalsifierResult:
+class FalsifierResult(AnalysisResult):
     """Worst trajectory found.
 
     Attributes
@@ -84,6 +85,24 @@ class FalsifierResult:
     horizon: float
     dwell: float
     overflow: bool = False
+
+    @property
+    def certified(self) -> bool | None:
+        """False when a destabilizing signal was found, else None (a search proves nothing)."""
+        return False if self.found else None
+
+    @property
+    def verdict(self) -> str:
+        """``'unstable trajectory found'``, ``'growth below the detection threshold'`` (‖x‖ grew, by less
+        than the threshold) or ``'no counterexample found'``."""
+        if self.found:
+            return "unstable trajectory found"
+        return "growth below the detection threshold" if self.growth_rate > 0 else "no counterexample found"
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
     def _factor(self) -> str:
         # beyond double precision the factor is still known through its logarithm

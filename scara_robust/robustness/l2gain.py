@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice
 from ..exceptions import ArgumentValueError
+from ..results import AnalysisResult
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 
 __all__ = ["L2Gain", "l2_gain", "L2_INFLATION", "PeakBound", "peak_gain"]
@@ -31,7 +32,7 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class L2Gain:
+class L2Gain(AnalysisResult):
     """Bounds on the worst-case L2 gain from w to z over the closed loops' hull.
 
     Attributes
@@ -62,6 +63,18 @@ class L2Gain:
     P: Array | None
     seconds: float
     inflation: float = 0.0
+
+    @property
+    def certified(self) -> bool | None:
+        """True when numpy verified the finite upper bound, else None (no bound is no disproof)."""
+        return True if math.isfinite(self.upper) else None
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` (a verified bound), ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
+        if math.isfinite(self.upper):
+            return "certified"
+        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
 
     @property
     def message(self) -> str:
@@ -195,7 +208,7 @@ def l2_gain(
 
 
 @dataclass(frozen=True)
-class PeakBound:
+class PeakBound(AnalysisResult):
     """A bound on the peak of the output for bounded disturbances: an invariant ellipsoid.
 
     If ``‖w(t)‖₂ <= 1`` at all times and ``x(0) = 0`` (or, from any x(0), ultimately),
@@ -222,6 +235,18 @@ class PeakBound:
     seconds: float
     lower: float = math.nan
     worst_index: int = -1
+
+    @property
+    def certified(self) -> bool | None:
+        """True when numpy verified the finite upper bound, else None."""
+        return True if math.isfinite(self.upper) else None
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
+        if math.isfinite(self.upper):
+            return "certified"
+        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
 
     @property
     def message(self) -> str:

@@ -25,7 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_field
 from .._validation import check_array, check_choice
+from ..results import AnalysisResult
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
 
@@ -38,7 +40,9 @@ NOT_INSTALLED = "not installed"
 
 #: What an LMI answer proves, once numpy has checked it: ``'certified'`` (numpy verified the
 #: matrix the solver returned), ``'infeasible'`` (the solver returned a certificate of
-#: infeasibility), ``'marginal'`` (verified, but with a decay rate below
+#: infeasibility and numpy verified it, where the problem gives one: :func:`lmi_certificate`;
+#: a certificate numpy rejects, as on an ill-conditioned problem, is ``'unknown'``),
+#: ``'marginal'`` (verified, but with a decay rate below
 #: :func:`decay_floor`, within the solver's tolerances of zero), ``'inaccurate'`` (the
 #: solver returned an answer, "optimal" or
 #: "inaccurate", that numpy rejects, or an inaccurate infeasibility) or ``'unknown'`` (no
@@ -46,6 +50,9 @@ NOT_INSTALLED = "not installed"
 #: facts; a search (bisection) stops at the last two and says so.
 LMI_VERDICTS = ("certified", "marginal", "infeasible", "inaccurate", "unknown")
 
+
+#: The status of a solver's "infeasible" whose certificate of infeasibility numpy rejects.
+INFEASIBLE_NOT_VERIFIED = "infeasible, certificate not verified"
 
 #: A verified decay rate below this fraction of the closed loops' largest spectral norm
 #: (1/s) is within the solver's tolerances of zero: reported as ``'marginal'``, not certified.
@@ -97,6 +104,8 @@ def lmi_verdict(status: str, verified: bool) -> str:
         return "certified"
     if status == "infeasible":
         return "infeasible"
+    if status == INFEASIBLE_NOT_VERIFIED:
+        return "unknown"
     if status in ("optimal", "optimal_inaccurate", "infeasible_inaccurate"):
         return "inaccurate"
     return "unknown"
@@ -123,7 +132,7 @@ def cvxpy_available() -> bool:
 
 
 @dataclass(frozen=True)
-class LMICertificate:
+class LMICertificate(AnalysisResult):
     """Result of the LMI search, verified independently.
 
     Attributes
@@ -135,7 +144,7 @@ class LMICertificate:
         The Lyapunov matrix returned (None when the solver found none).
     max_vertex_eig : float
         numpy's ``max_v λmax(Ā_vᵀP + PĀ_v)`` (NaN without P).
-    margin : float
+    decay_rate : float
         Verified decay rate α of the state, 1/s (``V̇ <= −2αV``): ``−max_vertex_eig /
         (2 λmax(P))`` when P is positive definite, else NaN. Positive means certified.
     n_vertices : int
@@ -147,19 +156,21 @@ class LMICertificate:
     solver: str
     P: Array | None
     max_vertex_eig: float
-    margin: float
+    decay_rate: float
     n_vertices: int
     floor: float = 0.0
+
+    margin = renamed_field("margin", "decay_rate")
 
     @property
     def certified(self) -> bool:
         """True only when numpy confirms P ≻ 0 and a decay rate above the floor."""
-        return bool(self.margin > 0 and self.margin >= self.floor)
+        return bool(self.decay_rate > 0 and self.decay_rate >= self.floor)
 
     @property
     def verdict(self) -> str:
         """What the answer proves: one of :data:`LMI_VERDICTS`."""
-        if not self.certified and self.margin > 0:
+        if not self.certified and self.decay_rate > 0:
             return "marginal"
         return lmi_verdict(self.status, self.certified)
 
@@ -170,13 +181,16 @@ class LMICertificate:
             return "cvxpy is not installed (pip install '.[lmi]')"
         if self.certified:
             note = f" (the solver said {self.status}; numpy's check passed)" if self.status != "optimal" else ""
-            return (f"common quadratic Lyapunov P found and verified; decay rate α >= {self.margin:.4g} 1/s "
+            return (f"common quadratic Lyapunov P found and verified; decay rate α >= {self.decay_rate:.4g} 1/s "
                     f"(V̇ <= −2αV){note}")
         if self.verdict == "marginal":
-            return (f"marginal, not certified: numpy verifies a decay rate of only {self.margin:.3g} 1/s, below the "
-                    f"floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
+            return (f"marginal, not certified: numpy verifies a decay rate of only {self.decay_rate:.3g} 1/s, "
+                    f"below the floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
         if self.verdict == "infeasible":
             return f"no common quadratic Lyapunov P exists ({self.solver} proved the LMI infeasible)"
+        if self.status == INFEASIBLE_NOT_VERIFIED:
+            return (f"unknown: {self.solver} said infeasible, but its certificate of infeasibility fails numpy's "
+                    "check (an ill-conditioned problem): neither feasibility nor infeasibility is proven")
         if self.P is None:
             return f"no answer: {self.solver} said {self.status}; neither feasibility nor infeasibility is proven"
         return (f"{self.solver} returned a P ({self.status}) that fails numpy's check: inaccurate, "
@@ -221,6 +235,51 @@ def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float
     if eig_P[0] <= 0:
         return max_vertex_eig, -np.inf
     return max_vertex_eig, -max_vertex_eig / (2 * eig_P[-1])
+
+
+def farkas_certificate_holds(closed_loops: ArrayLike, duals: list[ArrayLike | None]) -> bool:
+    """numpy's check of a solver's proof that no common P exists.
+
+    No ``P ≻ 0`` with ``Ā_vᵀP + PĀ_v ≺ 0`` at every vertex exists when matrices ``Y_v ⪰ 0``
+    give ``S = Σ_v (Ā_vY_v + Y_vĀ_vᵀ) ≻ 0``: then ``Σ_v tr((Ā_vᵀP + PĀ_v)Y_v) = tr(PS) > 0``
+    for every ``P ≻ 0``, while each term is ``<= 0`` (Boyd et al. 1994, §2.2.3, the theorem of
+    alternatives). The solver's dual values of the vertex constraints are such ``Y_v``; they
+    are projected on the positive semidefinite cone (their tiny negative eigenvalues set to
+    0), and S is checked to be positive definite.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+    duals : list of array_like, shape (n, n), or None
+        One per vertex, as cvxpy returns them for an infeasible problem.
+
+    Returns
+    -------
+    bool
+        True when the certificate proves infeasibility; False when it is missing or fails.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A = np.array([[[1.0]], [[-1.0]]])       # ẋ = x at one vertex: unstable, no P exists
+    >>> farkas_certificate_holds(A, [np.eye(1), np.zeros((1, 1))])
+    True
+    """
+    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    if len(duals) != A_v.shape[0] or any(y is None for y in duals):
+        return False
+    S = np.zeros(A_v.shape[1:])
+    for A, y in zip(A_v, duals):
+        Y = np.asarray(y, dtype=float)
+        w, V = np.linalg.eigh(0.5 * (Y + Y.T))
+        Y = (V * np.clip(w, 0.0, None)) @ V.T
+        S += A @ Y + Y @ A.T
+    eig = np.linalg.eigvalsh(0.5 * (S + S.T))
+    return bool(eig[-1] > 0 and eig[0] > VERIFY_FARKAS_RTOL * eig[-1])
+
+
+#: The smallest eigenvalue of S, relative to its largest, that proves infeasibility.
+VERIFY_FARKAS_RTOL = 1e-9
 
 
 def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMICertificate:
@@ -281,6 +340,8 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     except cp.SolverError as err:
         return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
     status = str(problem.status)
+    if status == cp.INFEASIBLE and not farkas_certificate_holds(A_v, [c.dual_value for c in constraints[2:]]):
+        status = INFEASIBLE_NOT_VERIFIED
     if P.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return LMICertificate(status, solver, None, np.nan, np.nan, A_v.shape[0])
     P_val = np.array(P.value, dtype=float)

@@ -36,51 +36,47 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from tqdm import tqdm
 
+from .._deprecation import renamed_field
 from .._validation import check_choice, check_int, check_real
-from ..exceptions import ArgumentValueError
+from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..lyapunov.gain import Design, as_design
 from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
+from ..model.base import CAPABILITIES
 from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
+from ..results import AnalysisResult, verdict_of
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
+from .registry import AnalysisMethod, analysis_methods, checked_result, get_method, register_method
+from .search import bisect
 
 __all__ = ["Margin", "MARGIN_METHODS", "MARGIN_TOL", "robustness_margin", "margin_table"]
 
 Array = NDArray[np.float64]
 Model = UncertainLTVModel | PolytopicModel
 
-#: Methods of :func:`robustness_margin` and whether each gives a lower or an upper bound.
-MARGIN_METHODS: dict[str, str] = {
-    "theorem1": "lower",
-    "vertex": "lower",
-    "lmi": "lower",
-    "frozen": "upper",
-    "falsifier": "upper",
-}
 #: Default relative tolerance of the bisections.
 MARGIN_TOL = 1e-3
 _THETA_MAX = 1e6
 
 
 @dataclass(frozen=True)
-class Margin:
+class Margin(AnalysisResult):
     """A robustness margin: a bound on the largest tolerated scaling of the uncertainty set.
 
     Attributes
     ----------
     method : str
         A key of :data:`MARGIN_METHODS`.
-    kind : {'lower', 'upper'}
+    bound : {'lower', 'upper'}
         A lower bound (certified up to `theta`) or an upper bound (unstable at `theta`).
     theta : float
         The bound: the scaling of every element range about the nominal (``inf`` when no
@@ -93,11 +89,31 @@ class Margin:
     """
 
     method: str
-    kind: str
+    bound: str
     theta: float
     bracket: tuple[float, float]
     seconds: float
     message: str
+
+    kind = renamed_field("kind", "bound")
+
+    @property
+    def certified(self) -> bool | None:
+        """Whether the bound settles the set as given (θ = 1): a lower bound θ >= 1 certifies it, an
+        upper bound θ <= 1 disproves it; otherwise None."""
+        if self.bound == "lower":
+            return True if self.theta >= 1 else None
+        return False if self.theta <= 1 else None
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'not certified'`` or ``'unknown'`` at θ = 1; ``'not installed'`` without cvxpy."""
+        return NOT_INSTALLED if self.message == NOT_INSTALLED else verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
 
 def _closed_loops(model: Model, design: Design, theta: float, anchor: str = "lower") -> Array:
@@ -108,21 +124,8 @@ def _unstable(model: Model, design: Design, theta: float, anchor: str = "lower")
     return bool(np.linalg.eigvals(_closed_loops(model, design, theta, anchor)).real.max() > 0)
 
 
-def _bisect(ok: Callable[[float], bool], lo: float, hi: float, tol: float) -> tuple[float, float]:
-    """Shrink ``[lo, hi]`` with ``ok(lo)`` true and ``ok(hi)`` false until ``hi − lo <= tol·hi``."""
-    while hi - lo > tol * hi:
-        mid = 0.5 * (lo + hi) if lo > 0 else (hi * 1e-3 if hi > 1e-3 else 0.5 * hi)
-        if lo == 0 and mid <= tol * hi:
-            mid = 0.5 * hi
-        if ok(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo, hi
-
-
 def _theorem1(model: Model, design: Design, elements: str, anchor: str) -> tuple[float, str]:
-    if model.kind != "box":
+    if "intervals" not in model.capabilities:
         raise ArgumentValueError("method", "'theorem1' needs interval elements; use model.box_hull() or 'vertex'")
     theta = float(affine_margin(*theorem1_scaling(model, design, elements, anchor)))
     return theta, "exact: generalized eigenvalue of Z(θ) = Z₀ + θZ₁"
@@ -161,7 +164,8 @@ def _frozen(model: Model, design: Design, lo: float, anchor: str = "lower") -> t
     theta, prev = start, lo
     while theta <= _THETA_MAX:
         if _unstable(model, design, theta, anchor):
-            lo_, hi_ = _bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, FROZEN_RTOL)
+            lo_, hi_ = bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, FROZEN_RTOL,
+                              midpoint="near-zero")
             return hi_, (lo_, hi_), (
                 f"a frozen vertex is unstable at θ = hi; scanned from θ = {start:.4g} in steps of "
                 f"x{FROZEN_SCAN_RATIO:g}, so a window of instability narrower than "
@@ -238,7 +242,7 @@ def robustness_margin(
     """
     model = as_model("model", model)
     design = as_design(model, design)
-    check_choice("method", method, tuple(MARGIN_METHODS))
+    get_method("margin", method)
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("anchor", anchor, ANCHORS)
     if anchor == "center" and elements != "all":
@@ -249,22 +253,16 @@ def robustness_margin(
     if model.is_fixed:
         raise ArgumentValueError("model", "has no uncertain elements: there is nothing to scale")
     model.subset(elements)  # a polytope takes 'all' only
-    kind = MARGIN_METHODS[method]
+    entry = get_method("margin", method)
     start = time.perf_counter()
-    if method in ("theorem1", "vertex"):
-        theta, message = (_theorem1 if method == "theorem1" else _vertex)(model, design, elements, anchor)
-        bracket = (theta, theta)
-    elif method == "frozen":
-        theta, bracket, message = _frozen(model, design, lower, anchor)
-    else:
-        hi = (_frozen(model, design, lower, anchor)[0] if upper is None
-              else check_real("upper", upper, positive=True))
-        if method == "lmi":
-            theta, bracket, message = _lmi_margin(model, design, lower, hi, tol, anchor)
-        else:
-            theta, bracket, message = _falsifier_margin(model, design, lower, hi, tol, falsifier_tries, seed, anchor)
-    return Margin(method, kind, float(theta), (float(bracket[0]), float(bracket[1])),
-                  time.perf_counter() - start, message)
+    if "upper" in entry.needs:
+        upper = (_frozen(model, design, lower, anchor)[0] if upper is None
+                 else check_real("upper", upper, positive=True))
+    result = checked_result(entry, entry.run(model, design, elements=elements, anchor=anchor, lower=lower,
+                                             upper=upper, tol=tol, falsifier_tries=falsifier_tries, seed=seed))
+    if not isinstance(result, Margin):
+        raise ArgumentTypeError("method", f"{method!r} returned a {type(result).__name__}, not a Margin")
+    return replace(result, method=method, bound=entry.bound, seconds=time.perf_counter() - start)
 
 
 def _lmi_margin(
@@ -298,12 +296,7 @@ def _lmi_margin(
         answers[hi] = "infeasible"
     elif at(hi) == "certified":
         return hi, (hi, hi), f"common quadratic P verified at θ = {hi:g} (the upper end given)"
-    while hi - lo > tol * hi:
-        mid = 0.5 * (lo + hi) if lo > 0 else 0.5 * hi
-        if at(mid) == "certified":
-            lo = mid
-        else:
-            hi = mid
+    lo, hi = bisect(lambda t: at(t) == "certified", lo, hi, tol)
     proven = min((t for t, v in answers.items() if v == "infeasible"), default=math.inf)
     message = f"common quadratic P verified with numpy at lo = {lo:.6g}; at hi = {hi:.6g} the LMI is {answers[hi]}"
     if answers[hi] != "infeasible":
@@ -326,15 +319,65 @@ def _falsifier_margin(
         lo, hi = hi, 2 * hi
         if hi > 8 * top:
             return math.inf, (lo, math.inf), f"no destabilizing switching signal found up to θ = {lo:g}"
-    lo, hi = _bisect(lambda t: not found(t), lo, hi, tol)
+    lo, hi = bisect(lambda t: not found(t), lo, hi, tol, midpoint="near-zero")
     return hi, (lo, hi), "a destabilizing switching signal found at θ = hi (none found at lo)"
+
+
+def _result(theta: float, bracket: tuple[float, float], message: str) -> Margin:
+    # robustness_margin fills in the method, its bound and the time
+    return Margin("", "", float(theta), (float(bracket[0]), float(bracket[1])), 0.0, message)
+
+
+def _run_theorem1(model: Model, design: Design, *, elements: str, anchor: str, **_: object) -> Margin:
+    theta, message = _theorem1(model, design, elements, anchor)
+    return _result(theta, (theta, theta), message)
+
+
+def _run_vertex(model: Model, design: Design, *, elements: str, anchor: str, **_: object) -> Margin:
+    theta, message = _vertex(model, design, elements, anchor)
+    return _result(theta, (theta, theta), message)
+
+
+def _run_frozen(model: Model, design: Design, *, anchor: str, lower: float, **_: object) -> Margin:
+    return _result(*_frozen(model, design, lower, anchor))
+
+
+def _run_lmi(model: Model, design: Design, *, anchor: str, lower: float, upper: float, tol: float,
+             **_: object) -> Margin:
+    return _result(*_lmi_margin(model, design, lower, upper, tol, anchor))
+
+
+def _run_falsifier(model: Model, design: Design, *, anchor: str, lower: float, upper: float, tol: float,
+                   falsifier_tries: int, seed: int, **_: object) -> Margin:
+    return _result(*_falsifier_margin(model, design, lower, upper, tol, falsifier_tries, seed, anchor))
+
+
+for _method in (
+    AnalysisMethod("theorem1", "margin", "lower", _run_theorem1,
+                   "exact: Z(θ) is affine in θ, the end is a generalized eigenvalue",
+                   frozenset({"P", "intervals"}), cheap=True),
+    AnalysisMethod("vertex", "margin", "lower", _run_vertex,
+                   "exact: the design's P at every vertex, each affine in θ", frozenset({"P", "vertices"}), cheap=True),
+    AnalysisMethod("lmi", "margin", "lower", _run_lmi, "bisection on θ with the common-P LMI",
+                   frozenset({"vertices", "lmi", "lower", "upper"})),
+    AnalysisMethod("frozen", "margin", "upper", _run_frozen, "the smallest θ with an unstable frozen vertex",
+                   frozenset({"vertices", "lower"}), cheap=True),
+    AnalysisMethod("falsifier", "margin", "upper", _run_falsifier,
+                   "the smallest θ found with a destabilizing switching signal",
+                   frozenset({"vertices", "lower", "upper"})),
+):
+    register_method(_method)
+
+#: The built-in methods of :func:`robustness_margin` and whether each gives a lower or an upper
+#: bound (the registry holds them: :func:`~scara_robust.analysis_methods` ``('margin')``).
+MARGIN_METHODS: dict[str, str] = {name: get_method("margin", name).bound for name in analysis_methods("margin")}
 
 
 def margin_table(
     model: Model, design: Design | ArrayLike, *, elements: str = "all", tol: float = MARGIN_TOL,
     falsifier_tries: int = 10, seed: int = 0, anchor: str = "lower", progress: bool = False,
 ) -> pd.DataFrame:
-    """Every margin of :data:`MARGIN_METHODS`, each lower bound feeding the searches after it.
+    """Every registered margin method, each lower bound feeding the searches after it.
 
     Parameters
     ----------
@@ -361,23 +404,24 @@ def margin_table(
     design = as_design(as_model("model", model), design)
     rows: list[Margin] = []
     best = 0.0
-    for method in tqdm(MARGIN_METHODS, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
-        if method == "theorem1" and model.kind != "box":
+    names = analysis_methods("margin", defaults=True)
+    for method in tqdm(names, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
+        needs = get_method("margin", method).needs
+        if not needs & CAPABILITIES.keys() <= model.capabilities:
             continue
-        upper = next((r.theta for r in rows if r.method == "frozen"), None)
+        upper = min((r.theta for r in rows if r.bound == "upper" and math.isfinite(r.theta)), default=None)
         margin = robustness_margin(model, design, method, elements=elements, tol=tol,
-                                   lower=best if method in ("lmi", "falsifier", "frozen") else 0.0,
-                                   upper=upper if upper is not None and math.isfinite(upper) else None,
+                                   lower=best if "lower" in needs else 0.0, upper=upper,
                                    falsifier_tries=falsifier_tries, seed=seed, anchor=anchor)
         rows.append(margin)
-        if margin.kind == "lower" and math.isfinite(margin.theta):
+        if margin.bound == "lower" and math.isfinite(margin.theta):
             best = max(best, margin.theta)
-    lowers = [r.theta for r in rows if r.kind == "lower" and not math.isnan(r.theta)]
-    uppers = [r.theta for r in rows if r.kind == "upper" and not math.isnan(r.theta)]
+    lowers = [r.theta for r in rows if r.bound == "lower" and not math.isnan(r.theta)]
+    uppers = [r.theta for r in rows if r.bound == "upper" and not math.isnan(r.theta)]
     lo, hi = max(lowers), min(uppers)
     width = f", the bracket is {100 * (hi - lo) / lo:.2g} % of the lower bound" if 0 < lo and hi < math.inf else ""
     frame = pd.DataFrame(
-        [(r.method, r.kind, r.theta, r.bracket[0], r.bracket[1], r.seconds, r.message) for r in rows]
+        [(r.method, r.bound, r.theta, r.bracket[0], r.bracket[1], r.seconds, r.message) for r in rows]
         + [("bracket", "both", lo, lo, hi, sum(r.seconds for r in rows),
             f"true margin in [{lo:.4g}, {hi:.4g}]{width}")],
         columns=["method", "kind", "theta", "lo", "hi", "seconds", "message"],

@@ -40,9 +40,12 @@ from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant, require_plant
+from ..results import AnalysisResult, verdict_of
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .pdl import RateMargin, max_certified_rate
 from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
+from .registry import AnalysisMethod, analysis_methods, get_method, register_method
+from .search import bisect
 
 __all__ = [
     "PARAMETER_METHODS",
@@ -54,9 +57,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-#: Methods of :func:`parameter_margin` and the kind of bound each gives.
-PARAMETER_METHODS: dict[str, str] = {"theorem1": "lower", "vertex": "lower", "lmi": "lower", "physical": "lower",
-                                     "lmi-physical": "lower", "frozen": "upper"}
 _SCALE_MAX = 1e6
 _FROZEN_RATIO = 1.02
 _FROZEN_RTOL = 1e-9
@@ -73,54 +73,82 @@ def _hull(plant: UncertainPlant, s: float) -> object:
         raise _Undefined(str(err)) from err
 
 
-def _ok(plant: UncertainPlant, design: Design | None, K: Array, method: str) -> Callable[[float], bool]:
-    def theorem1(s: float) -> bool:
+def _theorem1(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         assert design is not None
         return bool(certify(_hull(plant, s), design).certified)  # type: ignore[arg-type]
 
-    def vertex(s: float) -> bool:
+    return ok
+
+
+def _vertex(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         assert design is not None
         hull = _hull(plant, s)
         return bool(polytope_certificate(hull.vertex_closed_loops(K), design.P).certified)  # type: ignore[attr-defined]
 
-    def lmi(s: float) -> bool:
+    return ok
+
+
+def _lmi(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         hull = _hull(plant, s)
         return bool(lmi_certificate(hull.vertex_closed_loops(K)).certified)  # type: ignore[attr-defined]
 
-    def physical(s: float) -> bool:
+    return ok
+
+
+def _physical(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         assert design is not None
         loops = plant.samples(theta=s).closed_loops(K)
         return bool(polytope_certificate(loops, design.P).certified)
 
-    def lmi_physical(s: float) -> bool:
+    return ok
+
+
+def _lmi_physical(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         result = lmi_certificate(plant.samples(plant.coarse_points(), theta=s).closed_loops(K))
         if not result.certified or result.P is None:
             return False
         return bool(verify_lyapunov(plant.samples(theta=s).closed_loops(K), result.P)[1] > 0)
 
-    def stable(s: float) -> bool:
+    return ok
+
+
+def _frozen(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    def ok(s: float) -> bool:
         try:
             loops = plant.samples(theta=s).closed_loops(K)
         except ArgumentError as err:
             raise _Undefined(str(err)) from err
         return bool(np.linalg.eigvals(loops).real.max() < 0)
 
-    return {"theorem1": theorem1, "vertex": vertex, "lmi": lmi, "physical": physical, "lmi-physical": lmi_physical,
-            "frozen": stable}[method]
+    return ok
 
 
-def _bisect(ok: Callable[[float], bool], lo: float, hi: float, rtol: float) -> tuple[float, float]:
-    while hi - lo > rtol * hi:
-        mid = 0.5 * (lo + hi)
-        try:
-            good = ok(mid)
-        except _Undefined:
-            good = False
-        if good:
-            lo = mid
-        else:
-            hi = mid
-    return lo, hi
+for _method in (
+    AnalysisMethod("theorem1", "parameter", "lower", _theorem1, "Theorem 1's Z on the interval hull",
+                   frozenset({"P", "intervals"}), cheap=True),
+    AnalysisMethod("vertex", "parameter", "lower", _vertex, "the design's P at the hull's corners",
+                   frozenset({"P", "vertices"}), cheap=True),
+    AnalysisMethod("lmi", "parameter", "lower", _lmi, "a common P at the hull's corners",
+                   frozenset({"vertices", "lmi"})),
+    AnalysisMethod("physical", "parameter", "lower", _physical, "the design's P on the plant's own samples",
+                   frozenset({"P", "parameters"}), cheap=True),
+    AnalysisMethod("lmi-physical", "parameter", "lower", _lmi_physical,
+                   "a common P on the coarse samples, verified by numpy on the samples",
+                   frozenset({"parameters", "lmi"})),
+    AnalysisMethod("frozen", "parameter", "upper", _frozen, "every frozen plant of the grid stable",
+                   frozenset({"parameters"}), cheap=True),
+):
+    register_method(_method)
+
+#: The built-in methods of :func:`parameter_margin` and the kind of bound each gives (the
+#: registry holds them: :func:`~scara_robust.analysis_methods` ``('parameter')``).
+PARAMETER_METHODS: dict[str, str] = {name: get_method("parameter", name).bound
+                                     for name in analysis_methods("parameter")}
 
 
 def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[float, float, str]:
@@ -135,10 +163,10 @@ def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[floa
         try:
             good = ok(s)
         except _Undefined as err:
-            lo, hi = _bisect(ok, lo, s, tol)
+            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,))
             return lo, hi, f"the plant is undefined beyond: {err}"
         if not good:
-            lo, hi = _bisect(ok, lo, s, tol)
+            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,))
             return lo, hi, ""
         lo, s = s, s * ratio
     return lo, math.inf, f"holds up to the scale {_SCALE_MAX:g} searched"
@@ -147,7 +175,7 @@ def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[floa
 def parameter_margin(
     plant: UncertainPlant,
     design: Design | ArrayLike,
-    methods: Sequence[str] = tuple(PARAMETER_METHODS),
+    methods: Sequence[str] | None = None,
     *,
     tol: float = 1e-3,
 ) -> pd.DataFrame:
@@ -159,8 +187,10 @@ def parameter_margin(
     design : Design or array_like, shape (m, n)
         A design for the plant's design form, or a plain gain K of ``u = −Kx`` (then only
         the methods that need no Lyapunov matrix: 'lmi', 'lmi-physical' and 'frozen').
-    methods : sequence of str
-        From :data:`PARAMETER_METHODS`: 'theorem1' (Z on the interval hull), 'vertex'
+    methods : sequence of str, optional
+        Registered names (:func:`~scara_robust.analysis_methods` ``('parameter')``; default:
+        those registered as defaults). The built-in ones, :data:`PARAMETER_METHODS`:
+        'theorem1' (Z on the interval hull), 'vertex'
         (the design's P at the hull's corners), 'lmi' (a common P at the corners),
         'physical' (the design's P on the plant's own samples), 'lmi-physical' (a common P
         found on the coarse samples, verified by numpy on the samples), 'frozen' (every
@@ -193,12 +223,15 @@ def parameter_margin(
     """
     K = _gain(plant, design)  # the plant's type and K's shape
     found = design if isinstance(design, Design) else None
-    for method in methods:
-        check_choice("methods", method, tuple(PARAMETER_METHODS))
-        if found is None and method in ("theorem1", "vertex", "physical"):
-            raise ArgumentValueError("methods", f"{method!r} tests the design's Lyapunov matrix P: pass a Design, or "
-                                                "use 'lmi', 'lmi-physical' and 'frozen' with a plain K")
-    corner_methods = [m for m in methods if m in ("vertex", "lmi")]
+    names = analysis_methods("parameter", defaults=True) if methods is None else tuple(methods)
+    chosen = [get_method("parameter", name, argument="methods") for name in names]
+    for entry in chosen:
+        if found is None and "P" in entry.needs:
+            plain = [repr(n) for n in analysis_methods("parameter") if "P" not in get_method("parameter", n).needs]
+            without = ", ".join(plain[:-1]) + f" and {plain[-1]}" if len(plain) > 1 else "".join(plain)
+            raise ArgumentValueError("methods", f"{entry.name!r} tests the design's Lyapunov matrix P: pass a Design, "
+                                                f"or use {without} with a plain K")
+    corner_methods = [m.name for m in chosen if "vertices" in m.needs]
     if corner_methods:
         n_elements = plant.interval_model().n_elements
         if n_elements > MAX_BOX_ELEMENTS:
@@ -209,17 +242,18 @@ def parameter_margin(
     if not varying:
         raise ArgumentValueError("plant", "has no parameter with a range: there is nothing to scale")
     rows = []
-    for method in methods:
+    for entry in chosen:
+        method, kind = entry.name, entry.bound
         start = time.perf_counter()
-        kind = PARAMETER_METHODS[method]
-        if method == "lmi" and not cvxpy_available():
+        if "lmi" in entry.needs and not cvxpy_available():
             rows.append((method, kind, math.nan, "", *([math.nan] * 2 * len(varying)), 0.0, NOT_INSTALLED))
             continue
-        ok = _ok(plant, found, K, method)
-        lo, hi, note = _search(ok, _FROZEN_RTOL if method == "frozen" else tol,
-                               _FROZEN_RATIO if method == "frozen" else 2.0)
+        ok = entry.run(plant, found, K)
+        # an upper bound tests eigenvalues only: cheap, so bisected to 1e-9 on a finer scan
+        upper = kind == "upper"
+        lo, hi, note = _search(ok, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
         scale = lo if kind == "lower" else hi
-        if method == "frozen":
+        if upper:
             message = (f"a frozen plant of the grid is unstable at the scale hi (grid {plant.grid_values().shape[0]} "
                        f"points; scan ratio x{_FROZEN_RATIO:g})") if math.isfinite(hi) else "no unstable frozen plant"
         else:
@@ -376,13 +410,13 @@ def parameter_switching_growth(
 
 
 @dataclass(frozen=True)
-class RateBracket:
+class RateBracket(AnalysisResult):
     """How fast a parameter may vary: a certified rate below, a growing variation above.
 
     Attributes
     ----------
     parameter : str
-    certified : float
+    rate : float
         Largest certified ``|ṗ|``, unit/s (``inf``: a common P certifies any rate; nan:
         not even a frozen parameter is certified).
     unstable : float
@@ -395,11 +429,26 @@ class RateBracket:
     """
 
     parameter: str
-    certified: float
+    rate: float
     unstable: float
     margin: RateMargin
     seconds: float
     message: str
+
+    @property
+    def certified(self) -> bool | None:
+        """True when some rate is certified (ν = 0, a frozen parameter, at least), else None."""
+        return None if math.isnan(self.rate) else True
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` or ``'unknown'``."""
+        return verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
 
 def rate_bracket(

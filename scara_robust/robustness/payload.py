@@ -11,23 +11,26 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from .._validation import check_choice, check_instance, check_int, check_real
+from .._validation import check_instance, check_int, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
+from .context import PayloadContext
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
-from .margins import MARGIN_TOL, _bisect
+from .margins import MARGIN_TOL
 from .parameters import parameter_switching_growth
 from .pdl import RateMargin, max_certified_rate
 from .polytope import PolytopeCertificate, polytope_certificate
+from .registry import AnalysisMethod, analysis_methods, get_method, register_method
+from .search import bisect
 
 __all__ = [
     "PAYLOAD_METHODS",
@@ -40,9 +43,49 @@ __all__ = [
 Array = NDArray[np.float64]
 
 
-#: Rows of :func:`payload_margin`: the design's own P, a common P by LMI (lower bounds),
-#: the frozen samples' stability (upper bound).
-PAYLOAD_METHODS = ("payload-design-P", "payload-lmi", "payload-frozen")
+
+
+def _design_p(context: PayloadContext) -> Callable[[float], bool]:
+    def ok(mass: float) -> bool:
+        loops = context.closed_loops(mass, context.n_times, context.n_masses)
+        return polytope_certificate(loops, context.design.P).certified
+
+    return ok
+
+
+def _lmi(context: PayloadContext) -> Callable[[float], bool]:
+    def ok(mass: float) -> bool:
+        # a P verified on the coarse and the fine sampling; anything else (infeasible,
+        # inaccurate, unknown) ends the bisection's lower side, which only claims what it verified
+        result = lmi_certificate(context.closed_loops(mass, context.lmi_times, context.lmi_masses))
+        return bool(result.P is not None and result.certified
+                    and verify_lyapunov(context.closed_loops(mass, context.n_times, context.n_masses),
+                                        result.P)[1] > 0)
+
+    return ok
+
+
+def _frozen(context: PayloadContext) -> Callable[[float], bool]:
+    def ok(mass: float) -> bool:
+        return bool(np.linalg.eigvals(context.closed_loops(mass, context.n_times, context.n_masses)).real.max() < 0)
+
+    return ok
+
+
+for _method in (
+    AnalysisMethod("payload-design-P", "payload", "lower", _design_p, "the design's own P on the robot's samples",
+                   frozenset({"P", "parameters"}), cheap=True),
+    AnalysisMethod("payload-lmi", "payload", "lower", _lmi,
+                   "a common P by LMI on the coarse samples, verified on the fine ones",
+                   frozenset({"parameters", "lmi"})),
+    AnalysisMethod("payload-frozen", "payload", "upper", _frozen, "every frozen sample stable",
+                   frozenset({"parameters"}), cheap=True),
+):
+    register_method(_method)
+
+#: The built-in rows of :func:`payload_margin`: the design's own P, a common P by LMI (lower
+#: bounds), the frozen samples' stability (upper bound); the registry holds them.
+PAYLOAD_METHODS = analysis_methods("payload")
 
 
 def payload_margin(
@@ -56,7 +99,7 @@ def payload_margin(
     lmi_masses: int = 5,
     tol: float = MARGIN_TOL,
     mass_max: float = 1e3,
-    methods: Sequence[str] = PAYLOAD_METHODS,
+    methods: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """The largest payload peak mass (kg) for which the robot's own sampled set is certified.
 
@@ -79,9 +122,9 @@ def payload_margin(
         Relative tolerance of the bisections on M.
     mass_max : float
         Largest peak mass searched, kg.
-    methods : sequence of str
-        Rows to compute, from :data:`PAYLOAD_METHODS` (the design-P row alone needs only numpy
-        and takes milliseconds).
+    methods : sequence of str, optional
+        Rows to compute, by registered name (default: the registered defaults, the built-in
+        :data:`PAYLOAD_METHODS`; the design-P row alone needs only numpy and takes milliseconds).
 
     Returns
     -------
@@ -97,8 +140,8 @@ def payload_margin(
     """
     check_instance("design", design, Design, "a Design")
     tol = check_real("tol", tol, positive=True)
-    for method in methods:
-        check_choice("methods", method, PAYLOAD_METHODS)
+    names = analysis_methods("payload", defaults=True) if methods is None else tuple(methods)
+    chosen = {name: get_method("payload", name, argument="methods") for name in names}
     if design.K.shape != (2, 6):
         raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
 
@@ -108,26 +151,14 @@ def payload_margin(
         plant = scara_uncertain_plant(params, reference, profile, n_times=nt, n_masses=nm)
         return plant.samples({"t_ref": nt, "m_p": nm}).closed_loops(design.K)
 
-    def p_ok(mass: float) -> bool:
-        return polytope_certificate(closed(mass, n_times, n_masses), design.P).certified
-
-    def lmi_ok(mass: float) -> bool:
-        # a P verified on the coarse and the fine sampling; anything else (infeasible,
-        # inaccurate, unknown) ends the bisection's lower side, which only claims what it verified
-        result = lmi_certificate(closed(mass, lmi_times, lmi_masses))
-        return bool(result.P is not None and result.certified
-                    and verify_lyapunov(closed(mass, n_times, n_masses), result.P)[1] > 0)
-
-    def stable(mass: float) -> bool:
-        return bool(np.linalg.eigvals(closed(mass, n_times, n_masses)).real.max() < 0)
-
+    context = PayloadContext(design, closed, n_times, n_masses, lmi_times, lmi_masses)
     rows = []
-    for name, kind, ok in (("payload-design-P", "lower", p_ok), ("payload-lmi", "lower", lmi_ok),
-                           ("payload-frozen", "upper", stable)):
-        if name not in methods:
-            continue
+    for name in (m for m in analysis_methods("payload") if m in chosen):
+        entry = chosen[name]
+        kind = entry.bound
+        ok = entry.run(context)
         start = time.perf_counter()
-        if name == "payload-lmi" and not cvxpy_available():
+        if "lmi" in entry.needs and not cvxpy_available():
             rows.append((name, kind, math.nan, "", 0.0, NOT_INSTALLED))
             continue
         if not ok(1e-9):
@@ -140,7 +171,7 @@ def payload_margin(
             rows.append((name, kind, math.inf, f"[{hi:g}, inf]", time.perf_counter() - start,
                          f"holds up to the {mass_max:g} kg searched"))
             continue
-        lo, hi = _bisect(ok, lo, hi, tol)
+        lo, hi = bisect(ok, lo, hi, tol, midpoint="near-zero")
         value = lo if kind == "lower" else hi
         message = ("certified up to lo, not at hi" if kind == "lower"
                    else "every frozen sample stable at lo, one unstable at hi")

@@ -46,9 +46,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
+from ..results import AnalysisResult, verdict_of
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
+from .search import bisect
 
 __all__ = ["RateCertificate", "RateMargin", "rate_bounded_certificate", "verify_rate_bounded", "max_certified_rate"]
 
@@ -60,7 +63,7 @@ FEASIBILITY_TOL = 1e-9
 
 
 @dataclass(frozen=True)
-class RateCertificate:
+class RateCertificate(AnalysisResult):
     """Result of the rate-bounded parameter-dependent test, verified independently.
 
     Attributes
@@ -75,7 +78,7 @@ class RateCertificate:
     rate : float
         The rate bound ν tested, in units of p per second (kg/s for the robot); ``inf`` for
         the common-P test.
-    margin : float
+    decay_rate : float
         numpy's verified decay rate on the samples, 1/s:
         ``min_i −λmax(Ā_iᵀP_i + P_iĀ_i ± νP1) / (2 λmax(P_i))``: the state's decay rate α
         (``V̇ <= −2αV``, the package's one convention); ``-inf``
@@ -83,7 +86,7 @@ class RateCertificate:
         With `slopes` (an affine dependence), the decay rate on the whole interval of p
         instead: the end points' worst λmax, plus ``max(0, −convexity)·((p_max − p_min)/2)²``
         for a curvature deficit, over their largest ``λmax(P)``.
-    check_margin : float
+    check_decay_rate : float
         The same on the independent check set (NaN when none was given), 1/s.
     convexity : float
         ``min_i λmin(Ā₁ᵀP1 + P1Ā₁)`` over the given slopes (NaN when the dependence was not
@@ -99,8 +102,8 @@ class RateCertificate:
     P0: Array | None
     P1: Array | None
     rate: float
-    margin: float
-    check_margin: float
+    decay_rate: float
+    check_decay_rate: float
     convexity: float
     n_samples: int
     n_checked: int
@@ -108,11 +111,21 @@ class RateCertificate:
     seconds: float
     floor: float = 0.0
 
+    margin = renamed_field("margin", "decay_rate")
+    check_margin = renamed_field("check_margin", "check_decay_rate")
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
+        if self.certified:
+            return "certified"
+        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
+
     @property
     def certified(self) -> bool:
         """numpy verified the conditions on the samples and, if given, on the check set."""
-        checked = math.isnan(self.check_margin) or self.check_margin > 0
-        return bool(self.status == "certified" and self.margin > 0 and self.margin >= self.floor and checked)
+        checked = math.isnan(self.check_decay_rate) or self.check_decay_rate > 0
+        return bool(self.status == "certified" and self.decay_rate > 0 and self.decay_rate >= self.floor and checked)
 
     @property
     def message(self) -> str:
@@ -121,19 +134,20 @@ class RateCertificate:
         if self.status == NOT_INSTALLED:
             return "cvxpy is not installed (pip install '.[lmi]')"
         if self.certified:
-            extra = "" if math.isnan(self.check_margin) else (
-                f"; on {self.n_checked} independent samples the decay rate α >= {self.check_margin:.4g} 1/s")
-            return (f"{what} found; numpy verifies a decay rate α >= {self.margin:.4g} 1/s (V̇ <= −2αV) on the "
+            extra = "" if math.isnan(self.check_decay_rate) else (
+                f"; on {self.n_checked} independent samples the decay rate α >= {self.check_decay_rate:.4g} 1/s")
+            return (f"{what} found; numpy verifies a decay rate α >= {self.decay_rate:.4g} 1/s (V̇ <= −2αV) on the "
                     f"{self.n_samples} samples{extra}")
         if self.status == "infeasible":
             return f"no {what.removeprefix('a ')} exists on the {self.n_samples} samples (infeasible)"
         if self.status == "marginal":
+            checked = self.check_decay_rate if not math.isnan(self.check_decay_rate) else math.inf
             return (f"{what}: marginal, not certified: numpy verifies a decay rate of only "
-                    f"{min(self.margin, self.check_margin if not math.isnan(self.check_margin) else math.inf):.3g} "
+                    f"{min(self.decay_rate, checked):.3g} "
                     f"1/s, below the floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
         if self.P0 is not None:
             return (f"the solver returned {what} ({self.solver_status}) that is not certified: numpy margin "
-                    f"{self.margin:.4g} 1/s on the samples, {self.check_margin:.4g} on the check set")
+                    f"{self.decay_rate:.4g} 1/s on the samples, {self.check_decay_rate:.4g} on the check set")
         return f"no answer for {what}: {self.status}"
 
 
@@ -404,7 +418,7 @@ def rate_bounded_certificate(
 
 
 @dataclass(frozen=True)
-class RateMargin:
+class RateMargin(AnalysisResult):
     """The largest rate ``|ṗ|`` the parameter-dependent test certifies.
 
     Attributes
@@ -430,6 +444,21 @@ class RateMargin:
     common: RateCertificate
     n_solves: int
     seconds: float
+
+    @property
+    def certified(self) -> bool | None:
+        """True when a rate is certified (ν >= 0 or any rate), else None."""
+        return None if math.isnan(self.rate) else True
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'not installed'`` or ``'unknown'``."""
+        return NOT_INSTALLED if self.common.status == NOT_INSTALLED else verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
     @property
     def message(self) -> str:
@@ -501,16 +530,14 @@ def max_certified_rate(
         if hi >= rate_max:
             return RateMargin(lo, (lo, math.inf), best, common, solves, time.perf_counter() - start)
         hi = min(2 * hi, rate_max)
-    while hi - lo > tol * hi:
-        # from lo = 0 the bracket shrinks geometrically: a relative width cannot be reached
-        mid = 0.5 * (lo + hi) if lo > 0 else hi / 8
-        if mid < 1e-12 * rate_max:
-            break
-        trial = run(mid)
+    def certified(nu: float) -> bool:
+        nonlocal best
+        trial = run(nu)
         if trial.certified:
-            lo, best = mid, trial
-        else:
-            hi = mid
+            best = trial
+        return trial.certified
+
+    lo, hi = bisect(certified, lo, hi, tol, midpoint="eighth", stop=lambda lo, hi, mid: mid < 1e-12 * rate_max)
     return RateMargin(lo, (lo, hi), best, common, solves, time.perf_counter() - start)
 
 

@@ -26,6 +26,7 @@ from .._validation import check_array, check_choice, check_symmetric
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
+from ..results import AnalysisResult
 
 __all__ = ["PolytopeCertificate", "polytope_certificate", "vertex_certificate"]
 
@@ -37,7 +38,7 @@ _CHUNK = 4096
 
 
 @dataclass(frozen=True)
-class PolytopeCertificate:
+class PolytopeCertificate(AnalysisResult):
     """Result of the exact fixed-P test over a polytope.
 
     Attributes
@@ -67,6 +68,18 @@ class PolytopeCertificate:
     max_real_pole: float
     n_unstable: int
     set_name: str
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'not certified'``, or ``'no certificate can exist'`` (a vertex is unstable)."""
+        if self.certified:
+            return "certified"
+        return "not certified" if self.certifiable else "no certificate can exist"
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
     @property
     def certified(self) -> bool:
@@ -112,7 +125,7 @@ def box_vertices(model: UncertainLTVModel) -> Array:
     ValueError
         If N exceeds :data:`MAX_BOX_ELEMENTS`.
     """
-    if getattr(model, "kind", None) != "box":
+    if "intervals" not in getattr(model, "capabilities", ()):
         raise TypeError(f"`model` must be an UncertainLTVModel, found {type(model).__name__}")
     n = model.n_elements
     if n > MAX_BOX_ELEMENTS:
@@ -226,7 +239,7 @@ def vertex_certificate(
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     check_choice("elements", elements, ELEMENT_SETS)
     sub = as_model("model", model).subset(elements)
-    if sub.kind == "box":
+    if "intervals" in sub.capabilities:
         box_vertices(as_box("model", sub))  # the size check
     return polytope_certificate(sub.vertex_closed_loops(design.K), design.P, sub.vertex_points(), set_name=sub.kind)
 

@@ -44,7 +44,9 @@ from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
+from ..results import AnalysisResult, verdict_of
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
+from .search import bisect
 
 __all__ = [
     "MAX_SAMPLE_TIME_CAP",
@@ -66,7 +68,9 @@ VERIFY_RTOL = 1e-9
 
 
 def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Array]:
-    if isinstance(model, PhysicalSamples):
+    if is_model(model):
+        return as_model("model", model).vertex_matrices()
+    if not isinstance(model, tuple) and hasattr(model, "A") and hasattr(model, "B"):  # frozen plants on a grid
         return np.asarray(model.A, dtype=float), np.asarray(model.B, dtype=float)
     if isinstance(model, tuple):
         A = check_array("model[0]", model[0], ndim=3)
@@ -76,10 +80,8 @@ def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Arr
                 "model", f"must be (A, B) of shapes (V, n, n), (V, n, m), found {A.shape}, {B.shape}"
             )
         return A, B
-    if not is_model(model):
-        raise ArgumentTypeError("model", f"must be an UncertainPlant, an UncertainLTVModel, a PolytopicModel, "
-                                         f"PhysicalSamples or a tuple (A, B), found {type(model).__name__}")
-    return as_model("model", model).vertex_matrices()
+    raise ArgumentTypeError("model", f"must be an UncertainPlant, an UncertainLTVModel, a PolytopicModel, "
+                                     f"PhysicalSamples or a tuple (A, B), found {type(model).__name__}")
 
 
 def _expm(X: Array) -> Array:
@@ -225,7 +227,7 @@ def discrete_lyapunov_check(closed_loops: ArrayLike, P: ArrayLike, Ts: float) ->
 
 
 @dataclass(frozen=True)
-class SampledCertificate:
+class SampledCertificate(AnalysisResult):
     """The sampled-data tests at one sample time.
 
     Attributes
@@ -439,7 +441,7 @@ def _to_sampled_coordinates(P: ArrayLike, pid: DiscretePID, n: int) -> Array | N
 
 
 @dataclass(frozen=True)
-class SampleTimeLimit:
+class SampleTimeLimit(AnalysisResult):
     """Largest certified sample time and smallest sample time with an unstable frozen plant.
 
     Attributes
@@ -468,16 +470,20 @@ class SampleTimeLimit:
     n_plants: int
     message: str
 
+    @property
+    def certified(self) -> bool | None:
+        """True when some sample time is certified, else None."""
+        return None if math.isnan(self.certified_ts) else True
 
-def _bisect(ok: object, lo: float, hi: float, rtol: float) -> tuple[float, float]:
-    assert callable(ok)
-    while hi - lo > rtol * hi:
-        mid = math.sqrt(lo * hi)
-        if ok(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo, hi
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` or ``'unknown'``."""
+        return verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
 
 #: The default cap of :func:`max_sample_time`'s search for a frozen instability, s.
@@ -595,7 +601,7 @@ def max_sample_time(
             break
         lo = ts
     if math.isfinite(hi):
-        lo, hi = _bisect(stable, lo, hi, rtol)
+        lo, hi = bisect(stable, lo, hi, rtol, midpoint="geometric")
     unstable = (lo, hi)
     if not cvxpy_available():
         return SampleTimeLimit(np.nan, (np.nan, np.nan), hi, unstable, None, A.shape[0],
@@ -621,7 +627,7 @@ def max_sample_time(
                                + (f"frozen instability at Ts = {hi:.4g} s" if math.isfinite(hi) else
                                   f"no frozen instability up to the cap ts_max = {ts_max:g} s") + left_out)
     else:
-        c_lo, c_hi = _bisect(certified, ts_min, top, rtol)
+        c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric")
     cert = certs[c_lo]
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
@@ -661,7 +667,7 @@ def interior_grid(model: UncertainLTVModel, points: int = 5, max_plants: int = 4
 
 
 @dataclass(frozen=True)
-class SampleTimeCheck:
+class SampleTimeCheck(AnalysisResult):
     """Is a discrete PID safe to run at its sample time? The certificate at Ts, and the limits.
 
     Attributes
@@ -678,6 +684,16 @@ class SampleTimeCheck:
     certificate: SampledCertificate
     limit: SampleTimeLimit | None
     set_name: str
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` or ``'not certified'`` at this Ts."""
+        return verdict_of(self.certified)
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
 
     @property
     def certified(self) -> bool:

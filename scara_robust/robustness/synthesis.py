@@ -32,8 +32,10 @@ from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_model, is_model
+from ..results import AnalysisResult
 from .l2gain import _bounded_real_ok
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
+from .search import bisect
 
 __all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "OBJECTIVES"]
 
@@ -118,7 +120,7 @@ def decay_rate(closed_loops: ArrayLike, P: ArrayLike) -> float:
 
 
 @dataclass(frozen=True)
-class Synthesis:
+class Synthesis(AnalysisResult):
     """A synthesized gain and its certificate.
 
     Attributes
@@ -307,13 +309,14 @@ def _largest(
         if answer != "certified":
             break
         lo, hi = hi, 2 * hi
-    while hi - lo > tol * hi and hi > floor:
-        mid = 0.5 * (lo + hi)
-        step = verdict(mid)
-        if step == "certified":
-            lo = mid
-        else:
-            hi, answer = mid, step
+    def certified(x: float) -> bool:
+        nonlocal answer
+        step = verdict(x)
+        if step != "certified":
+            answer = step
+        return step == "certified"
+
+    lo, hi = bisect(certified, lo, hi, tol, stop=lambda lo, hi, mid: hi <= floor)
     proof = "proven infeasible" if answer == "infeasible" else f"{answer}, neither certified nor proven infeasible"
     return lo, hi, f"certified at {lo:.6g}; at {hi:.6g} the LMI is {proof}"
 

@@ -26,45 +26,28 @@ polytope, the physical rows for any model but the SCARA's own) are kept with ver
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
 
-import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
 from .._validation import check_choice, check_int
 from ..lyapunov.gain import Design, as_design
-from ..lyapunov.theorem1 import certify
 from ..model.plant import ModelLike, UncertainPlant, as_model, as_plant
-from .falsifier import falsify
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, lmi_certificate, verify_lyapunov
-from .polytope import MAX_BOX_ELEMENTS, polytope_certificate, vertex_certificate
+from ..results import CertificateRow
+from .context import CertificateContext
+from .lmi import LMI_SOLVERS
+from .registry import analysis_methods, checked_result, get_method
 
 __all__ = ["CERTIFICATE_METHODS", "certificate_table"]
 
-#: Rows of :func:`certificate_table`, in order.
-CERTIFICATE_METHODS = (
-    "theorem1-all",
-    "theorem1-A",
-    "theorem1-B",
-    "vertex-box",
-    "physical-polytope",
-    "lmi-box",
-    "lmi-physical",
-    "falsifier-box",
-    "falsifier-physical",
-)
+#: The built-in rows of :func:`certificate_table`, in order (the registry holds them, and any
+#: method registered since: :func:`~scara_robust.analysis_methods` ``('certificate')``).
+CERTIFICATE_METHODS = analysis_methods("certificate", defaults=True)
 _MAX_EIG, _DECAY, _GROWTH = "max_eig", "decay_rate [1/s]", "growth_rate [1/s]"
 _COLUMNS = ["method", "verdict", "certified", _MAX_EIG, _DECAY, _GROWTH, "seconds", "detail"]
-
-
-def _timed(fn: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-    start = time.perf_counter()
-    row = fn()
-    row["seconds"] = time.perf_counter() - start
-    return row
 
 
 def certificate_table(
@@ -77,7 +60,7 @@ def certificate_table(
     lmi_solver: str = "CLARABEL",
     falsifier_tries: int = 30,
     seed: int = 0,
-    methods: Sequence[str] = CERTIFICATE_METHODS,
+    methods: Sequence[str] | None = None,
 ) -> pd.DataFrame:
     """Run every certificate on one design and tabulate verdict, margin and time.
 
@@ -106,18 +89,21 @@ def certificate_table(
         Trajectories per falsifier row.
     seed : int
         Seed of the falsifier.
-    methods : sequence of str
-        The rows to run, from :data:`CERTIFICATE_METHODS` (default all; the box rows by
-        their ``-box`` names also for a polytope).
+    methods : sequence of str, optional
+        The rows to run, by registered name (:func:`~scara_robust.analysis_methods`
+        ``('certificate')``; the box rows by their ``-box`` names also for a polytope).
+        Default: every method registered as a default, which are the built-in rows of
+        :data:`CERTIFICATE_METHODS`.
 
     Returns
     -------
     pandas.DataFrame
-        One row per entry of `methods`, in the order of :data:`CERTIFICATE_METHODS` (with ``polytope`` for ``box``
+        One row per entry of `methods`, in the registry's order (with ``polytope`` for ``box``
         for a polytope), columns ``method``, ``verdict`` (text), ``certified`` (True,
         False, or None for "no counterexample", "not installed" and "skipped"),
         ``max_eig``, ``decay_rate [1/s]``, ``growth_rate [1/s]`` (each filled on the rows it
-        belongs to, NaN elsewhere; see the module's table), ``seconds`` and ``detail``.
+        belongs to, NaN elsewhere; see the module's table), ``seconds`` and ``detail``; a
+        registered method with a ``column`` of its own adds that column.
 
     See Also
     --------
@@ -140,115 +126,36 @@ def certificate_table(
     model = as_model("model", model)
     design = as_design(model, design)
     check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
-    for method in methods:
-        check_choice("methods", method, CERTIFICATE_METHODS)
+    names = analysis_methods("certificate", defaults=True) if methods is None else tuple(methods)
+    chosen = {name: get_method("certificate", name, argument="methods") for name in names}
+    context = CertificateContext(model, design, plant, lmi_solver=lmi_solver, falsifier_tries=falsifier_tries,
+                                 seed=seed)
     if plant is not None:
-        grid = {**{p.name: p.samples for p in plant.parameters}, **dict(points or {})}
-        fine = {k: 2 * v - 1 for k, v in grid.items()}
-        coarse = {**plant.coarse_points(), **dict(lmi_points or {})}
-        for key, value in coarse.items():
+        context.grid = {**{p.name: p.samples for p in plant.parameters}, **dict(points or {})}
+        context.fine = {k: 2 * v - 1 for k, v in context.grid.items()}
+        context.coarse = {**plant.coarse_points(), **dict(lmi_points or {})}
+        for key, value in context.coarse.items():
             check_int(f"lmi_points[{key!r}]", value, 1)
-
-    polytope = model.kind == "polytope"
-
-    def skipped(reason: str) -> Callable[[], dict[str, Any]]:
-        return lambda: {"verdict": "skipped", "certified": None, "detail": reason}
-
-    def theorem1(elements: str) -> dict[str, Any]:
-        if polytope:
-            return skipped("Theorem 1 needs interval elements; a polytope's box hull is model.box_hull()")()
-        cert = certify(model, design, elements)
-        return {
-            "certified": cert.certified,
-            _MAX_EIG: cert.max_eig,
-            "detail": f"max eig Z = {cert.max_eig:.6g}",
-        }
-
-    def vertex_box() -> dict[str, Any]:
-        cert = vertex_certificate(model, design)
-        row = {"certified": cert.certified, _MAX_EIG: cert.max_eig, "detail": cert.message}
-        if not cert.certifiable:
-            row["verdict"] = "no certificate can exist"
-        return row
-
-    cache: dict[tuple[tuple[str, int], ...], tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = {}
-
-    def sampled(at: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-        # the physical rows share their grids: each is sampled once
-        key = tuple(sorted(at.items()))
-        if key not in cache:
-            assert plant is not None
-            s = plant.samples(at)
-            cache[key] = (s.closed_loops(design.K), s.values, s.names)
-        return cache[key]
-
-    def physical() -> dict[str, Any]:
-        (loops, values, names), (loops_f, values_f, _) = sampled(grid), sampled(fine)
-        coarse_cert = polytope_certificate(loops, design.P, values, set_name="physical")
-        refined = polytope_certificate(loops_f, design.P, values_f, set_name="physical")
-        agree = coarse_cert.certified == refined.certified
-        assert plant is not None
-        worst = ", ".join(f"{name} = {v:.4g} {plant.parameter(name).unit}"
-                          for name, v in zip(names, np.atleast_1d(coarse_cert.worst_point)))
-        detail = (
-            f"{coarse_cert.message}; worst at {worst}; "
-            f"{coarse_cert.n_vertices} samples: max eig {coarse_cert.max_eig:.6g}, {refined.n_vertices}: "
-            f"{refined.max_eig:.6g}" + ("" if agree else " (verdict changed under refinement)")
-        )
-        return {"certified": coarse_cert.certified and agree, _MAX_EIG: max(coarse_cert.max_eig, refined.max_eig),
-                "detail": detail}
-
-    def lmi_row(vertices: np.ndarray, checks: list[np.ndarray]) -> dict[str, Any]:
-        result = lmi_certificate(vertices, solver=lmi_solver)
-        if result.status == NOT_INSTALLED:
-            return {"verdict": NOT_INSTALLED, "certified": None, "detail": result.message}
-        if result.P is None or not checks:
-            return {"verdict": result.verdict, "certified": result.certified, _DECAY: result.margin,
-                    "detail": result.message}
-        margins = [verify_lyapunov(c, result.P)[1] for c in checks]
-        margin = float(min(result.margin, *margins))
-        detail = f"{result.message}; verified with numpy on {', '.join(str(len(c)) for c in checks)} samples"
-        ok = margin > 0 and margin >= result.floor
-        verdict = "certified" if ok else ("marginal" if margin > 0 else "inaccurate")
-        return {"verdict": verdict, "certified": ok, _DECAY: margin, "detail": detail}
-
-    def falsifier_row(vertices: np.ndarray) -> dict[str, Any]:
-        result = falsify(vertices, design.P, n_tries=falsifier_tries, seed=seed)
-        return {
-            "verdict": "unstable trajectory found" if result.found else "no counterexample found",
-            "certified": False if result.found else None,
-            _GROWTH: result.growth_rate,
+    records = []
+    columns = list(_COLUMNS)
+    for name in (m for m in analysis_methods("certificate") if m in chosen):
+        method = chosen[name]
+        start = time.perf_counter()
+        reason = context.missing(method.needs)
+        result = CertificateRow.skipped(reason) if reason else checked_result(method, method.run(context))
+        row = {
+            "method": name.replace("-box", "-polytope") if context.is_polytope else name,
+            "verdict": result.verdict,
+            "certified": result.certified,
+            _MAX_EIG: getattr(result, "max_eig", math.nan),
+            _DECAY: getattr(result, "decay_rate", math.nan),
+            _GROWTH: getattr(result, "growth_rate", math.nan),
+            "seconds": time.perf_counter() - start,
             "detail": result.message,
         }
-
-    n_elements = 0 if polytope else len(model.elements)  # type: ignore[union-attr]
-    too_many = n_elements > MAX_BOX_ELEMENTS
-    box = model.vertex_closed_loops(design.K) if any(m.endswith("-box") for m in methods) and not too_many else None
-    rows = {
-        "theorem1-all": lambda: theorem1("all"),
-        "theorem1-A": lambda: theorem1("A"),
-        "theorem1-B": lambda: theorem1("B"),
-        "vertex-box": vertex_box,
-        "physical-polytope": physical,
-        "lmi-box": lambda: lmi_row(np.asarray(box), []),
-        "lmi-physical": lambda: lmi_row(sampled(coarse)[0], [sampled(grid)[0], sampled(fine)[0]]),
-        "falsifier-box": lambda: falsifier_row(np.asarray(box)),
-        "falsifier-physical": lambda: falsifier_row(sampled(coarse)[0]),
-    }
-    if too_many:
-        reason = (f"the box has 2^{n_elements} = {2.0 ** n_elements:.3g} corners, beyond the exact "
-                  f"vertex tests (at most 2^{MAX_BOX_ELEMENTS}); Theorem 1 and the physical rows answer")
-        for method in ("vertex-box", "lmi-box", "falsifier-box"):
-            rows[method] = skipped(reason)
-    if plant is None:
-        reason = "needs a plant with physical parameters (its frozen plants on the parameter grid)"
-        for method in ("physical-polytope", "lmi-physical", "falsifier-physical"):
-            rows[method] = skipped(reason)
-    records = []
-    for method in (m for m in CERTIFICATE_METHODS if m in methods):
-        row = _timed(rows[method])
-        row["method"] = method.replace("-box", "-polytope") if polytope else method
-        if "verdict" not in row:
-            row["verdict"] = "certified" if row["certified"] else "not certified"
+        if method.column is not None:
+            row[method.column] = getattr(result, "value", math.nan)
+            if method.column not in columns:
+                columns.insert(columns.index("seconds"), method.column)
         records.append(row)
-    return pd.DataFrame(records, columns=_COLUMNS)
+    return pd.DataFrame(records, columns=columns)

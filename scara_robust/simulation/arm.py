@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_callable, check_choice, check_real
 from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
@@ -63,7 +64,7 @@ class ArmLoop:
         ``m_p(t)`` in kg.
     disturbance : SquareWave or None
         Disturbance torque (one sign per joint), or none.
-    sample_time : float or None
+    Ts : float or None
         Period (s) of a sampled PID, held between samples; None if continuous.
     """
 
@@ -71,7 +72,9 @@ class ArmLoop:
     K: Array
     payload: Callable[[float], Any]
     disturbance: Any
-    sample_time: float | None = None
+    Ts: float | None = None
+
+    sample_time = renamed_field("sample_time", "Ts")
 
     discrete = False
 
@@ -204,6 +207,7 @@ def simulate_arm(
     rtol: float = 1e-8,
     atol: float = 1e-10,
     method: str = "lsoda",
+    Ts: float | None = None,
     sample_time: float | None = None,
     divergence_limit: float = DIVERGENCE_LIMIT,
     t_transient: float = PAPER_TRANSIENT,
@@ -231,7 +235,7 @@ def simulate_arm(
         Tolerances of LSODA.
     method : {'lsoda', 'rk4'}
         The engine.
-    sample_time : float, optional
+    Ts : float, optional
         Run the PID sampled with this period and held (zero-order hold), integrated by
         RK4 with that step.
     divergence_limit : float
@@ -239,6 +243,8 @@ def simulate_arm(
     t_transient, tracking_tolerance : float
         The status looks at ``t >= t_transient`` (s): tracking when ``max |e|`` is at most
         `tracking_tolerance` (rad) there.
+    sample_time : float, optional
+        Deprecated name of `Ts`.
 
     Returns
     -------
@@ -255,12 +261,13 @@ def simulate_arm(
     t_final = check_real("t_final", t_final, positive=True)
     dt = check_real("dt", dt, positive=True)
     check_choice("method", method, ARM_ENGINES)
-    if sample_time is not None:
-        sample_time = check_real("sample_time", sample_time, positive=True)
+    Ts = renamed_argument("simulate_arm", "sample_time", "Ts", sample_time, Ts, None)
+    if Ts is not None:
+        Ts = check_real("Ts", Ts, positive=True)
         method = "rk4"
     if disturbance is not None and len(disturbance.signs) != n:
         raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
-    loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), sample_time)
+    loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)
     r0, rd0, _ = setup.reference.at(0.0)
     e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
     ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))

@@ -106,7 +106,7 @@ def compiled_support(loop: ClosedLoop) -> str | None:
         return "its reference is not a (sin ωt, cos ωt) known to both the loop and the controller"
     if not isinstance(loop.payload, (ConstantPayload, SinusoidalPayload)):
         return "its payload is neither a ConstantPayload nor a SinusoidalPayload"
-    if (law.kind == "smc-sign") != (loop.sample_time is not None):
+    if (law.kind == "smc-sign") != (loop.Ts is not None):
         return "the sign law runs sampled and the others continuous"
     return None
 
@@ -151,7 +151,7 @@ def pack_loop(loop: ClosedLoop) -> Array:
         th[_SMC:_SMC + 4] = (g.lam, g.k_d, g.k_s, g.boundary)
         th[_SMC_ROBOT:_SMC_ROBOT + 9] = (q.m1, q.m2, q.L1, q.L2, q.Lc1, q.Lc2, q.I1, q.I2, q.cp)
     th[_LIMIT:_LIMIT + 2] = np.inf if law.torque_limit is None else law.torque_limit
-    th[_TS] = 0.0 if loop.sample_time is None else loop.sample_time
+    th[_TS] = 0.0 if loop.Ts is None else loop.Ts
     return th
 
 
@@ -231,15 +231,15 @@ class CompiledRun:
 
 
 def _edges(loop: ClosedLoop, t_out: Array, t_final: float) -> Array:
-    if loop.sample_time is not None:
+    if loop.Ts is not None:
         return t_out
     return np.concatenate([[0.0], loop.disturbance.switching_times(0.0, t_final), [t_final]])
 
 
 def _grid(loop: ClosedLoop, t_final: float, dt: float) -> Array:
-    if loop.sample_time is not None:
-        n = int(np.floor(t_final / loop.sample_time + 1e-9))
-        return np.asarray(loop.sample_time * np.arange(n + 1), dtype=float)
+    if loop.Ts is not None:
+        n = int(np.floor(t_final / loop.Ts + 1e-9))
+        return np.asarray(loop.Ts * np.arange(n + 1), dtype=float)
     return output_grid(t_final, dt)
 
 
@@ -255,7 +255,7 @@ def _finish(loop: ClosedLoop, th: Array, t_out: Array, X: Array, TC: Array, ER: 
         message = "completed"
     mag = np.abs(tc).max(axis=0) if k else np.zeros(0)
     peak = float(mag.max()) if k else math.nan
-    if loop.sample_time is None and k >= 2:
+    if loop.Ts is None and k >= 2:
         refine = _build()["refine"]
         padded = np.concatenate([[-np.inf], mag, [-np.inf]])
         local = np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]))
@@ -334,7 +334,7 @@ def compiled_batch(loops: list[ClosedLoop], x0s: list[Array], t_final: float, *,
     if len(x0s) != len(loops):
         raise ArgumentValueError("x0s", f"must hold one state per loop ({len(loops)}), found {len(x0s)}")
     sizes = {np.asarray(x).size for x in x0s}
-    samples = {lp.sample_time for lp in loops}
+    samples = {lp.Ts for lp in loops}
     if len(sizes) != 1 or len(samples) != 1:
         raise ArgumentValueError("loops", "must share the state size and the sample time (batch them by controller)")
     TH = np.stack([pack_loop(lp) for lp in loops])

@@ -21,6 +21,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_choice, check_per_item, check_real
 from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
@@ -323,7 +324,7 @@ def sampled_pid_controller(
 
 def _sampled_pid_factory(**kw: Any) -> ct.NonlinearIOSystem:
     K = kw.get("K")
-    Ts = kw.get("sample_time", SAMPLED_PID_TS)
+    Ts = kw.get("Ts", SAMPLED_PID_TS)
     if K is None:
         rho, eta = kw.get("rho", PAPER_DESIGN_POINT[0]), kw.get("eta", PAPER_DESIGN_POINT[1])
         K = design(paper_model(), rho, eta).K
@@ -398,7 +399,7 @@ class ControllerKind:
     name : str
     build : callable
         ``build(**options) -> control.NonlinearIOSystem``; see :func:`make_controller`.
-    sample_time : float or None
+    Ts : float or None
         Period, s, at which the law runs sampled with a zero-order hold; None for a
         continuous-time law.
     description : str
@@ -408,7 +409,9 @@ class ControllerKind:
 
     name: str
     build: Callable[..., ct.NonlinearIOSystem]
-    sample_time: float | None
+    Ts: float | None
+
+    sample_time = renamed_field("sample_time", "Ts")
     description: str
 
     def __call__(self, **options: Any) -> ct.NonlinearIOSystem:
@@ -437,7 +440,7 @@ CONTROLLERS: dict[str, ControllerKind] = {
 }
 
 #: Sample time (s) of each sampled controller in :data:`CONTROLLERS` (read from the registry).
-SAMPLE_TIMES: dict[str, float] = {k.name: k.sample_time for k in CONTROLLERS.values() if k.sample_time is not None}
+SAMPLE_TIMES: dict[str, float] = {k.name: k.Ts for k in CONTROLLERS.values() if k.Ts is not None}
 
 
 def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
@@ -448,7 +451,7 @@ def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
     name : {'pid', 'pid-lmi', 'smc', 'smc-sign', 'pid-sampled'}
     **options
         ``K`` or ``rho``/``eta`` (pid, pid-sampled), ``params`` and ``gains`` (smc),
-        ``reference``, ``torque_limit``; ``sample_time`` and ``anti_windup`` (pid-sampled).
+        ``reference``, ``torque_limit``; ``Ts`` and ``anti_windup`` (pid-sampled).
 
     Returns
     -------
@@ -456,4 +459,7 @@ def make_controller(name: str, **options: Any) -> ct.NonlinearIOSystem:
         Inputs ``q1, q2, q1_dot, q2_dot``, outputs ``Tc1, Tc2`` (N·m).
     """
     check_choice("controller", name, tuple(CONTROLLERS))
+    if "sample_time" in options:
+        options["Ts"] = renamed_argument("make_controller", "sample_time", "Ts", options.pop("sample_time"),
+                                         options.get("Ts"), None)
     return CONTROLLERS[name](**options)

@@ -199,7 +199,7 @@ class RK4Engine(Engine):
 
         The grid stops at the last whole step at or before `t_final`.
         """
-        h = loop.sample_time or dt
+        h = loop.Ts or dt
         n = int(np.floor(t_final / h + 1e-9))
         edges = np.asarray(h * np.arange(n + 1), dtype=float)
         return edges, edges
@@ -210,7 +210,7 @@ class RK4Engine(Engine):
         """See :meth:`Engine.advance`."""
         rhs, torque = loop.rhs, loop.torque
         h = b - a
-        if loop.sample_time is not None:
+        if loop.Ts is not None:
             tc = torque(a, x)
             k1 = rhs(a, x, tc, td)
             k2 = rhs(a + h / 2, x + h / 2 * k1, tc, td)

@@ -19,6 +19,7 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
+from .._deprecation import renamed_field
 from ..model.robot import PayloadProfile, ScaraParams, forward_dynamics_scalar, paper_payload, scara_plant
 from ..model.signals import Reference, SquareWave, paper_disturbance
 
@@ -88,7 +89,7 @@ class ClosedLoop:
     reference : Reference
         The reference the controller tracks (for the error and the divergence test).
     disturbance : SquareWave
-    sample_time : float or None
+    Ts : float or None
         Period (s) of a sampled controller, held between samples; None if continuous.
     """
 
@@ -97,7 +98,9 @@ class ClosedLoop:
     payload: PayloadProfile
     reference: Reference
     disturbance: SquareWave
-    sample_time: float | None = None
+    Ts: float | None = None
+
+    sample_time = renamed_field("sample_time", "Ts")
 
     @property
     def discrete(self) -> bool:

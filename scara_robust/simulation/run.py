@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._deprecation import renamed_argument
 from .._resources import check_memory, simulation_bytes
 from .._validation import check_array, check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
@@ -153,7 +154,7 @@ def _peak_torque(
     """
     mag = np.abs(torque).max(axis=0)
     peak = float(mag.max()) if mag.size else float("nan")
-    if not engine.dense or loop.sample_time is not None or mag.size < 2:
+    if not engine.dense or loop.Ts is not None or mag.size < 2:
         return peak
     padded = np.concatenate([[-np.inf], mag, [-np.inf]])
     local = np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]))
@@ -243,7 +244,7 @@ def _result(
     )
 
 
-def _engine_name(method: str | None, sample_time: float | None) -> str:
+def _engine_name(method: str | None, Ts: float | None) -> str:
     if method == "fast":  # the name of 0.1, kept for old scripts
         warnings.warn(
             "simulate(method='fast') is deprecated: it names a speed, not an algorithm; use method='lsoda' "
@@ -253,9 +254,9 @@ def _engine_name(method: str | None, sample_time: float | None) -> str:
         )
         method = None
     if method is None:
-        return SAMPLED_ENGINE if sample_time is not None else DEFAULT_ENGINE
+        return SAMPLED_ENGINE if Ts is not None else DEFAULT_ENGINE
     name = check_choice("method", method, tuple(ENGINES))
-    if sample_time is not None and not ENGINES[name].sampled:
+    if Ts is not None and not ENGINES[name].sampled:
         sampled = ", ".join(repr(n) for n, e in ENGINES.items() if e.sampled)
         raise ArgumentValueError("method", f"must be {sampled} for a sampled controller, found {name!r}")
     if name == CompiledEngine.name and not numba_available():
@@ -279,9 +280,10 @@ def simulate(
     atol: float = _ATOL,
     divergence_limit: float = DIVERGENCE_LIMIT,
     method: str | None = None,
-    sample_time: float | None = None,
+    Ts: float | None = None,
     t_transient: float = PAPER_TRANSIENT,
     tracking_tolerance: float = TRACKING_TOLERANCE,
+    sample_time: float | None = None,
 ) -> SimulationResult:
     """Simulate one controller on the nonlinear SCARA.
 
@@ -314,7 +316,7 @@ def simulate(
         continuous controller and ``'rk4'`` for a sampled one. ``'interconnect'`` is the
         reference path (python-control's ``interconnect`` and ``input_output_response``,
         RK45). ``'fast'``, the name of version 0.1, is a deprecated alias of the default.
-    sample_time : float, optional
+    Ts : float, optional
         Run the controller sampled with this period (s, > 0) and a zero-order hold,
         integrated by ``'rk4'`` with that step (the output grid is then the sample
         grid). Default: the registry's sample time for a named controller, the `dt` of
@@ -325,6 +327,8 @@ def simulate(
     tracking_tolerance : float
         A finished run is ``tracking`` when max |e| after the transient is at most this,
         rad (> 0; default :data:`scara_robust.TRACKING_TOLERANCE`, 0.05 rad).
+    sample_time : float, optional
+        Deprecated name of `Ts`.
 
     Returns
     -------
@@ -343,9 +347,10 @@ def simulate(
     >>> res.e.shape[0], res.success, res.method
     (2, True, 'lsoda')
     """
+    Ts = renamed_argument("simulate", "sample_time", "Ts", sample_time, Ts, None)
     return _execute(
         _prepare(controller, scenario, params, payload, reference, disturbance, t_final, dt, x0, rtol, atol,
-                 divergence_limit, method, sample_time, t_transient, tracking_tolerance)
+                 divergence_limit, method, Ts, t_transient, tracking_tolerance)
     )
 
 
@@ -367,7 +372,7 @@ class _Prepared:
 
     def batch_key(self) -> tuple[Any, ...]:
         """Runs with equal keys can share one compiled call."""
-        return (self.x0.size, self.loop.sample_time, self.t_final, self.dt, self.rtol, self.atol, self.limit)
+        return (self.x0.size, self.loop.Ts, self.t_final, self.dt, self.rtol, self.atol, self.limit)
 
 
 def _prepare(
@@ -384,7 +389,7 @@ def _prepare(
     atol: float,
     divergence_limit: float,
     method: str | None,
-    sample_time: float | None,
+    Ts: float | None,
     t_transient: float,
     tracking_tolerance: float,
 ) -> _Prepared:
@@ -395,22 +400,22 @@ def _prepare(
                                                 f"{len(disturbance.signs)}")
     if isinstance(controller, str):
         name = check_choice("controller", controller, tuple(CONTROLLERS))
-        if sample_time is None:
-            sample_time = CONTROLLERS[name].sample_time
+        if Ts is None:
+            Ts = CONTROLLERS[name].Ts
         options: dict[str, Any] = {"params": params, "reference": reference}
         if name == "pid-sampled":
-            options["sample_time"] = sample_time
+            options["Ts"] = Ts
         controller = make_controller(name, **options)
     check_instance("controller", controller, ct.NonlinearIOSystem, "a name or a control.NonlinearIOSystem")
     if controller.isdtime(strict=True):
         dt_c = float(controller.dt) if controller.dt is not True else None
         if dt_c is None:
             raise ArgumentValueError("controller", "is discrete-time with an unspecified sample time (dt=True)")
-        if sample_time is not None and not np.isclose(check_real("sample_time", sample_time, positive=True), dt_c):
+        if Ts is not None and not np.isclose(check_real("Ts", Ts, positive=True), dt_c):
             raise ArgumentValueError(
-                "sample_time", f"must be the discrete-time controller's dt = {dt_c:g} s, found {sample_time}"
+                "Ts", f"must be the discrete-time controller's dt = {dt_c:g} s, found {Ts}"
             )
-        sample_time = dt_c
+        Ts = dt_c
     if isinstance(scenario, str):
         scenario = SCENARIOS[check_choice("scenario", scenario, tuple(SCENARIOS))]
     check_instance("scenario", scenario, Scenario, "a name or a Scenario")
@@ -423,16 +428,16 @@ def _prepare(
     limit = check_real("divergence_limit", divergence_limit, positive=True)
     t_transient = check_real("t_transient", t_transient, nonnegative=True)
     tolerance = check_real("tracking_tolerance", tracking_tolerance, positive=True)
-    if sample_time is not None:
-        sample_time = check_real("sample_time", sample_time, positive=True)
-    engine = _engine_name(method, sample_time)
+    if Ts is not None:
+        Ts = check_real("Ts", Ts, positive=True)
+    engine = _engine_name(method, Ts)
     loop = ClosedLoop(
         controller,
         params,
         payload if payload is not None else paper_payload(params),
         reference,
         disturbance or paper_disturbance(),
-        sample_time,
+        Ts,
     )
     if x0 is None:
         plant0 = scenario.initial_state(reference)
@@ -554,7 +559,7 @@ def _prepare_scenario(
     else:
         profile = ConstantPayload(0.0)
     return _prepare(ctrl, scenario, params, profile, reference, disturbance, t_final, _DT, None, _RTOL, _ATOL,
-                    DIVERGENCE_LIMIT, method, CONTROLLERS[name].sample_time, t_transient, tracking_tolerance)
+                    DIVERGENCE_LIMIT, method, CONTROLLERS[name].Ts, t_transient, tracking_tolerance)
 
 
 _RUN_SCENARIO = inspect.signature(run_scenario)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_instance, check_real
 from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentValueError
@@ -89,24 +90,27 @@ class AntiWindupStudy:
         The runs, keyed like ``'limit 50 N·m, anti-windup'``, ``'no limit'``.
     band : float
         Settling band, rad.
-    sample_time : float
+    Ts : float
         s.
     """
 
     table: pd.DataFrame
     runs: dict[str, SimulationResult]
     band: float
-    sample_time: float
+    Ts: float
+
+    sample_time = renamed_field("sample_time", "Ts")
 
 
 def anti_windup_study(
     torque_limits: Sequence[float] = (50.0, 8.0),
     *,
     scenario: str = "large",
-    sample_time: float = 1e-3,
+    Ts: float = 1e-3,
     pid_design: Design | None = None,
     band: float = TRACKING_TOLERANCE,
     t_final: float = PAPER_T_FINAL,
+    sample_time: float | None = None,
 ) -> AntiWindupStudy:
     """Overshoot, settling time and max |e| after 6 s with and without anti-windup.
 
@@ -115,7 +119,7 @@ def anti_windup_study(
     torque_limits : sequence of float
         Per-joint limits to try, N·m (> 0).
     scenario : {'large', 'small'}
-    sample_time : float
+    Ts : float
         s (> 0).
     pid_design : Design, optional
         Default: (ρ, η) = (3, 90) on the published model.
@@ -123,6 +127,8 @@ def anti_windup_study(
         Settling band on max |e|, rad (default 0.05, the tracking tolerance).
     t_final : float
         Horizon, s.
+    sample_time : float, optional
+        Deprecated name of `Ts`.
 
     Returns
     -------
@@ -135,6 +141,7 @@ def anti_windup_study(
     >>> list(study.table["anti_windup"])
     [None, False, True]
     """
+    Ts = renamed_argument("anti_windup_study", "sample_time", "Ts", sample_time, Ts, 1e-3)
     limits = check_array("torque_limits", torque_limits, ndim=1)
     if limits.size == 0 or np.any(limits <= 0):
         raise ArgumentValueError("torque_limits", f"must be one or more limits > 0 N·m, found {limits.tolist()}")
@@ -148,7 +155,7 @@ def anti_windup_study(
     runs: dict[str, SimulationResult] = {}
     rows = []
     for key, lim, aw in cases:
-        pid = d.discretize(sample_time, torque_limit=lim, anti_windup=bool(aw) if aw is not None else True)
+        pid = d.discretize(Ts, torque_limit=lim, anti_windup=bool(aw) if aw is not None else True)
         res = simulate(sampled_pid_controller(pid), scenario, t_final=t_final)
         runs[key] = res
         # the unsaturated torque the PID asked for, replayed from the recorded errors
@@ -163,7 +170,7 @@ def anti_windup_study(
             "saturated_fraction": saturated,
             "peak_unsaturated_torque": float(np.abs(asked).max()),
         })
-    return AntiWindupStudy(pd.DataFrame(rows, columns=list(ANTI_WINDUP_COLUMNS)), runs, band, sample_time)
+    return AntiWindupStudy(pd.DataFrame(rows, columns=list(ANTI_WINDUP_COLUMNS)), runs, band, Ts)
 
 
 def _replay(pid: DiscretePID, res: SimulationResult) -> Iterator[tuple[list[float], list[float]]]:

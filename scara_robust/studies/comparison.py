@@ -154,7 +154,7 @@ def compare_plant_designs(
         loops = hull.vertex_closed_loops(K)
         own = decay_rate(loops, P) if P is not None else -math.inf  # the design's own P, checked by numpy
         lmi = lmi_certificate(loops)
-        best = max(own, lmi.margin if lmi.certified else -math.inf)
+        best = max(own, lmi.decay_rate if lmi.certified else -math.inf)
         row["decay rate [1/s]"] = best if best > 0 else math.nan
         margins = parameter_margin(plant, design if design is not None else K,
                                    ["vertex", "frozen"] if design is not None else ["frozen"])

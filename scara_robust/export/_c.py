@@ -1,4 +1,6 @@
-"""Export a :class:`~scara_robust.DiscretePID` for a controller board: JSON, or C99 source.
+"""The C target (``'c'``): one header and one source file, C99, per controller.
+
+Private: the names of ``__all__`` are re-exported by :mod:`scara_robust.export`.
 
 The C export is one header and one source file, self-contained (``<string.h>`` only, no
 dynamic allocation, no global state besides constants)::
@@ -30,133 +32,21 @@ stateless: ``void <prefix>_step(const double x[NX], double u[NU])`` computes ``u
 
 from __future__ import annotations
 
-import json
-import os
-import re
-import tempfile
-from collections.abc import Callable, Sequence
-from pathlib import Path
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ._validation import check_array, check_choice, check_instance
-from .controller.discrete import DiscretePID
-from .controller.state_feedback import SampledStateFeedback
-from .exceptions import ArgumentValueError
-from .io import _umask
-from .model.plant import Signal
+from .._validation import check_array, check_choice, check_instance
+from ..controller.discrete import DiscretePID
+from ..controller.state_feedback import SampledStateFeedback
+from ..exceptions import ArgumentValueError
+from ..model.plant import Signal
+from ._common import DEFAULT_PREFIX, PRECISIONS, _check_prefix, _per_second, _signals, _unit
+from .registry import ExportTarget, register_target
 
-__all__ = ["EXPORT_FORMATS", "PRECISIONS", "controller_record", "c_source", "export_controller", "DEFAULT_PREFIX",
-           "single_precision_step"]
-
-#: Floating-point types of the C export.
-PRECISIONS = ("double", "single")
-
-#: Formats of :func:`export_controller`: ``'c'`` writes ``<prefix>.h`` and ``<prefix>.c``,
-#: ``'json'`` writes ``<prefix>.json``.
-EXPORT_FORMATS = ("c", "json")
-#: Default prefix of the exported names and files.
-DEFAULT_PREFIX = "scara_pid"
-_C_KEYWORDS = frozenset(
-    "auto break case char const continue default do double else enum extern float for goto if inline int long "
-    "register restrict return short signed sizeof static struct switch typedef union unsigned void volatile while "
-    "_Bool _Complex _Imaginary".split()
-)
-
-
-def _check_prefix(prefix: str) -> str:
-    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,31}", prefix):
-        raise ArgumentValueError(
-            "prefix", f"must be a C identifier (a letter, then letters, digits or _, at most 32), found {prefix!r}"
-        )
-    if prefix in _C_KEYWORDS:
-        raise ArgumentValueError("prefix", f"must not be a C keyword, found {prefix!r}")
-    return prefix
-
-
-def _signals(pid: DiscretePID, outputs: Sequence[Signal] | None,
-             inputs: Sequence[Signal] | None) -> tuple[tuple[Signal, ...], tuple[Signal, ...]]:
-    outs = tuple(outputs) if outputs else tuple(Signal(f"q{i + 1}", "rad") for i in range(pid.n_joints))
-    ins = tuple(inputs) if inputs else tuple(Signal(f"T{i + 1}", "N·m") for i in range(pid.n_torques))
-    if len(outs) != pid.n_joints:
-        raise ArgumentValueError("outputs", f"must name the PID's {pid.n_joints} errors, found {len(outs)}")
-    if len(ins) != pid.n_torques:
-        raise ArgumentValueError("inputs", f"must name the PID's {pid.n_torques} outputs, found {len(ins)}")
-    for k, sig in enumerate((*outs, *ins)):
-        check_instance(f"signals[{k}]", sig, Signal, "a Signal(name, unit)")
-    return outs, ins
-
-
-def _unit(units: Sequence[str]) -> str | list[str]:
-    return units[0] if len(set(units)) == 1 else list(units)
-
-
-def _per_second(unit: str) -> str:
-    return "1/s" if unit == "1" else f"{unit}/s"
-
-
-def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = None,
-                      inputs: Sequence[Signal] | None = None, **metadata: Any) -> dict[str, Any]:
-    """Every gain, limit and matrix of the controller, as JSON-ready data.
-
-    Parameters
-    ----------
-    pid : DiscretePID
-    outputs : sequence of Signal, optional
-        The controlled outputs, one per error (default the SCARA's joint angles, rad).
-    inputs : sequence of Signal, optional
-        The plant inputs the controller drives (default the SCARA's torques, N·m).
-    **metadata
-        Extra keys to record (e.g. ``rho``, ``eta``, the model's name).
-
-    Returns
-    -------
-    dict
-        ``Ts`` (s), ``integrator``, ``derivative``, ``N`` (1/s), ``K_I``, ``K_P``, ``K_D``
-        (m × p lists), ``torque_limit`` (the inputs' units, or None), ``tracking_time`` (s),
-        ``anti_windup``, and the linear part ``A, B, C, D`` with the state and input
-        names, plus ``signals`` (names and units), ``units`` and the `metadata`.
-    """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
-    outs, ins = _signals(pid, outputs, inputs)
-    e_unit, u_unit = _unit([s.unit for s in outs]), _unit([s.unit for s in ins])
-    eu = e_unit if isinstance(e_unit, str) else "/".join(e_unit)
-    uu = u_unit if isinstance(u_unit, str) else "/".join(u_unit)
-    A, B, C, D = pid.matrices()
-    ss = pid.to_statespace()
-    record: dict[str, Any] = {
-        "kind": "scara_robust discrete PID",
-        "law": "v = C z + D [e, edot]; u = clip(v, -torque_limit, torque_limit); "
-        "z+ = A z + B [e, edot] + (Ts / tracking_time) (u - v) on the first n_torques states",
-        "Ts": pid.Ts,
-        "n_joints": pid.n_joints,
-        "n_torques": pid.n_torques,
-        "integrator": pid.integrator,
-        "derivative": pid.derivative,
-        "N": pid.N,
-        "K_I": pid.K_I.tolist(),
-        "K_P": pid.K_P.tolist(),
-        "K_D": pid.K_D.tolist(),
-        "torque_limit": None if pid.torque_limit is None else np.asarray(pid.torque_limit).tolist(),
-        "tracking_time": None if pid.tracking_time is None else np.asarray(pid.tracking_time).tolist(),
-        "anti_windup": bool(pid.anti_windup),
-        "A": A.tolist(),
-        "B": B.tolist(),
-        "C": C.tolist(),
-        "D": D.tolist(),
-        "states": list(ss.state_labels),
-        "inputs": list(ss.input_labels),
-        "outputs": list(ss.output_labels),
-        "signals": {"outputs": [{"name": s.name, "unit": s.unit} for s in outs],
-                    "inputs": [{"name": s.name, "unit": s.unit} for s in ins]},
-        "units": {"e": e_unit, "edot": _unit([_per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",
-                  "tracking_time": "s", "N": "1/s", "K_I": f"{uu}/({eu}·s)", "K_P": f"{uu}/{eu}",
-                  "K_D": f"{uu}·s/{eu}", "z": u_unit},
-    }
-    record.update(metadata)
-    return record
+__all__ = ["c_source", "single_precision_step"]
 
 
 def _num(x: float, precision: str = "double") -> str:
@@ -431,102 +321,25 @@ void {prefix}_step(const {ctype} x[{macro}_NX], {ctype} u[{macro}_NU])
     return {f"{prefix}.h": header, f"{prefix}.c": source}
 
 
-def export_controller(
-    pid: DiscretePID | SampledStateFeedback,
-    folder: str | os.PathLike[str],
+def _c_files(
+    controller: DiscretePID | SampledStateFeedback,
     *,
-    format: str = "c",
-    prefix: str = DEFAULT_PREFIX,
-    metadata: dict[str, Any] | None = None,
-    notes: Sequence[str] = (),
-    outputs: Sequence[Signal] | None = None,
-    inputs: Sequence[Signal] | None = None,
-    precision: str = "double",
-) -> list[Path]:
-    """Write the controller into `folder`: all files or none.
+    prefix: str,
+    notes: Sequence[str],
+    metadata: Mapping[str, Any] | None,
+    outputs: Sequence[Signal] | None,
+    inputs: Sequence[Signal] | None,
+    precision: str,
+) -> dict[str, str]:
+    """``write`` of the C target: ``{'.h': header, '.c': source}`` (`metadata` is not written)."""
+    if isinstance(controller, SampledStateFeedback):
+        files = _gain_files(controller, prefix, notes, inputs, outputs, precision)
+        return {name.removeprefix(prefix): text for name, text in files.items()}
+    header, source = c_source(controller, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
+    return {".h": header, ".c": source}
 
-    Parameters
-    ----------
-    pid : DiscretePID or SampledStateFeedback
-        The PID (stateful: ``<prefix>_init`` and ``<prefix>_step``) or static state
-        feedback (stateless ``<prefix>_step(x, u)``: ``u = −K x``).
-    folder : path-like
-        An existing, writable folder.
-    format : {'c', 'json'}
-        ``'c'``: ``<prefix>.h`` and ``<prefix>.c``; ``'json'``: ``<prefix>.json``
-        (:func:`controller_record`).
-    prefix : str
-        C identifier; also the file names.
-    metadata : dict, optional
-        Extra keys for the JSON record.
-    notes : sequence of str
-        Lines for the C header's opening comment (see :func:`c_source`) and, in JSON,
-        the record's ``notes``.
-    outputs, inputs : sequence of Signal, optional
-        Names and units (default: the SCARA's, see :func:`c_source`; for static feedback
-        the plant's inputs u and its states x, default ``u0..``, ``x0..``).
-    precision : {'double', 'single'}
-        The C floating-point type (the JSON record says which the C would use).
 
-    Returns
-    -------
-    list of pathlib.Path
-        The files written.
-
-    Raises
-    ------
-    OSError
-        If the folder does not exist or is not writable; nothing is left behind.
-
-    See Also
-    --------
-    check_sample_time : run first on the design's plant.
-    single_precision_step : the float32 step in Python.
-
-    Examples
-    --------
-    >>> import tempfile, scara_robust as sr
-    >>> pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=50)
-    >>> [p.name for p in sr.export_controller(pid, tempfile.mkdtemp())]
-    ['scara_pid.h', 'scara_pid.c']
-    """
-    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
-                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
-    check_choice("format", format, EXPORT_FORMATS)
-    prefix = _check_prefix(prefix)
-    target = Path(folder)
-    if not target.is_dir():
-        raise NotADirectoryError(20, "not an existing folder", str(target))
-    if isinstance(pid, SampledStateFeedback):
-        if format == "c":
-            contents = _gain_files(pid, prefix, notes, inputs, outputs, precision)
-        else:
-            check_choice("precision", precision, PRECISIONS)
-            record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": pid.Ts,
-                      "K": pid.K.tolist(), "precision": precision, **(metadata or {}),
-                      **({"notes": list(notes)} if notes else {})}
-            contents = {f"{prefix}.json": json.dumps(record, indent=2) + "\n"}
-    elif format == "c":
-        header, source = c_source(pid, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
-        contents = {f"{prefix}.h": header, f"{prefix}.c": source}
-    else:
-        check_choice("precision", precision, PRECISIONS)
-        record = controller_record(pid, outputs=outputs, inputs=inputs, **(metadata or {}),
-                                   **({"notes": list(notes)} if notes else {}))
-        contents = {f"{prefix}.json": json.dumps(record, indent=2) + "\n"}
-    temps: list[str] = []
-    try:
-        for text in contents.values():
-            fd, tmp = tempfile.mkstemp(dir=target, prefix=".tmp-")
-            temps.append(tmp)
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.chmod(tmp, 0o666 & ~_umask())
-        for tmp, name in zip(temps, contents):
-            os.replace(tmp, target / name)
-    except BaseException:
-        for tmp in temps:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-        raise
-    return [target / name for name in contents]
+register_target(ExportTarget(
+    "c", ".c", "C99 source: <prefix>.h and <prefix>.c (<prefix>_init, <prefix>_step), in double or single precision",
+    _c_files,
+))

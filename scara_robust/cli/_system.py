@@ -1,0 +1,760 @@
+"""The system a command runs on, built once from its arguments: :func:`load_system`.
+
+Three kinds of system reach the command line: the built-in SCARA (optionally a
+``--robot`` data file, ``--scenario`` and ``--bounds``), an arm from a robot file naming
+a URDF (``--robot F``), and a plant file (``--model F``: physical parameters, an
+interval box or a polytope). :func:`load_system` chooses the kind once, from the
+arguments, and returns a :class:`LoadedSystem` that answers every command alike: its
+plant and uncertainty set, how a header names it, the plants of the sampled-data
+certificate, what it can do (:class:`Capabilities`). No command asks which kind it holds.
+
+The files are read when a command first asks for them (:attr:`LoadedSystem.setup`,
+:attr:`LoadedSystem.plant`, ...), in the order the commands have always read them, so
+that an error names the same option and file as before.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property, partial
+from typing import Any, ClassVar, Literal, TypeAlias
+
+import numpy as np
+import pandas as pd
+
+from ..exceptions import ArgumentError
+from ..io import is_arm_file, load_arm, load_model, load_robot, load_scenario
+from ..lyapunov.gain import Design
+from ..model.arm import ArmSetup
+from ..model.initial import SCENARIOS, Scenario
+from ..model.plant import UncertainPlant, as_model, as_plant
+from ..model.polytopic import PolytopicModel
+from ..model.robot import PayloadProfile, ScaraParams
+from ..model.scara import physical_samples, scara_uncertain_plant
+from ..model.signals import Reference, SquareWave
+from ..model.uncertain import UncertainLTVModel
+from ..robustness.parameters import parameter_margin
+from ..robustness.payload import payload_margin
+from ..robustness.sampled import interior_grid
+from ._common import CommandLineError, _load_file
+
+__all__ = [
+    "ARM_COMMANDS",
+    "CERTIFICATE_GRID",
+    "CERTIFICATE_CHECK_GRID",
+    "Capabilities",
+    "LoadedSystem",
+    "PhysicalSet",
+    "Setup",
+    "load_system",
+]
+
+#: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
+ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface")
+
+#: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
+CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)
+
+#: A plant, or an uncertainty set given directly.
+Plant: TypeAlias = "UncertainPlant | UncertainLTVModel | PolytopicModel"
+
+
+@dataclass(frozen=True)
+class Setup:
+    """Robot and signals of one command, from ``--robot`` and ``--scenario``.
+
+    Attributes
+    ----------
+    params : ScaraParams
+    reference, payload, disturbance
+        None where the paper's apply.
+    initial : Scenario or None
+        Initial condition (named, or from the scenario file).
+    robot_file : bool
+        True when a robot file was given: the bounds then default to those derived from it.
+    """
+
+    params: ScaraParams
+    reference: Reference | None
+    payload: PayloadProfile | None
+    disturbance: SquareWave | None
+    initial: Scenario | None
+    robot_file: bool
+
+    def signals(self) -> dict[str, Any]:
+        """Keyword arguments for :func:`scara_robust.run_scenario` and :func:`scara_robust.compare_controllers`.
+
+        Returns
+        -------
+        dict
+        """
+        return {"params": self.params, "reference": self.reference, "payload": self.payload,
+                "disturbance": self.disturbance}
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a system can do, for the commands whose work depends on it.
+
+    Attributes
+    ----------
+    run : {'scara', 'arm', 'plant'}
+        The nonlinear closed loop ``simulate`` and ``compare`` run: the SCARA's engine
+        (:func:`scara_robust.run_scenario`), the arm's (:func:`scara_robust.simulate_arm`)
+        or a plant file's (:func:`scara_robust.simulate_plant`).
+    element_margins : bool
+        ``margin`` scales the elements of the uncertainty set; False for an arm, whose
+        box has too many corners: its margin is its payload range in kg.
+    """
+
+    run: Literal["scara", "arm", "plant"]
+    element_margins: bool
+
+
+@dataclass(frozen=True)
+class PhysicalSet:
+    """The samples ``synthesize --set physical`` certifies a gain on.
+
+    Attributes
+    ----------
+    plants, check : (ndarray, ndarray)
+        ``(A, B)`` stacks the LMI is solved on, and the finer ones it is verified on.
+    nominal : UncertainLTVModel
+        The design-form model (structure and nominal of the gain).
+    description : str
+        How the summary names the set.
+    objective : str
+        The default objective on it.
+    """
+
+    plants: tuple[Any, Any]
+    check: tuple[Any, Any]
+    nominal: UncertainLTVModel | PolytopicModel
+    description: str
+    objective: str
+
+
+@dataclass(frozen=True)
+class LoadedSystem:
+    """The system of a command's arguments; subclasses hold the kind's behaviour.
+
+    Attributes
+    ----------
+    command : str
+        The command it was loaded for.
+    robot : str or None
+        ``--robot`` as given: the SCARA's data file, or the URDF robot file of an arm.
+    model_file : str or None
+        ``--model``.
+    scenario : str or None
+        ``--scenario``: a named initial condition or a scenario file.
+    scenario_kind : {'run', 'signals'}
+        What ``--scenario`` means for the command.
+    bounds_option : str or None
+        ``--bounds``.
+    capabilities : Capabilities
+        What the system can do (a class attribute of each kind).
+    """
+
+    command: str
+    robot: str | None
+    model_file: str | None
+    scenario: str | None
+    scenario_kind: str
+    bounds_option: str | None
+
+    capabilities: ClassVar[Capabilities]
+
+    @property
+    def file(self) -> str | None:
+        """The file that names the plant, as exports record it (None for the paper's SCARA)."""
+        raise NotImplementedError
+
+    @property
+    def bounds(self) -> str | None:
+        """The SCARA's interval model (``'paper'`` or ``'derived'``); None for a file's own plant."""
+        return None
+
+    @cached_property
+    def setup(self) -> Setup:
+        """The SCARA's robot and signals from ``--robot`` and ``--scenario`` (the paper's without them).
+
+        Raises
+        ------
+        CommandLineError
+            Naming the option and the file.
+        """
+        return _load_setup(self._setup_robot(), self.scenario, self.scenario_kind)
+
+    def _setup_robot(self) -> str | None:
+        return self.robot
+
+    @cached_property
+    def plant(self) -> Plant:
+        """The plant: physical parameters, or an uncertainty set a file gives directly.
+
+        Reads :attr:`setup` first, as every command has.
+
+        Raises
+        ------
+        CommandLineError
+            For a file that cannot be read, or options that do not go with this plant.
+        """
+        self.setup  # noqa: B018 - its files are checked before the plant's
+        return self._load_plant()
+
+    def _load_plant(self) -> Plant:
+        raise NotImplementedError
+
+    @cached_property
+    def model(self) -> UncertainLTVModel | PolytopicModel:
+        """The uncertainty set of :attr:`plant`: its interval hull, or the file's set."""
+        return as_model("model", self.plant)
+
+    @property
+    def physical(self) -> UncertainPlant | None:
+        """:attr:`plant` when it has physical parameters, else None (an interval box or polytope file)."""
+        return as_plant("model", self.plant)
+
+    def require_physical(self, message: str, plant: Any = None) -> UncertainPlant:
+        """The plant with physical parameters, or `message` as the error.
+
+        Parameters
+        ----------
+        message : str
+            The error for a file that describes only the uncertainty set.
+        plant : UncertainPlant, UncertainLTVModel or PolytopicModel, optional
+            The plant to check (default :attr:`plant`), e.g. with ranges replaced.
+
+        Returns
+        -------
+        UncertainPlant
+
+        Raises
+        ------
+        CommandLineError
+        """
+        physical = as_plant("model", self.plant if plant is None else plant)
+        if physical is None:
+            raise CommandLineError(message)
+        return physical
+
+    @property
+    def state_feedback(self) -> bool:
+        """True when the gain is a static state feedback u = −K x (a plant in the state or integral form)."""
+        physical = self.physical
+        return physical is not None and physical.form != "pid"
+
+    def plant_prefix(self, default: str) -> str:
+        """The C prefix of exported code: the plant's, or `default` for a set given directly.
+
+        Parameters
+        ----------
+        default : str
+
+        Returns
+        -------
+        str
+        """
+        physical = self.physical
+        return physical.prefix if physical is not None else default
+
+    def signal_names(self) -> dict[str, Any]:
+        """The plant's ``outputs`` and ``inputs`` (their names and units) for an export; empty for a set.
+
+        Returns
+        -------
+        dict
+        """
+        physical = self.physical
+        return {} if physical is None else {"outputs": physical.outputs, "inputs": physical.inputs}
+
+    def source(self, model: UncertainLTVModel | PolytopicModel, sep: str = ": ") -> str:
+        """How a header names the system: ``model: NAME`` or ``bounds: paper``.
+
+        Parameters
+        ----------
+        model : UncertainLTVModel or PolytopicModel
+            The set analysed (its name, after any ``--range``).
+        sep : str
+            Between the word and the name.
+
+        Returns
+        -------
+        str
+        """
+        return f"model{sep}{model.name}"
+
+    def title(self) -> str:
+        """The design page's title: the plant's name, or which SCARA."""
+        return self.model.name
+
+    def options(self, *names: str) -> list[tuple[str, str]]:
+        """The options among `names` (``'robot'``, ``'model'``, ``'bounds'``, ``'scenario'``) that were given.
+
+        Parameters
+        ----------
+        *names : str
+
+        Returns
+        -------
+        list of (str, str)
+            ``(--option, value)``, in the order of `names`.
+        """
+        given = {"robot": self.robot, "model": self.model_file, "bounds": self.bounds_option,
+                 "scenario": self.scenario}
+        return [(f"--{name}", str(given[name])) for name in names if given[name] is not None]
+
+    def argv(self, *names: str) -> list[str]:
+        """The options among `names` that were given, as a command line (for another command).
+
+        Parameters
+        ----------
+        *names : str
+
+        Returns
+        -------
+        list of str
+        """
+        return [token for pair in self.options(*names) for token in pair]
+
+    def robot_params(self, default: ScaraParams) -> ScaraParams:
+        """The SCARA's parameters of ``--robot``, or `default` without a robot file.
+
+        Parameters
+        ----------
+        default : ScaraParams
+
+        Returns
+        -------
+        ScaraParams
+        """
+        return self.setup.params if self._setup_robot() is not None else default
+
+    def robot_signals(self) -> dict[str, Any] | None:
+        """The SCARA's robot and signals (:meth:`Setup.signals`); None for a plant of a file."""
+        return None
+
+    def sampled(self) -> tuple[Any, Any, str]:
+        """The plants the sampled-data certificate runs on, a second set to verify on, and their name.
+
+        Returns
+        -------
+        plants, check : set or tuple (A, B)
+        name : str
+        """
+        raise NotImplementedError
+
+    def with_ranges(self, ranges: list[str] | None) -> Plant:
+        """:attr:`plant` with the ranges of ``--range NAME=LO:HI`` (a plant file with parameters only).
+
+        Parameters
+        ----------
+        ranges : list of str or None
+
+        Returns
+        -------
+        UncertainPlant, UncertainLTVModel or PolytopicModel
+            The plant, its ranges replaced.
+
+        Raises
+        ------
+        CommandLineError
+            For the SCARA, a set without parameters, or a bad range.
+        """
+        plant = self.plant
+        if not ranges:
+            return plant
+        physical = self._rangeable()
+        if physical is None:
+            raise CommandLineError("`--range` changes a parameter of a plant file with [parameters] (--model)")
+        parsed: dict[str, tuple[float, float]] = {}
+        for text in ranges:
+            name, _, bounds = text.partition("=")
+            lo_text, _, hi_text = bounds.partition(":")
+            try:
+                lo, hi = float(lo_text), float(hi_text)
+            except ValueError:
+                raise CommandLineError(f"`--range` must be NAME=LO:HI, found {text!r}") from None
+            if name not in physical.names:
+                raise CommandLineError(f"`--range` names {name!r}, which is not a parameter of {self.file!r} "
+                                       f"({', '.join(physical.names)})")
+            if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+                raise CommandLineError(f"`--range` {name} must have finite LO <= HI, found {lo:g}:{hi:g}")
+            parsed[name] = (lo, hi)
+        try:
+            return physical.with_ranges(parsed)
+        except ArgumentError as err:
+            raise CommandLineError(f"`--range` {err}") from err
+
+    def _rangeable(self) -> UncertainPlant | None:
+        return self.physical
+
+    def payload_margin(self, design: Design, tol: float) -> pd.DataFrame | None:
+        """The SCARA's payload margin (kg) over its own sampled set; None for a plant of a file.
+
+        Parameters
+        ----------
+        design : Design
+        tol : float
+
+        Returns
+        -------
+        pandas.DataFrame or None
+        """
+        return None
+
+    def unit_margin(self, plant: Any, design: Design, tol: float) -> pd.DataFrame | None:
+        """The margin in the plant's own units (a plant file with parameters), else None.
+
+        Parameters
+        ----------
+        plant : UncertainPlant, UncertainLTVModel or PolytopicModel
+            The plant analysed (after any ``--range``).
+        design : Design
+        tol : float
+
+        Returns
+        -------
+        pandas.DataFrame or None
+        """
+        return None
+
+    def synthesis_set(self, chosen: str | None) -> str:
+        """The set ``synthesize`` certifies: ``--set`` checked against this system, or its default.
+
+        Reads the files of :attr:`setup` first.
+
+        Parameters
+        ----------
+        chosen : {'physical', 'box'} or None
+
+        Returns
+        -------
+        {'physical', 'box'}
+
+        Raises
+        ------
+        CommandLineError
+            For a set this system does not have, or ``--bounds`` without the box.
+        """
+        raise NotImplementedError
+
+    def physical_set(self, grid: tuple[int, int], check_grid: tuple[int, int]) -> PhysicalSet:
+        """The samples of ``synthesize --set physical``.
+
+        Parameters
+        ----------
+        grid, check_grid : (int, int)
+            The SCARA's (times, payloads) of the LMI and of the check (an arm uses its file's).
+
+        Returns
+        -------
+        PhysicalSet
+        """
+        raise NotImplementedError
+
+    def arm(self) -> ArmSetup:
+        """The arm of a URDF robot file (its runs need the whole setup, not only the plant).
+
+        Returns
+        -------
+        ArmSetup
+
+        Raises
+        ------
+        CommandLineError
+            For a system that is no arm (never reached: commands ask only where
+            :attr:`Capabilities.run` is ``'arm'``).
+        """
+        raise CommandLineError("this command's robot is not a URDF arm")
+
+
+@dataclass(frozen=True)
+class ScaraSystem(LoadedSystem):
+    """The built-in SCARA: the paper's robot or a ``--robot`` data file, with ``--scenario`` and ``--bounds``."""
+
+    capabilities: ClassVar[Capabilities] = Capabilities(run="scara", element_margins=True)
+
+    @property
+    def file(self) -> str | None:
+        """The robot file (None for the paper's robot)."""
+        return self.robot
+
+    @property
+    def bounds(self) -> str:
+        """``--bounds``, or its default: ``'derived'`` with a robot file, else ``'paper'``.
+
+        A scenario file never changes the default: the bounds belong to the robot.
+        """
+        return self.bounds_option or ("derived" if self.robot is not None else "paper")
+
+    def _load_plant(self) -> Plant:
+        if self.bounds == "paper":
+            if self.setup.robot_file:
+                raise CommandLineError("`--bounds paper` holds only for the paper's robot (Tables 1-2); with --robot "
+                                       "use --bounds derived")
+            return scara_uncertain_plant(bounds="paper")
+        setup = self.setup
+        return scara_uncertain_plant(setup.params, setup.reference, setup.payload, bounds="derived")
+
+    def source(self, model: UncertainLTVModel | PolytopicModel, sep: str = ": ") -> str:
+        """``bounds: paper`` or ``bounds: derived`` (see :meth:`LoadedSystem.source`)."""
+        return f"bounds{sep}{self.bounds}"
+
+    def title(self) -> str:
+        """``SCARA of 'FILE'`` or ``the paper's SCARA``."""
+        return f"SCARA of {self.robot!r}" if self.robot is not None else "the paper's SCARA"
+
+    def robot_signals(self) -> dict[str, Any] | None:
+        """:meth:`Setup.signals` of :attr:`setup`."""
+        return self.setup.signals()
+
+    def _rangeable(self) -> UncertainPlant | None:
+        return None
+
+    def sampled(self) -> tuple[Any, Any, str]:
+        """The robot's error dynamics along the reference, payload over its range (see :meth:`LoadedSystem.sampled`)."""
+        physical = self.physical
+        assert physical is not None
+        coarse = physical.samples({"t_ref": CERTIFICATE_GRID[0], "m_p": CERTIFICATE_GRID[1]})
+        fine = physical.samples({"t_ref": CERTIFICATE_CHECK_GRID[0], "m_p": CERTIFICATE_CHECK_GRID[1]})
+        robot = f"the robot of {self.robot!r}" if self.robot is not None else "the paper's robot"
+        return (coarse.A, coarse.B), (fine.A, fine.B), (
+            f"{robot}: its error dynamics linearized along the reference at e = 0, payload over its range "
+            f"({CERTIFICATE_GRID[0]} x {CERTIFICATE_GRID[1]} samples, verified on "
+            f"{CERTIFICATE_CHECK_GRID[0]} x {CERTIFICATE_CHECK_GRID[1]})")
+
+    def payload_margin(self, design: Design, tol: float) -> pd.DataFrame | None:
+        """:func:`scara_robust.payload_margin` on the robot and reference of :attr:`setup`."""
+        return payload_margin(design, self.setup.params, self.setup.reference, tol=tol)
+
+    def synthesis_set(self, chosen: str | None) -> str:
+        """``--set``, or ``'box'`` with ``--bounds`` and ``'physical'`` without (:meth:`LoadedSystem.synthesis_set`)."""
+        self.setup  # noqa: B018 - its files are checked first
+        if chosen == "physical" and self.bounds_option is not None:
+            raise CommandLineError("`--bounds` chooses an interval model; it goes with --set box")
+        return chosen or ("box" if self.bounds_option is not None else "physical")
+
+    def physical_set(self, grid: tuple[int, int], check_grid: tuple[int, int]) -> PhysicalSet:
+        """The robot's linearizations along the reference for every payload (see :meth:`LoadedSystem.physical_set`)."""
+        nominal = self.model
+        setup = self.setup
+        samples = physical_samples(setup.params, setup.reference, setup.payload,
+                                   times=np.linspace(0, 2 * np.pi, grid[0]), n_masses=grid[1])
+        check = physical_samples(setup.params, setup.reference, setup.payload,
+                                 times=np.linspace(0, 2 * np.pi, check_grid[0]), n_masses=check_grid[1])
+        return PhysicalSet((samples.A, samples.B), (check.A, check.B), nominal,
+                           f"the robot's physical set, {grid[0]} times x {grid[1]} payloads (checked on "
+                           f"{check_grid[0]} x {check_grid[1]})", "l2")
+
+
+@dataclass(frozen=True)
+class PlantFileSystem(LoadedSystem):
+    """A plant file of ``--model``: physical parameters, an interval box or a polytope."""
+
+    capabilities: ClassVar[Capabilities] = Capabilities(run="plant", element_margins=True)
+
+    @property
+    def file(self) -> str | None:
+        """The plant file."""
+        return self.model_file
+
+    def _load_plant(self) -> Plant:
+        robot_options = [option for option, _ in self.options("robot", "bounds", "scenario")]
+        if robot_options:
+            raise CommandLineError(
+                f"`--model` is your own plant; {', '.join(robot_options)} describe the SCARA and cannot go with it"
+            )
+        assert self.model_file is not None
+        return _load_file("--model", self.model_file, load_model)
+
+    def sampled(self) -> tuple[Any, Any, str]:
+        """A plant's parameter grid, a box's corners or a polytope's vertices (see :meth:`LoadedSystem.sampled`)."""
+        physical, model = self.physical, self.model
+        model_any: Any = model  # a box or a polytope, told apart by its kind
+        if physical is not None:
+            on, fine = physical.samples(), physical.samples(physical.fine_points())
+            return (on.A, on.B), (fine.A, fine.B), (
+                f"the plant of {self.model_file!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
+                f"{fine.n_samples})")
+        if model.kind == "box":
+            grid = interior_grid(model_any)
+            return model, grid, (f"the {2 ** model_any.n_elements} corners of the box of {self.model_file!r} "
+                                 f"(verified on a {len(grid[0])}-plant grid of the box)")
+        return model, None, f"the {model_any.n_vertices} vertices of the polytope of {self.model_file!r}"
+
+    def unit_margin(self, plant: Any, design: Design, tol: float) -> pd.DataFrame | None:
+        """:func:`scara_robust.parameter_margin` of a plant with parameters (see :meth:`LoadedSystem.unit_margin`)."""
+        physical = as_plant("model", plant)
+        return None if physical is None else parameter_margin(physical, design, tol=tol)
+
+    def synthesis_set(self, chosen: str | None) -> str:
+        """``--set box`` only (see :meth:`LoadedSystem.synthesis_set`)."""
+        self.setup  # noqa: B018 - its files are checked first
+        if chosen == "physical":
+            raise CommandLineError("`--set physical` is the SCARA's own variation; with --model use --set box")
+        return "box"
+
+
+@dataclass(frozen=True)
+class ArmSystem(LoadedSystem):
+    """An arm of a robot file naming a URDF (``--robot F``), through its linearized error dynamics."""
+
+    capabilities: ClassVar[Capabilities] = Capabilities(run="arm", element_margins=False)
+
+    @property
+    def file(self) -> str | None:
+        """The robot file naming the URDF."""
+        return self.robot
+
+    def _setup_robot(self) -> str | None:
+        return None  # the robot file is the arm's, not the SCARA's data
+
+    def _load_plant(self) -> Plant:
+        assert self.robot is not None
+        return _load_file("--robot", self.robot, load_model)
+
+    def sampled(self) -> tuple[Any, Any, str]:
+        """The arm's own grids: the LMI's coarse one, verified on the file's (see :meth:`LoadedSystem.sampled`)."""
+        physical = self.physical
+        assert physical is not None
+        on, fine = physical.samples(physical.coarse_points()), physical.samples()
+        return (on.A, on.B), (fine.A, fine.B), (
+            f"the arm of {self.robot!r}: its error dynamics linearized along the reference at e = 0, payload over its "
+            f"range ({on.n_samples} samples, verified on {fine.n_samples})")
+
+    def synthesis_set(self, chosen: str | None) -> str:
+        """``--set box``, else the arm's own samples (its box has too many corners for an LMI over them)."""
+        self.setup  # noqa: B018 - its files are checked first
+        return "box" if chosen == "box" else "physical"
+
+    def physical_set(self, grid: tuple[int, int], check_grid: tuple[int, int]) -> PhysicalSet:
+        """The arm's samples on its file's grids (see :meth:`LoadedSystem.physical_set`)."""
+        plant = self.physical
+        assert plant is not None
+        on, check_on = plant.samples(plant.coarse_points()), plant.samples()
+        return PhysicalSet((on.A, on.B), (check_on.A, check_on.B), as_model("model", plant),
+                           f"the arm of {self.robot!r} on its samples, {on.n_samples} (checked on "
+                           f"{check_on.n_samples})", "decay")
+
+    def arm(self) -> ArmSetup:
+        """The arm, its payload range, reference and feedforward (:func:`scara_robust.load_arm`)."""
+        assert self.robot is not None
+        return _load_file("--robot", self.robot, load_arm)
+
+
+def _load_setup(robot: str | None, scenario: str | None, scenario_kind: str) -> Setup:
+    """Load the files named by ``--robot`` and ``--scenario``."""
+    params = ScaraParams()
+    if robot is not None:
+        params = _load_file("--robot", robot, load_robot)
+    reference = payload = disturbance = None
+    initial: Scenario | None = None
+    if scenario is not None and scenario in SCENARIOS:
+        if scenario_kind != "run":
+            raise CommandLineError(
+                f"`--scenario` takes a scenario file here (its reference and payload); an initial condition "
+                f"such as {scenario!r} means nothing for this command"
+            )
+        initial = SCENARIOS[scenario]
+    elif scenario is not None:
+        if not scenario.lower().endswith((".toml", ".json")):
+            named = ", ".join(repr(n) for n in SCENARIOS)
+            raise CommandLineError(f"`--scenario` must be {named} or a .toml/.json scenario file, found {scenario!r}")
+        scen = _load_file("--scenario", scenario, load_scenario)
+        reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
+    return Setup(params, reference, payload, disturbance, initial, robot is not None)
+
+
+def _check_arm(args: argparse.Namespace, robot: str) -> None:
+    """Refuse what cannot go with a URDF robot: a command without arms, ``--model``, the SCARA's options."""
+    if args.command not in ARM_COMMANDS:
+        raise CommandLineError(f"`--robot` {robot!r} names a URDF; `{args.command}` runs on the built-in SCARA only "
+                               f"(a URDF robot goes with {', '.join(ARM_COMMANDS)})")
+    if getattr(args, "model", None) is not None:
+        raise CommandLineError("`--robot` and `--model` each name the plant; give one")
+    for option in ("bounds", "scenario"):
+        if getattr(args, option, None) is not None:
+            raise CommandLineError(f"`--{option}` describes the built-in SCARA; a URDF robot's reference, payload "
+                                   f"and linearization are in its file {robot!r}")
+
+
+def _kind(args: argparse.Namespace) -> str:
+    """Which system the arguments name: ``'arm'``, ``'plant'`` or ``'scara'``."""
+    robot = getattr(args, "robot", None)
+    if robot is not None and is_arm_file(robot):
+        _check_arm(args, robot)
+        return "arm"
+    return "plant" if getattr(args, "model", None) is not None else "scara"
+
+
+#: The kind of each system; :func:`load_system` chooses one from the arguments.
+_KINDS: dict[str, Callable[..., LoadedSystem]] = {"scara": ScaraSystem, "plant": PlantFileSystem, "arm": ArmSystem}
+
+
+def load_system(args: argparse.Namespace) -> LoadedSystem:
+    """The system a command runs on, from its arguments (``--robot``, ``--model``, ``--scenario``, ``--bounds``).
+
+    Only the kind is decided here (a robot file naming a URDF is read to tell); the files
+    are read when the command first asks for them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments (not modified).
+
+    Returns
+    -------
+    LoadedSystem
+
+    Raises
+    ------
+    CommandLineError
+        For a URDF robot on a command that does not take arms, or with ``--model``,
+        ``--bounds`` or ``--scenario``.
+    """
+    kind = _kind(args)
+    return _KINDS[kind](
+        command=args.command,
+        robot=getattr(args, "robot", None),
+        model_file=getattr(args, "model", None),
+        scenario=getattr(args, "scenario", None),
+        scenario_kind=getattr(args, "scenario_kind", "run"),
+        bounds_option=getattr(args, "bounds", None),
+    )
+
+
+def physical_plant_of(args: argparse.Namespace) -> UncertainPlant | None:
+    """The plant with physical parameters of `args` (None for an interval or polytope file).
+
+    Module-level, so that ``partial(physical_plant_of, args)`` goes to a worker process.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Returns
+    -------
+    UncertainPlant or None
+    """
+    return load_system(args).physical
+
+
+def plant_source(args: argparse.Namespace, system: LoadedSystem) -> Callable[[], Any] | None:
+    """A picklable callable that rebuilds `system`'s physical plant (None without one).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    system : LoadedSystem
+        Loaded from `args`.
+
+    Returns
+    -------
+    callable or None
+    """
+    return None if system.physical is None else partial(physical_plant_of, argparse.Namespace(**vars(args)))

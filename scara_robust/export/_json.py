@@ -1,0 +1,111 @@
+"""The JSON target (``'json'``): ``<prefix>.json``, every gain, limit and matrix of the controller.
+
+Private: the names of ``__all__`` are re-exported by :mod:`scara_robust.export`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .._validation import check_choice, check_instance
+from ..controller.discrete import DiscretePID
+from ..controller.state_feedback import SampledStateFeedback
+from ..model.plant import Signal
+from ._common import PRECISIONS, _per_second, _signals, _unit
+from .registry import ExportTarget, register_target
+
+__all__ = ["controller_record"]
+
+
+def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = None,
+                      inputs: Sequence[Signal] | None = None, **metadata: Any) -> dict[str, Any]:
+    """Every gain, limit and matrix of the controller, as JSON-ready data.
+
+    Parameters
+    ----------
+    pid : DiscretePID
+    outputs : sequence of Signal, optional
+        The controlled outputs, one per error (default the SCARA's joint angles, rad).
+    inputs : sequence of Signal, optional
+        The plant inputs the controller drives (default the SCARA's torques, N·m).
+    **metadata
+        Extra keys to record (e.g. ``rho``, ``eta``, the model's name).
+
+    Returns
+    -------
+    dict
+        ``Ts`` (s), ``integrator``, ``derivative``, ``N`` (1/s), ``K_I``, ``K_P``, ``K_D``
+        (m × p lists), ``torque_limit`` (the inputs' units, or None), ``tracking_time`` (s),
+        ``anti_windup``, and the linear part ``A, B, C, D`` with the state and input
+        names, plus ``signals`` (names and units), ``units`` and the `metadata`.
+    """
+    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    outs, ins = _signals(pid, outputs, inputs)
+    e_unit, u_unit = _unit([s.unit for s in outs]), _unit([s.unit for s in ins])
+    eu = e_unit if isinstance(e_unit, str) else "/".join(e_unit)
+    uu = u_unit if isinstance(u_unit, str) else "/".join(u_unit)
+    A, B, C, D = pid.matrices()
+    ss = pid.to_statespace()
+    record: dict[str, Any] = {
+        "kind": "scara_robust discrete PID",
+        "law": "v = C z + D [e, edot]; u = clip(v, -torque_limit, torque_limit); "
+        "z+ = A z + B [e, edot] + (Ts / tracking_time) (u - v) on the first n_torques states",
+        "Ts": pid.Ts,
+        "n_joints": pid.n_joints,
+        "n_torques": pid.n_torques,
+        "integrator": pid.integrator,
+        "derivative": pid.derivative,
+        "N": pid.N,
+        "K_I": pid.K_I.tolist(),
+        "K_P": pid.K_P.tolist(),
+        "K_D": pid.K_D.tolist(),
+        "torque_limit": None if pid.torque_limit is None else np.asarray(pid.torque_limit).tolist(),
+        "tracking_time": None if pid.tracking_time is None else np.asarray(pid.tracking_time).tolist(),
+        "anti_windup": bool(pid.anti_windup),
+        "A": A.tolist(),
+        "B": B.tolist(),
+        "C": C.tolist(),
+        "D": D.tolist(),
+        "states": list(ss.state_labels),
+        "inputs": list(ss.input_labels),
+        "outputs": list(ss.output_labels),
+        "signals": {"outputs": [{"name": s.name, "unit": s.unit} for s in outs],
+                    "inputs": [{"name": s.name, "unit": s.unit} for s in ins]},
+        "units": {"e": e_unit, "edot": _unit([_per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",
+                  "tracking_time": "s", "N": "1/s", "K_I": f"{uu}/({eu}·s)", "K_P": f"{uu}/{eu}",
+                  "K_D": f"{uu}·s/{eu}", "z": u_unit},
+    }
+    record.update(metadata)
+    return record
+
+
+def _json_file(
+    controller: DiscretePID | SampledStateFeedback,
+    *,
+    prefix: str,
+    notes: Sequence[str],
+    metadata: Mapping[str, Any] | None,
+    outputs: Sequence[Signal] | None,
+    inputs: Sequence[Signal] | None,
+    precision: str,
+) -> str:
+    """``write`` of the JSON target: the text of ``<prefix>.json`` (the record, indented by 2)."""
+    check_choice("precision", precision, PRECISIONS)
+    if isinstance(controller, SampledStateFeedback):
+        record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": controller.Ts,
+                  "K": controller.K.tolist(), "precision": precision, **(metadata or {}),
+                  **({"notes": list(notes)} if notes else {})}
+    else:
+        record = controller_record(controller, outputs=outputs, inputs=inputs, **(metadata or {}),
+                                   **({"notes": list(notes)} if notes else {}))
+    return json.dumps(record, indent=2) + "\n"
+
+
+register_target(ExportTarget(
+    "json", ".json", "<prefix>.json: every gain, limit and matrix of the controller (controller_record), with the "
+    "metadata and notes", _json_file,
+))
