@@ -501,7 +501,7 @@ def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
     return ScenarioFile(name, payload, reference, disturbance, initial)
 
 
-def _umask() -> int:
+def current_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -536,7 +536,7 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
     try:
         write(tmp)
         # mkstemp creates 0600; give the file the mode a plain open() would (0644 under umask 022)
-        os.chmod(tmp, 0o666 & ~_umask())
+        os.chmod(tmp, 0o666 & ~current_umask())
         os.replace(tmp, text_path)
     except BaseException:
         if os.path.exists(tmp):

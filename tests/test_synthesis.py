@@ -244,7 +244,7 @@ def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_object
     synthesis guide states (GAMMA_RTOL) of the shipped one.
     """
     from scara_robust.cli._synthesize import CHECK_GRID, PHYSICAL_GRID
-    from scara_robust.robustness.l2gain import _bounded_real_ok
+    from scara_robust.robustness.l2gain import bounded_real_ok
 
     shipped = sr.load_design(Path(sr.__file__).parent / PID_LMI_FILE)
     assert np.array_equal(shipped.K, sr.pid_lmi_gain())
@@ -256,7 +256,7 @@ def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_object
     for samples, recorded in ((coarse, shipped.info["verified_decay"]), (fine, shipped.info["check_decay"])):
         loops = samples.A - samples.B @ K
         assert sr.decay_rate(loops, P) == pytest.approx(recorded, rel=1e-9)
-        assert _bounded_real_ok(loops, samples.B, C, gamma * P, gamma * (1 + 1e-9))
+        assert bounded_real_ok(loops, samples.B, C, gamma * P, gamma * (1 + 1e-9))
     assert shipped.info["verified_decay"] >= L2_DECAY * (1 - 1e-6)
     again = sr.synthesize((coarse.A, coarse.B), objective="l2", check=(fine.A, fine.B))
     assert again.certified and again.verified_decay >= L2_DECAY * (1 - 1e-6) and again.check_decay > 0

@@ -43,7 +43,7 @@ from ..controller.discrete import DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
 from ..model.plant import Signal
-from ._common import DEFAULT_PREFIX, PRECISIONS, _check_prefix, _per_second, _signals, _unit
+from ._common import DEFAULT_PREFIX, PRECISIONS, check_prefix, per_second, signal_names, unit_of
 from .registry import ExportTarget, register_target
 
 __all__ = ["c_source", "single_precision_step"]
@@ -93,9 +93,9 @@ def c_source(
         Contents of ``<prefix>.h`` and ``<prefix>.c``.
     """
     check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
-    prefix = _check_prefix(prefix)
+    prefix = check_prefix(prefix)
     check_choice("precision", precision, PRECISIONS)
-    outs, ins = _signals(pid, outputs, inputs)
+    outs, ins = signal_names(pid, outputs, inputs)
     T = "float" if precision == "single" else "double"
 
     def num(x: float) -> str:
@@ -108,7 +108,7 @@ def c_source(
     limited = pid.torque_limit is not None
     windup = limited and pid.anti_windup
     guard = f"{up}_H"
-    u_units = _unit([s.unit for s in ins])
+    u_units = unit_of([s.unit for s in ins])
     limit_unit = u_units if isinstance(u_units, str) else "/".join(u_units)
     settings = (
         f"Ts = {_num(pid.Ts)} s, integrator {pid.integrator}, derivative {pid.derivative}"
@@ -120,7 +120,7 @@ def c_source(
     )
     noted = "".join(f" * {line.replace('*/', '* /')}\n" for note in notes for line in note.splitlines())
     errors = ", ".join(f"{s.name} [{s.unit}]" for s in outs)
-    rates = ", ".join(f"d{s.name}/dt [{_per_second(s.unit)}]" for s in outs)
+    rates = ", ".join(f"d{s.name}/dt [{per_second(s.unit)}]" for s in outs)
     driven = ", ".join(f"{s.name} [{s.unit}]" for s in ins)
     header = f"""/* {prefix}.h: discrete-time PID exported by scara_robust.
 {noted} * {settings}.

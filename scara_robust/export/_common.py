@@ -27,7 +27,7 @@ _C_KEYWORDS = frozenset(
 )
 
 
-def _check_prefix(prefix: str) -> str:
+def check_prefix(prefix: str) -> str:
     if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,31}", prefix):
         raise ArgumentValueError(
             "prefix", f"must be a C identifier (a letter, then letters, digits or _, at most 32), found {prefix!r}"
@@ -37,7 +37,7 @@ def _check_prefix(prefix: str) -> str:
     return prefix
 
 
-def _signals(pid: DiscretePID, outputs: Sequence[Signal] | None,
+def signal_names(pid: DiscretePID, outputs: Sequence[Signal] | None,
              inputs: Sequence[Signal] | None) -> tuple[tuple[Signal, ...], tuple[Signal, ...]]:
     outs = tuple(outputs) if outputs else tuple(Signal(f"q{i + 1}", "rad") for i in range(pid.n_joints))
     ins = tuple(inputs) if inputs else tuple(Signal(f"T{i + 1}", "N·m") for i in range(pid.n_torques))
@@ -50,9 +50,9 @@ def _signals(pid: DiscretePID, outputs: Sequence[Signal] | None,
     return outs, ins
 
 
-def _unit(units: Sequence[str]) -> str | list[str]:
+def unit_of(units: Sequence[str]) -> str | list[str]:
     return units[0] if len(set(units)) == 1 else list(units)
 
 
-def _per_second(unit: str) -> str:
+def per_second(unit: str) -> str:
     return "1/s" if unit == "1" else f"{unit}/s"

@@ -15,7 +15,7 @@ from .._validation import check_choice, check_instance
 from ..controller.discrete import DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
 from ..model.plant import Signal
-from ._common import PRECISIONS, _per_second, _signals, _unit
+from ._common import PRECISIONS, per_second, signal_names, unit_of
 from .registry import ExportTarget, register_target
 
 __all__ = ["controller_record"]
@@ -44,8 +44,8 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         names, plus ``signals`` (names and units), ``units`` and the `metadata`.
     """
     check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
-    outs, ins = _signals(pid, outputs, inputs)
-    e_unit, u_unit = _unit([s.unit for s in outs]), _unit([s.unit for s in ins])
+    outs, ins = signal_names(pid, outputs, inputs)
+    e_unit, u_unit = unit_of([s.unit for s in outs]), unit_of([s.unit for s in ins])
     eu = e_unit if isinstance(e_unit, str) else "/".join(e_unit)
     uu = u_unit if isinstance(u_unit, str) else "/".join(u_unit)
     A, B, C, D = pid.matrices()
@@ -75,7 +75,7 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         "outputs": list(ss.output_labels),
         "signals": {"outputs": [{"name": s.name, "unit": s.unit} for s in outs],
                     "inputs": [{"name": s.name, "unit": s.unit} for s in ins]},
-        "units": {"e": e_unit, "edot": _unit([_per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",
+        "units": {"e": e_unit, "edot": unit_of([per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",
                   "tracking_time": "s", "N": "1/s", "K_I": f"{uu}/({eu}·s)", "K_P": f"{uu}/{eu}",
                   "K_D": f"{uu}·s/{eu}", "z": u_unit},
     }

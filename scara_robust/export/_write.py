@@ -14,9 +14,9 @@ from typing import Any
 from .._validation import check_choice, check_instance
 from ..controller.discrete import DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
-from ..io import _umask
+from ..io import current_umask
 from ..model.plant import Signal
-from ._common import DEFAULT_PREFIX, _check_prefix
+from ._common import DEFAULT_PREFIX, check_prefix
 from .registry import export_targets, get_target
 
 __all__ = ["EXPORT_FORMATS", "export_controller"]
@@ -91,7 +91,7 @@ def export_controller(
                    "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("format", format, export_targets())
     kind = get_target(format)
-    prefix = _check_prefix(prefix)
+    prefix = check_prefix(prefix)
     target = Path(folder)
     if not target.is_dir():
         raise NotADirectoryError(20, "not an existing folder", str(target))
@@ -104,7 +104,7 @@ def export_controller(
             temps.append(tmp)
             with os.fdopen(fd, "w", encoding="utf-8") as fh:
                 fh.write(text)
-            os.chmod(tmp, 0o666 & ~_umask())
+            os.chmod(tmp, 0o666 & ~current_umask())
         for tmp, name in zip(temps, contents):
             os.replace(tmp, target / name)
     except BaseException:

@@ -26,7 +26,7 @@ from ..controller.discrete import DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.plant import Signal
-from ._common import DEFAULT_PREFIX, _check_prefix
+from ._common import DEFAULT_PREFIX, check_prefix
 
 __all__ = ["ExportTarget", "register_target", "unregister_target", "export_targets", "get_target"]
 
@@ -127,7 +127,7 @@ class ExportTarget:
         ArgumentTypeError
             If `write` returns something other than a str or a mapping of suffix to str.
         """
-        prefix = _check_prefix(prefix)
+        prefix = check_prefix(prefix)
         written = self.write(controller, prefix=prefix, notes=notes, metadata=metadata, outputs=outputs,
                              inputs=inputs, precision=precision)
         if isinstance(written, str):

@@ -89,7 +89,7 @@ class L2Gain(AnalysisResult):
 L2_INFLATION = 1e-3
 
 
-def _bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float, D: Array | None = None) -> bool:
+def bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float, D: Array | None = None) -> bool:
     """numpy's check of the bounded-real inequality at every closed loop (feedthrough D, default 0)."""
     q = Bw.shape[-1]
     D = np.zeros((C.shape[0], q)) if D is None else D
@@ -202,7 +202,7 @@ def l2_gain(
         pass
     if P.value is not None and second.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         P_val = 0.5 * (np.array(P.value) + np.array(P.value).T)
-        if _bounded_real_ok(A, Bw, C, P_val, bound, D):
+        if bounded_real_ok(A, Bw, C, P_val, bound, D):
             return L2Gain(bound, lower, worst, str(problem.status), P_val, time.perf_counter() - start, L2_INFLATION)
     return L2Gain(math.inf, lower, worst, "not verified", None, time.perf_counter() - start)
 

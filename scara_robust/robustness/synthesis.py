@@ -33,7 +33,7 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_model, is_model
 from ..results import AnalysisResult
-from .l2gain import _bounded_real_ok
+from .l2gain import bounded_real_ok
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 from .search import bisect
 
@@ -341,7 +341,7 @@ def _verified_gamma(A_cl: Array, Bw: Array, C: Array, P: Array, gamma: float) ->
     complement by γ), so that is the matrix checked.
     """
     for factor in (1 + 1e-6, 1 + 1e-3, 1.01):
-        if _bounded_real_ok(A_cl, Bw, C, gamma * P, gamma * factor):
+        if bounded_real_ok(A_cl, Bw, C, gamma * P, gamma * factor):
             return gamma * factor
     return math.inf
 
