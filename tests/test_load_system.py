@@ -40,7 +40,7 @@ def test_the_paper_scara():
     assert isinstance(system, ScaraSystem)
     assert isinstance(system.plant, UncertainPlant)
     assert system.physical is system.plant
-    assert system.model.kind == "box"
+    assert system.model.kind == "box" and system.interval_elements
     assert system.bounds == "paper"
     assert system.source(system.model) == "bounds: paper"
     assert system.source(system.model, sep=" ") == "bounds paper"
@@ -105,7 +105,7 @@ def test_a_polytope_file():
     assert isinstance(system, PlantFileSystem)
     assert isinstance(system.plant, PolytopicModel)
     assert system.physical is None
-    assert system.model.kind == "polytope"
+    assert system.model.kind == "polytope" and not system.interval_elements
     assert system.plant_prefix("scara_pid") == "scara_pid"
     assert system.signal_names() == {}
     assert system.sampled()[2].startswith("the ")

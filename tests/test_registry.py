@@ -248,3 +248,31 @@ def test_sample_times_are_ts_and_the_old_name_warns():
         old = sr.simulate("pid-sampled", "small", sample_time=sr.CONTROLLERS["pid-sampled"].Ts, t_final=0.2)
     new = sr.simulate("pid-sampled", "small", Ts=sr.CONTROLLERS["pid-sampled"].Ts, t_final=0.2)
     assert np.array_equal(old.e, new.e)
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [(["margin", "--method", "vertexx"], "argument --method: must be one of 'theorem1', 'vertex'"),
+     (["certify", "--methods", "theorem1-all,lmi-boxx"], "argument --methods: must be one of 'theorem1-all'")],
+    ids=["margin", "certify"],
+)
+def test_an_unknown_method_on_the_command_line_is_one_line_and_exit_2(capsys, argv, expected):
+    from scara_robust.cli import main
+
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and expected in lines[0] and "did you mean" in lines[0]
+
+
+def test_the_command_line_runs_a_method_registered_by_a_script(capsys, own_method):
+    from scara_robust.cli import main
+
+    argv = ["certify", "--model", "examples/plant-dc-motor.toml", "--rho", "1", "--eta", "2",
+            "--methods", "theorem1-all,nominal,l2-rate-bounded"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "real part [1/s]" in out and "l2_gain [z/w]" in out
+    assert "nominal: nominal loop, largest real part" in out
+    assert "|dJ/dt| <= 0.0004 kg·m²/s" in out

@@ -76,7 +76,7 @@ def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) ->
 
     system = load_system(args) if system is None else system
     model = system.model
-    if model.kind != "box":
+    if not system.interval_elements:
         raise CommandLineError(f"`--model` {system.file!r} is a polytope; the map of Theorem 1 needs an interval "
                                "model (elements with ranges, or physical parameters)")
     physical = system.require_physical(f"`--model` {system.file!r} has no physical parameters to simulate; the page "

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
-from ._common import CommandLineError, add_setup_options, finite_float, resolve_gain
+from ._common import CommandLineError, add_setup_options, finite_float, method_names, resolve_gain
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -30,6 +30,9 @@ def add_parser(sub: Any) -> None:
                    help="certify your own gain instead: a design file with `K` on the plant's design form (and "
                    "optionally `P`; without it, P solves the nominal loop's Lyapunov equation)")
     add_setup_options(p, scenario="signals", model=True)
+    p.add_argument("--methods", type=method_names("certificate", "--methods", many=True), metavar="NAME[,NAME...]",
+                   help="the rows to run, by registered name (default: every default row; e.g. 'l2-rate-bounded', "
+                   "the worst-case L2 gain for a rate-bounded parameter, runs only when named)")
     p.add_argument("--tries", type=int, default=30, help="falsifier trajectories per set (default 30)")
     p.add_argument("--seed", type=int, default=0, help="falsifier seed")
     p.add_argument("--max-ts", action="store_true",
@@ -65,7 +68,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     model = system.model
     d, label = resolve_gain(args, model)
-    table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed)
+    table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,
+                              methods=args.methods)
     limit = None
     if args.max_ts:
         plants, check, set_name = system.sampled()

@@ -15,12 +15,13 @@ from typing import Any, NoReturn, TypeVar
 
 import numpy as np
 
-from ..exceptions import ArgumentError, InputFileError
+from ..exceptions import ArgumentError, ArgumentValueError, InputFileError
 from ..io import DesignFile, load_design, write_atomic
 from ..lyapunov.gain import Design, design
 from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.registry import get_method
 
 __all__ = [
     "BOUNDS",
@@ -34,6 +35,8 @@ __all__ = [
     "write_text",
     "OUTPUT_OPTIONS",
     "finite_float",
+    "load_file",
+    "method_names",
     "per_joint_values",
     "parse_range",
     "add_range_option",
@@ -186,6 +189,40 @@ def finite_float(text: str) -> float:
     if not np.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, found {text!r}")
     return value
+
+
+def method_names(family: str, option: str, *, many: bool = False) -> Callable[[str], tuple[str, ...]]:
+    """An option's text as registered method names of `family` (comma-separated when `many`).
+
+    The registry is read when the option is parsed, so a method a script registered before
+    calling :func:`scara_robust.cli.main` is accepted.
+
+    Parameters
+    ----------
+    family : str
+        A key of :data:`scara_robust.METHOD_FAMILIES`.
+    option : str
+        The option, for the error (``'--methods'``).
+    many : bool
+        Accept several names separated by commas.
+
+    Returns
+    -------
+    callable ``parse(text) -> tuple of str``
+        Raises ``argparse.ArgumentTypeError`` naming the registered methods and the closest
+        to an unknown name.
+    """
+
+    def parse(text: str) -> tuple[str, ...]:
+        names = tuple(n.strip() for n in text.split(",")) if many else (text,)
+        for name in names:
+            try:
+                get_method(family, name, argument=option)
+            except ArgumentValueError as err:
+                raise argparse.ArgumentTypeError(err.problem) from None
+        return names
+
+    return parse
 
 
 def per_joint_values(text: str) -> list[float]:
@@ -376,7 +413,7 @@ def add_setup_options(
         )
 
 
-def _load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loaded:
+def load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loaded:
     """``load(path)``, with the option named in any error."""
     try:
         return load(path)
@@ -430,7 +467,7 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
     path = getattr(args, "design", None)
     if path is None:
         return None
-    loaded = _load_file("--design", path, load_design)
+    loaded = load_file("--design", path, load_design)
     if loaded.K.shape != shape:
         raise CommandLineError(f"`--design` {path!r}: field `K` must have shape {shape} for {what}, found "
                                f"{loaded.K.shape}")

@@ -12,16 +12,16 @@ import numpy as np
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
 from ..export import DEFAULT_PREFIX, PRECISIONS, export_controller, export_targets
-from ..export._common import _check_prefix
+from ..export._common import check_prefix
 from ..io import load_design
 from ..lyapunov.gain import design
 from ..robustness.sampled import check_sample_time
 from ._common import (
     CommandLineError,
-    _load_file,
     add_setup_options,
     check_gain_options,
     finite_float,
+    load_file,
     per_joint_values,
     resolve_gain,
 )
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """
     _check_folder(args.folder)  # before any computation
     if args.prefix is not None:
-        _check_prefix(args.prefix)
+        check_prefix(args.prefix)
     check_gain_options(args)
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)
@@ -141,7 +141,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                                 {"rho": d.rho, "eta": d.eta})
         meta["model"] = model.name
     elif args.design is not None:
-        loaded = _load_file("--design", args.design, load_design)
+        loaded = load_file("--design", args.design, load_design)
         m, n = loaded.K.shape
         if n != model.n_states or n != 3 * m:
             raise CommandLineError(

@@ -13,9 +13,10 @@ import pandas as pd
 from ..lyapunov.gain import Design
 from ..model.plant import UncertainPlant, as_model
 from ..model.uncertain import ANCHORS
-from ..robustness.margins import MARGIN_METHODS, MARGIN_TOL, margin_table, robustness_margin
+from ..robustness.margins import MARGIN_TOL, margin_table, robustness_margin
 from ..robustness.parameters import parameter_margin, rate_bracket
-from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, resolve_gain
+from ..robustness.registry import analysis_methods, get_method
+from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, method_names, resolve_gain
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -44,8 +45,9 @@ def add_parser(sub: Any) -> None:
                    help="what theta scales the set about: the design plant at the lower corner, [theta*lower, "
                    "theta*upper] (the paper's convention, default), or the set's centre; with 'lower' the "
                    "centre-scaled vertex and frozen bounds are printed beside")
-    p.add_argument("--method", choices=("all", *MARGIN_METHODS), default="all",
-                   help="one method, or all of them and the bracket (default)")
+    names = analysis_methods("margin")
+    p.add_argument("--method", type=_one_method, default="all", metavar="|".join(("all", *names)),
+                   help="one registered method, or all of them and the bracket (default)")
     p.add_argument("--tol", type=finite_float, default=MARGIN_TOL, help=f"relative tolerance of the bisections "
                    f"(default {MARGIN_TOL:g})")
     p.add_argument("--tries", type=int, default=10, help="falsifier trajectories per try (default 10)")
@@ -60,6 +62,11 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
+
+
+def _one_method(text: str) -> str:
+    """``--method``: 'all' or one registered margin method."""
+    return text if text == "all" else method_names("margin", "--method")(text)[0]
 
 
 def _number(value: Any) -> Any:
@@ -100,7 +107,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     else:
         m = robustness_margin(model, d, args.method, elements=args.elements, tol=args.tol,
                               falsifier_tries=args.tries, anchor=args.anchor)
-        table = pd.DataFrame([(m.method, m.kind, m.theta, *m.bracket, m.seconds, m.message)],
+        table = pd.DataFrame([(m.method, m.bound, m.theta, *m.bracket, m.seconds, m.message)],
                              columns=["method", "kind", "theta", "lo", "hi", "seconds", "message"])
     table.insert(2, "anchor", args.anchor)
     beside = []
@@ -116,7 +123,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     source = system.source(model)
     if args.format == "json":
         rows = [{k: _number(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
-        rows += [{"method": f"{m.method}-center", "kind": m.kind, "anchor": "center", "theta": _number(m.theta),
+        rows += [{"method": f"{m.method}-center", "kind": m.bound, "anchor": "center", "theta": _number(m.theta),
                   "lo": _number(m.bracket[0]), "hi": _number(m.bracket[1]), "seconds": m.seconds,
                   "message": m.message} for m in beside]
         if payload is not None:
@@ -160,7 +167,9 @@ def _margin_arm(args: argparse.Namespace, system: LoadedSystem, plant: Uncertain
     if args.method != "all" or args.elements != "all" or args.anchor != "lower":
         raise CommandLineError("`--method`, `--elements` and `--anchor` scale the elements of an interval box; an "
                                "arm's margin is its payload range (Theorem 1, the LMI on its samples, frozen)")
-    methods = ["theorem1", "lmi-physical", "frozen"]
+    # every registered default that applies: the box of an arm has too many corners for the vertex tests
+    methods = [name for name in analysis_methods("parameter", defaults=True)
+               if "vertices" not in get_method("parameter", name).needs]
     table = parameter_margin(plant, d, methods, tol=max(args.tol, 1e-3))
     rate = rate_text = None
     if args.rate:

@@ -105,7 +105,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         _check_mark(args.mark, args.rho, args.eta)
     model = system.model
     note = ""
-    if model.kind == "polytope":  # Theorem 1 needs intervals: the box around the polytope
+    if not system.interval_elements:  # Theorem 1 needs intervals: the box around the polytope
         model = model.interval_hull()
         note = f"Theorem 1 on the {model.name} (its corners need not be in the polytope)\n"
     surface = design_surface(

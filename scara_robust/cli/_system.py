@@ -39,7 +39,7 @@ from ..model.uncertain import UncertainLTVModel
 from ..robustness.parameters import parameter_margin
 from ..robustness.payload import payload_margin
 from ..robustness.sampled import interior_grid
-from ._common import CommandLineError, _load_file
+from ._common import CommandLineError, load_file
 
 __all__ = [
     "ARM_COMMANDS",
@@ -213,6 +213,14 @@ class LoadedSystem:
     def model(self) -> UncertainLTVModel | PolytopicModel:
         """The uncertainty set of :attr:`plant`: its interval hull, or the file's set."""
         return as_model("model", self.plant)
+
+    @property
+    def interval_elements(self) -> bool:
+        """True when :attr:`model` is an interval box (elements with ranges), as Theorem 1 and its map need.
+
+        False for a polytope, whose box hull has corners outside it.
+        """
+        return self.model.kind == "box"
 
     @property
     def physical(self) -> UncertainPlant | None:
@@ -570,7 +578,7 @@ class PlantFileSystem(LoadedSystem):
                 f"`--model` is your own plant; {', '.join(robot_options)} describe the SCARA and cannot go with it"
             )
         assert self.model_file is not None
-        return _load_file("--model", self.model_file, load_model)
+        return load_file("--model", self.model_file, load_model)
 
     def sampled(self) -> tuple[Any, Any, str]:
         """A plant's parameter grid, a box's corners or a polytope's vertices (see :meth:`LoadedSystem.sampled`)."""
@@ -616,7 +624,7 @@ class ArmSystem(LoadedSystem):
 
     def _load_plant(self) -> Plant:
         assert self.robot is not None
-        return _load_file("--robot", self.robot, load_model)
+        return load_file("--robot", self.robot, load_model)
 
     def sampled(self) -> tuple[Any, Any, str]:
         """The arm's own grids: the LMI's coarse one, verified on the file's (see :meth:`LoadedSystem.sampled`)."""
@@ -644,14 +652,14 @@ class ArmSystem(LoadedSystem):
     def arm(self) -> ArmSetup:
         """The arm, its payload range, reference and feedforward (:func:`scara_robust.load_arm`)."""
         assert self.robot is not None
-        return _load_file("--robot", self.robot, load_arm)
+        return load_file("--robot", self.robot, load_arm)
 
 
 def _load_setup(robot: str | None, scenario: str | None, scenario_kind: str) -> Setup:
     """Load the files named by ``--robot`` and ``--scenario``."""
     params = ScaraParams()
     if robot is not None:
-        params = _load_file("--robot", robot, load_robot)
+        params = load_file("--robot", robot, load_robot)
     reference = payload = disturbance = None
     initial: Scenario | None = None
     if scenario is not None and scenario in SCENARIOS:
@@ -665,7 +673,7 @@ def _load_setup(robot: str | None, scenario: str | None, scenario_kind: str) -> 
         if not scenario.lower().endswith((".toml", ".json")):
             named = ", ".join(repr(n) for n in SCENARIOS)
             raise CommandLineError(f"`--scenario` must be {named} or a .toml/.json scenario file, found {scenario!r}")
-        scen = _load_file("--scenario", scenario, load_scenario)
+        scen = load_file("--scenario", scenario, load_scenario)
         reference, payload, disturbance, initial = scen.reference, scen.payload, scen.disturbance, scen.initial
     return Setup(params, reference, payload, disturbance, initial, robot is not None)
 

@@ -68,6 +68,8 @@ class RateL2Gain(AnalysisResult):
     n_samples : int
     seconds : float
     inflation : float
+    parameter, unit : str
+        The rate-bounded parameter's name and unit, for the message.
     """
 
     upper: float
@@ -79,6 +81,8 @@ class RateL2Gain(AnalysisResult):
     n_samples: int
     seconds: float
     inflation: float = L2_INFLATION
+    parameter: str = "p"
+    unit: str = ""
 
     units: ClassVar[dict[str, str]] = {"rate": "unit of p/s", "seconds": "s"}
 
@@ -104,7 +108,9 @@ class RateL2Gain(AnalysisResult):
         """One sentence saying what the result means."""
         if self.status == NOT_INSTALLED:
             return "cvxpy is not installed (pip install '.[lmi]')"
-        rate = "any rate (common P)" if math.isinf(self.rate) else f"|ṗ| <= {self.rate:.4g}/s"
+        unit = f" {self.unit}/s" if self.unit else "/s"
+        rate = ("any rate (common P)" if math.isinf(self.rate)
+                else f"|d{self.parameter}/dt| <= {self.rate:.4g}{unit}")
         if math.isfinite(self.upper):
             return (f"worst-case L2 gain in [{self.lower:.4g}, {self.upper:.4g}] for {rate} (P(p) = P0 + p·P1 "
                     f"verified with numpy on {self.n_samples} samples)")
@@ -217,6 +223,8 @@ def rate_bounded_l2_gain(
     rate: float,
     check: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     solver: str = "CLARABEL",
+    parameter: str = "p",
+    unit: str = "",
 ) -> RateL2Gain:
     """Upper and lower bounds on the worst-case L2 gain from w to z when ``|ṗ| <= rate``.
 
@@ -237,6 +245,8 @@ def rate_bounded_l2_gain(
     check : tuple (closed_loops, p, Bw), optional
         A second (finer) set of samples on which the bound must also verify.
     solver : {'CLARABEL', 'SCS'}
+    parameter, unit : str
+        The parameter's name and unit, for the message.
 
     Returns
     -------
@@ -270,7 +280,8 @@ def rate_bounded_l2_gain(
     lower = max(norms)
     n_samples = A.shape[0]
     if not cvxpy_available():
-        return RateL2Gain(math.nan, lower, nu, NOT_INSTALLED, None, None, n_samples, time.perf_counter() - start)
+        return RateL2Gain(math.nan, lower, nu, NOT_INSTALLED, None, None, n_samples, time.perf_counter() - start,
+                          parameter=parameter, unit=unit)
     import cvxpy as cp
 
     # P(s) with s = (p − lo)/width in [0, 1] (the same family of matrices, better conditioned)
@@ -279,11 +290,13 @@ def rate_bounded_l2_gain(
     nu_s = nu / width
     status, gamma, _, _ = _solve(cp, A, s, Bw_, C_, D_, nu_s, solver, None)
     if not math.isfinite(gamma):
-        return RateL2Gain(math.inf, lower, nu, status, None, None, n_samples, time.perf_counter() - start)
+        return RateL2Gain(math.inf, lower, nu, status, None, None, n_samples, time.perf_counter() - start,
+                          parameter=parameter, unit=unit)
     bound = gamma * (1 + L2_INFLATION)
     status2, _, Q0, Q1 = _solve(cp, A, s, Bw_, C_, D_, nu_s, solver, bound)
     if Q0 is None or Q1 is None:
-        return RateL2Gain(math.inf, lower, nu, status2, None, None, n_samples, time.perf_counter() - start)
+        return RateL2Gain(math.inf, lower, nu, status2, None, None, n_samples, time.perf_counter() - start,
+                          parameter=parameter, unit=unit)
     P1 = Q1 / width  # back to p in its unit: P(p) = Q0 + s·Q1 = P0 + p·P1
     P0 = Q0 - lo * P1
     ok = verify_rate_bounded_l2(A, p_, Bw_, C_, P0, P1, nu, bound, D_)
@@ -291,8 +304,10 @@ def rate_bounded_l2_gain(
         ok = verify_rate_bounded_l2(check[0], check[1], check[2], C_, P0, P1, nu, bound, D_)
         n_samples += len(np.asarray(check[1]))
     if not ok:
-        return RateL2Gain(math.inf, lower, nu, "not verified", P0, P1, n_samples, time.perf_counter() - start)
-    return RateL2Gain(bound, lower, nu, status, P0, P1, n_samples, time.perf_counter() - start)
+        return RateL2Gain(math.inf, lower, nu, "not verified", P0, P1, n_samples, time.perf_counter() - start,
+                          parameter=parameter, unit=unit)
+    return RateL2Gain(bound, lower, nu, status, P0, P1, n_samples, time.perf_counter() - start,
+                          parameter=parameter, unit=unit)
 
 
 def _certificate_row(context: CertificateContext) -> RateL2Gain:
@@ -308,7 +323,8 @@ def _certificate_row(context: CertificateContext) -> RateL2Gain:
     C = error_output(n, m) if n == 3 * m else np.eye(n)
     K = context.design.K
     return rate_bounded_l2_gain(coarse.closed_loops(K), coarse.column(name), coarse.B, C, rate=rate,
-                                check=(fine.closed_loops(K), fine.column(name), fine.B), solver=context.lmi_solver)
+                                check=(fine.closed_loops(K), fine.column(name), fine.B), solver=context.lmi_solver,
+                                parameter=name, unit=plant.parameter(name).unit)
 
 
 register_method(AnalysisMethod(
