@@ -34,10 +34,10 @@ def test_surface(benchmark, model, grid, method):
     rhos, etas = np.linspace(0.1, 10, n), np.linspace(1, 200, n)
     if method == "reference":
         surface = benchmark.pedantic(
-            sr.design_surface, (model, rhos, etas, "all"), {"method": method}, rounds=3 if n <= 50 else 1
+            sr.design_surface, (model, rhos, etas, "all"), {"formulation": method}, rounds=3 if n <= 50 else 1
         )
     else:
-        surface = benchmark(sr.design_surface, model, rhos, etas, "all", method=method)
+        surface = benchmark(sr.design_surface, model, rhos, etas, "all", formulation=method)
     assert surface.max_eig.shape == (n, n) and surface.hurwitz.all()
 
 

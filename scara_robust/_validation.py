@@ -74,6 +74,14 @@ def check_array(
     return arr
 
 
+def check_closed_loops(name: str, value: Any) -> NDArray[np.float64]:
+    """Return `value` as a stack of square matrices, shape (V >= 1, n, n), or raise naming `name`."""
+    arr = check_array(name, value, ndim=3)
+    if arr.shape[0] == 0 or arr.shape[1] != arr.shape[2] or arr.shape[1] == 0:
+        raise ArgumentValueError(name, f"must have shape (V >= 1, n, n), found {arr.shape}")
+    return arr
+
+
 def check_int(name: str, value: Any, minimum: int) -> int:
     """Return `value` as an int >= `minimum`; a non-integer type (or a bool) is a type error."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):

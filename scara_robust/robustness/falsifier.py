@@ -27,7 +27,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_int, check_real, check_symmetric
+from .._validation import check_array, check_closed_loops, check_int, check_real, check_symmetric
 from ..results import AnalysisResult
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
@@ -192,10 +192,8 @@ def falsify(
     >>> sr.falsify(np.array([A1, A2]), horizon=20.0).found
     True
     """
-    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    A_v = check_closed_loops("closed_loops", closed_loops)
     n_v, n = A_v.shape[0], A_v.shape[1]
-    if A_v.shape[2] != n or n_v == 0:
-        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
     dwell = check_real("dwell", dwell, positive=True)
     horizon = check_real("horizon", horizon, positive=True)
     threshold = check_real("threshold", threshold, minimum=1.0)

@@ -21,7 +21,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice
+from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
@@ -142,10 +142,8 @@ def l2_gain(
     synthesize : with the ``l2`` objective.
     """
     start = time.perf_counter()
-    A = check_array("closed_loops", closed_loops, ndim=3)
+    A = check_closed_loops("closed_loops", closed_loops)
     n = A.shape[1]
-    if A.shape[2] != n or A.shape[0] == 0:
-        raise ArgumentValueError("closed_loops", f"must have shape (V >= 1, n, n), found {A.shape}")
     Bw = check_array("Bw", Bw)
     if Bw.ndim == 2:
         Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
@@ -325,10 +323,8 @@ def peak_gain(
         (every frozen plant is an admissible variation).
     """
     start = time.perf_counter()
-    A = check_array("closed_loops", closed_loops, ndim=3)
+    A = check_closed_loops("closed_loops", closed_loops)
     n = A.shape[1]
-    if A.shape[2] != n or A.shape[0] == 0:
-        raise ArgumentValueError("closed_loops", f"must have shape (V >= 1, n, n), found {A.shape}")
     Bw = check_array("Bw", Bw)
     if Bw.ndim == 2:
         Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))

@@ -34,7 +34,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_real
+from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 from .context import CertificateContext
@@ -162,10 +162,8 @@ def verify_rate_bounded_l2(
 
 def _inputs(closed_loops: ArrayLike, p: ArrayLike, Bw: ArrayLike, C: ArrayLike,
             D: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array]:
-    A = check_array("closed_loops", closed_loops, ndim=3)
+    A = check_closed_loops("closed_loops", closed_loops)
     n = A.shape[1]
-    if A.shape[2] != n or A.shape[0] == 0:
-        raise ArgumentValueError("closed_loops", f"must have shape (N >= 1, n, n), found {A.shape}")
     p_ = check_array("p", p, shape=(A.shape[0],))
     Bw_ = check_array("Bw", Bw)
     if Bw_.ndim == 2:

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_field
-from .._validation import check_array, check_choice
+from .._validation import check_array, check_choice, check_closed_loops
 from ..results import AnalysisResult
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "cvxpy_available", "lmi_certificate", "verify_lyapunov"]
@@ -309,10 +309,8 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     >>> sr.lmi_certificate(A).certified
     True
     """
-    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    A_v = check_closed_loops("closed_loops", closed_loops)
     n = A_v.shape[1]
-    if A_v.shape[2] != n or A_v.shape[0] == 0:
-        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
     check_choice("solver", solver, LMI_SOLVERS)
     if not cvxpy_available():
         return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])

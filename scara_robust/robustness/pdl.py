@@ -47,7 +47,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_field
-from .._validation import check_array, check_choice, check_real
+from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, verdict_of
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
@@ -159,9 +159,7 @@ def _rate(rate: float) -> float:
 
 
 def _samples(name: str, closed_loops: ArrayLike, p: ArrayLike) -> tuple[Array, Array]:
-    A = check_array(name, closed_loops, ndim=3)
-    if A.shape[0] == 0 or A.shape[1] != A.shape[2] or A.shape[1] == 0:
-        raise ArgumentValueError(name, f"must have shape (N >= 1, n, n), found {A.shape}")
+    A = check_closed_loops(name, closed_loops)
     p_name = "p" if name == "closed_loops" else f"{name.split('[')[0]}[1]"
     p_arr = check_array(p_name, p, ndim=1)
     if p_arr.shape[0] != A.shape[0]:

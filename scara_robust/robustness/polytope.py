@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_symmetric
+from .._validation import check_array, check_choice, check_closed_loops, check_symmetric
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
@@ -174,10 +174,8 @@ def polytope_certificate(
     -------
     PolytopeCertificate
     """
-    A_v = check_array("closed_loops", closed_loops, ndim=3)
+    A_v = check_closed_loops("closed_loops", closed_loops)
     n = A_v.shape[1]
-    if A_v.shape[2] != n or A_v.shape[0] == 0:
-        raise ValueError(f"`closed_loops` must have shape (V >= 1, n, n), found {A_v.shape}")
     P_sym = check_symmetric("P", check_array("P", P, shape=(n, n)))
     if np.linalg.eigvalsh(P_sym)[0] <= 0:
         raise ValueError("`P` must be positive definite, found a non-positive eigenvalue")
