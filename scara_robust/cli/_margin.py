@@ -166,7 +166,8 @@ def _margin_arm(args: argparse.Namespace, system: LoadedSystem, plant: Uncertain
     """
     if args.method != "all" or args.elements != "all" or args.anchor != "lower":
         raise CommandLineError("`--method`, `--elements` and `--anchor` scale the elements of an interval box; an "
-                               "arm's margin is its payload range (Theorem 1, the LMI on its samples, frozen)")
+                               "arm's margin is its payload range (Theorem 1, the design's P and the LMI on its "
+                               "samples, frozen)")
     # every registered default that applies: the box of an arm has too many corners for the vertex tests
     methods = [name for name in analysis_methods("parameter", defaults=True)
                if "vertices" not in get_method("parameter", name).needs]
