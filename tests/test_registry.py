@@ -84,7 +84,7 @@ def test_registering_something_else_is_refused():
      ({"bound": "both"}, sr.ArgumentValueError, "`bound` must be one of 'certificate', 'lower', 'upper'"),
      ({"needs": frozenset({"gpu"})}, sr.ArgumentValueError, "`needs` must be one of 'P'"),
      ({"run": 3}, sr.ArgumentTypeError, "`run` must be callable, found int"),
-     ({"name": ""}, sr.ArgumentValueError, "`method` `name` must be a non-empty str")],
+     ({"name": ""}, sr.ArgumentValueError, "`name` must be a non-empty str")],
     ids=["family", "bound", "needs", "run", "name"],
 )
 def test_a_bad_method_is_refused_naming_the_field(kwargs, error, match):

@@ -106,7 +106,7 @@ class AnalysisMethod:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
-            raise ArgumentValueError("method", f"`name` must be a non-empty str, found {self.name!r}")
+            raise ArgumentValueError("name", f"must be a non-empty str, found {self.name!r}")
         check_choice("family", self.family, tuple(METHOD_FAMILIES))
         check_choice("bound", self.bound, METHOD_BOUNDS)
         if not callable(self.run):
