@@ -271,6 +271,10 @@ BAD_FILES = {
     "prismatic": ({'"wrist_3_joint"]': '"finger_left_joint"]', "finger_left_joint = 0.02, ": ""}, "prismatic"),
     "negative-mass": ({"payload_mass = [0.0, 3.0]": "payload_mass = [-1.0, 3.0]"}, "payload_mass"),
     "floating-base": ({'urdf = "': 'urdf = "floating.urdf"  # '}, "floating"),
+    "negative-link-mass": ({'urdf = "': 'urdf = "negative.urdf"  # '},
+                           "link 'shoulder_link' <inertial><mass value> must be a mass >= 0 kg, found '-3.7'"),
+    "impossible-inertia": ({'urdf = "': 'urdf = "inertia.urdf"  # '},
+                           "link 'shoulder_link' <inertial><inertia> (kg·m²) is not a rigid body's"),
 }
 
 
@@ -284,6 +288,11 @@ def test_bad_robot_file_one_line_exit_2(tmp_path, capsys, case):
         'type="floating"><parent link="world"/><child link="base_link"/></joint>\n  <joint name="shoulder_pan_joint" '
         'type="revolute">')
     (tmp_path / "floating.urdf").write_text(floating)
+    arm6 = open(os.path.join(EXAMPLES, "arm6.urdf"), encoding="utf-8").read()
+    (tmp_path / "negative.urdf").write_text(arm6.replace('<mass value="3.7"/>', '<mass value="-3.7"/>', 1))
+    # a negative principal moment: no rigid body has it
+    (tmp_path / "inertia.urdf").write_text(arm6.replace('iyy="0.0102" iyz="0" izz="0.0067"',
+                                                        'iyy="0.0102" iyz="0" izz="-0.0067"', 1))
     if case == "urdf-does-not-parse":  # in a process of its own: urdfdom writes to the C stderr, which must stay quiet
         proc = cli("design", "--rho", "1", "--eta", "10", "--robot", path, check=False)
         code, err = proc.returncode, proc.stderr

@@ -165,6 +165,65 @@ class JointSinusoids:
         return self._c + a * s, a * w * np.cos(angle), -a * w * w * s  # type: ignore[attr-defined]
 
 
+def _check_inertials(path: str) -> None:
+    """Refuse a link whose mass or inertia cannot be physical, naming the file, the link and the field.
+
+    Each ``<inertial>``'s ``<mass value>`` must be a finite number >= 0 (kg), and its
+    ``<inertia>`` (kg·m², about the centre of mass) positive semidefinite (to 1e-9 of its
+    largest principal moment). Pinocchio reads such a link without complaint and the fault
+    shows much later, as a rank-deficient input matrix. The triangle inequalities of the
+    principal moments are not enforced: URDFs exported from CAD often miss them by a little.
+
+    Parameters
+    ----------
+    path : str
+        The URDF.
+
+    Raises
+    ------
+    ArgumentValueError
+        Naming `urdf`, with the file, the link, the field, its unit and the value found.
+    """
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.parse(path).getroot()
+    except (ElementTree.ParseError, OSError):
+        return  # Pinocchio's own reading has already reported what is wrong with the file
+    for link in root.iter("link"):
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        name = link.get("name", "?")
+        where = f"{path!r}: link {name!r}"
+        mass = inertial.find("mass")
+        if mass is not None:
+            try:
+                value = float(mass.get("value", "nan"))
+            except ValueError:
+                value = math.nan
+            if not math.isfinite(value) or value < 0:
+                raise ArgumentValueError("urdf", f"{where} <inertial><mass value> must be a mass >= 0 kg, found "
+                                                 f"{mass.get('value')!r}")
+        inertia = inertial.find("inertia")
+        if inertia is None:
+            continue
+        try:
+            i = {k: float(inertia.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        except ValueError:
+            raise ArgumentValueError("urdf", f"{where} <inertial><inertia> must hold numbers (kg·m²), found "
+                                             f"{dict(inertia.attrib)}") from None
+        matrix = np.array([[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]],
+                           [i["ixz"], i["iyz"], i["izz"]]])
+        if not np.all(np.isfinite(matrix)):
+            raise ArgumentValueError("urdf", f"{where} <inertial><inertia> must be finite (kg·m²), found "
+                                             f"{dict(inertia.attrib)}")
+        moments = np.linalg.eigvalsh(matrix)
+        if moments[0] < -1e-9 * max(float(np.abs(moments).max()), 1e-300):
+            raise ArgumentValueError("urdf", f"{where} <inertial><inertia> (kg·m²) is not a rigid body's: its "
+                                             f"principal moments {np.round(moments, 12).tolist()} must be >= 0")
+
+
 class RobotArm:
     """A serial arm from its URDF with a payload of variable mass fixed to one frame.
 
@@ -239,6 +298,7 @@ class RobotArm:
         except (RuntimeError, ValueError) as err:
             first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             raise ArgumentValueError("urdf", f"{path!r} is not a URDF Pinocchio can read: {first}") from None
+        _check_inertials(path)
         joints = tuple(joints)
         if not joints or not all(isinstance(j, str) for j in joints):
             raise ArgumentValueError("joints", f"must name at least one joint, found {joints!r}")
