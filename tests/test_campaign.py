@@ -143,6 +143,14 @@ def test_killed_process_resumes_to_the_same_table(straight, tmp_path, tiny_spec)
     pd.testing.assert_frame_equal(cp.read_results(out), table)
 
 
+@pytest.mark.parametrize("flag, drawn", [([], False), (["--progress"], True)], ids=["redirected", "asked"])
+def test_the_progress_bar_is_drawn_on_a_terminal_or_when_asked(tmp_path, capsys, tiny_spec, flag, drawn):
+    """stderr is captured here, as in a redirected log: no bar unless --progress asks for one."""
+    out = tmp_path / "r.csv"
+    assert main(["campaign", str(tiny_spec), "--runs", "1", "--output", str(out), *flag]) == 0
+    assert ("campaign:" in capsys.readouterr().err) is drawn
+
+
 def test_failed_run_is_a_row_not_a_crash(monkeypatch, tiny_spec, tmp_path):
     spec = cp.load_spec(tiny_spec)
     real = cp.runner.run_scenarios

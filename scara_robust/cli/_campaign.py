@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from typing import Any
 
@@ -38,6 +39,8 @@ def add_parser(sub: Any) -> None:
     # dest is not `output`: the summary line goes to stdout, the table to this file
     p.add_argument("--output", dest="results_output", help="results file, .csv or .parquet (default results.csv)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted campaign in --output")
+    p.add_argument("--progress", action="store_true", help="show the progress bar even when stderr is not a terminal "
+                   "(by default it is drawn on a terminal only, so a redirected log is not flooded)")
     p.add_argument("--chunk-size", type=int, default=4, help="scenarios per task (default 4)")
     p.add_argument("--checkpoint", type=float, default=2.0, metavar="S",
                    help="least time between two rewrites of --output, s (default 2; 0: after every chunk)")
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         address=args.address,
         resume=args.resume,
         chunk_size=args.chunk_size,
-        progress=True,
+        progress=sys.stderr.isatty() or args.progress,
         engine=args.engine,
         checkpoint=args.checkpoint,
     )
