@@ -191,3 +191,17 @@ def test_typo_is_reported_before_a_missing_option(capsys, argv, message):
 
 def test_missing_option_is_still_reported(capsys):
     refused(capsys, ["design", "--rho", "3"], "design: the following arguments are required: --eta")
+
+
+def test_a_long_table_prints_its_head_on_the_screen_and_all_of_it_into_a_file(tmp_path, capsys):
+    from scara_robust.cli._common import SCREEN_ROWS
+
+    argv = ["surface", "--rho", "0.1:10:20", "--eta", "1:200:20"]
+    assert main(argv) == 0
+    screen = capsys.readouterr().out.rstrip("\n").splitlines()
+    assert screen[-1] == f"... {400 - SCREEN_ROWS} more rows, --output F for all"
+    out = tmp_path / "surface.txt"
+    assert main([*argv, "--output", str(out)]) == 0
+    whole = out.read_text(encoding="utf-8").rstrip("\n").splitlines()
+    assert len(whole) == 1 + 1 + 400 and not whole[-1].startswith("...")  # header, column names, every point
+    assert screen[:-1] == whole[: len(screen) - 1]

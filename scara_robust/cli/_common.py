@@ -37,6 +37,8 @@ __all__ = [
     "finite_float",
     "load_file",
     "method_names",
+    "screen_table",
+    "SCREEN_ROWS",
     "per_joint_values",
     "parse_range",
     "add_range_option",
@@ -223,6 +225,32 @@ def method_names(family: str, option: str, *, many: bool = False) -> Callable[[s
         return names
 
     return parse
+
+
+#: Rows of a table printed to the screen; longer tables print their head (``--output`` writes all).
+SCREEN_ROWS = 40
+
+
+def screen_table(frame: Any, output: str | None, **to_string: Any) -> str:
+    """A table as text: whole into a file, its first :data:`SCREEN_ROWS` rows on the screen.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+    output : str or None
+        The command's ``--output``: None prints to the screen.
+    **to_string
+        Options of ``DataFrame.to_string`` (``index``, ``float_format``).
+
+    Returns
+    -------
+    str
+        The table, followed on the screen by ``"... N more rows, --output F for all"`` when cut.
+    """
+    if output is not None or len(frame) <= SCREEN_ROWS:
+        return str(frame.to_string(**to_string))
+    more = len(frame) - SCREEN_ROWS
+    return f"{frame.head(SCREEN_ROWS).to_string(**to_string)}\n... {more} more rows, --output F for all"
 
 
 def per_joint_values(text: str) -> list[float]:

@@ -14,7 +14,7 @@ from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
-from ._common import add_setup_options, finite_float
+from ._common import add_setup_options, finite_float, screen_table
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "add_model_options", "run"]
@@ -98,7 +98,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             f"max eig Z: {cert.max_eig:.6g}  ->  certified: {cert.certified}",
             "",
             "contributions of each element to Z:",
-            pd.DataFrame(out["contributions"]).to_string(index=False, float_format="%.4g"),
+            screen_table(pd.DataFrame(out["contributions"]), args.output, index=False, float_format="%.4g"),
         ]
     if args.format == "json":  # a design file (load_design, simulate --design) that also holds the certificate
         return json.dumps(design_record(d.K, d.P, method="design", **{k: v for k, v in out.items() if k != "K"}),

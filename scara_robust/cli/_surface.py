@@ -23,6 +23,7 @@ from ._common import (
     finite_float,
     parse_range,
     save_figure,
+    screen_table,
 )
 from ._design import add_model_options
 from ._system import LoadedSystem
@@ -131,5 +132,5 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if surface.margin is not None:
         rho, eta, theta = surface.best_margin()
         header += f"largest {args.margin_method} margin: theta={theta:.6g} at rho={rho:g}, eta={eta:g}\n"
-    return note + header + str(frame.to_string(index=False, float_format="%.6g"))
+    return note + header + screen_table(frame, args.output, index=False, float_format="%.6g")
 
