@@ -41,7 +41,7 @@ PAGES = (
 #: The pages that carry no code of their own (they include the README's, or only link).
 PROSE = ("docs/index.md", "docs/getting-started.md", "docs/guide/index.md", "docs/gallery.md", "docs/cli.md",
          "docs/architecture.md", "docs/guide/app.md")
-FENCE = re.compile(r"^[ \t]*```(\w*)\n(.*?)^[ \t]*```", flags=re.S | re.M)
+FENCE = re.compile(r"^[ \t]*```(\{[^}\n]*\}|\w*)\n(.*?)^[ \t]*```", flags=re.S | re.M)
 BLOCKS = [
     (page, lang, textwrap.dedent(code))
     for page in PAGES
