@@ -66,6 +66,25 @@ def _scalar(value: Any) -> bool:
         isinstance(v, (int, float, np.integer, np.floating)) for v in value)
 
 
+class VerdictFromCertified:
+    """Mixin of a result whose ``status`` is its ``verdict``, by default :func:`verdict_of` its ``certified``.
+
+    For the results that run no solver (nothing to report beyond the verdict); a class
+    with a verdict of its own defines ``verdict`` and keeps ``status``. List it before
+    :class:`AnalysisResult` among the bases.
+    """
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'``, ``'not certified'`` or ``'unknown'`` (:func:`verdict_of` of ``certified``)."""
+        return verdict_of(self.certified)  # type: ignore[attr-defined]
+
+    @property
+    def status(self) -> str:
+        """The verdict."""
+        return self.verdict
+
+
 class AnalysisResult:
     """Base of every certificate, margin and bound: ``certified``, ``verdict``, ``status``, ``message``.
 

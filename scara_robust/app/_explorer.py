@@ -30,7 +30,6 @@ from ..exceptions import ArgumentError
 from ..lyapunov.gain import Design, design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
-from ..model.base import CAPABILITIES
 from ..model.plant import UncertainPlant
 from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
@@ -624,7 +623,7 @@ def _lower_priority() -> None:
 def _cheap(family: str, capabilities: frozenset[str]) -> tuple[str, ...]:
     """The registered methods of a family that answer in milliseconds and apply to these capabilities."""
     methods = (get_method(family, name) for name in analysis_methods(family, defaults=True))
-    return tuple(m.name for m in methods if m.cheap and m.needs & CAPABILITIES.keys() <= capabilities)
+    return tuple(m.name for m in methods if m.cheap and m.applies_to(capabilities))
 
 
 def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:

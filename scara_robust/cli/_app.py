@@ -15,9 +15,9 @@ from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
-from ._system import LoadedSystem, load_system, physical_plant_of, plant_source
+from ._system import LoadedSystem, load_system, plant_source
 
-__all__ = ["add_parser", "run", "explorer_of", "physical_plant"]
+__all__ = ["add_parser", "run", "explorer_of"]
 
 
 def add_parser(sub: Any) -> None:
@@ -43,20 +43,6 @@ def add_parser(sub: Any) -> None:
                    "the SCARA, A shows the certified region)")
     p.add_argument("--port", type=int, default=5006, help="TCP port on 127.0.0.1 (default 5006)")
     p.set_defaults(func=run)
-
-
-def physical_plant(args: argparse.Namespace) -> Any:
-    """The plant with physical parameters of the options (None for an interval or polytope file).
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-
-    Returns
-    -------
-    UncertainPlant or None
-    """
-    return physical_plant_of(args)
 
 
 def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) -> Any:

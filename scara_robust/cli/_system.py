@@ -583,13 +583,13 @@ class PlantFileSystem(LoadedSystem):
     def sampled(self) -> tuple[Any, Any, str]:
         """A plant's parameter grid, a box's corners or a polytope's vertices (see :meth:`LoadedSystem.sampled`)."""
         physical, model = self.physical, self.model
-        model_any: Any = model  # a box or a polytope, told apart by its kind
+        model_any: Any = model  # a box or a polytope, told apart by its capabilities
         if physical is not None:
             on, fine = physical.samples(), physical.samples(physical.fine_points())
             return (on.A, on.B), (fine.A, fine.B), (
                 f"the plant of {self.model_file!r} on its parameter grid ({on.n_samples} frozen plants, verified on "
                 f"{fine.n_samples})")
-        if model.kind == "box":
+        if "intervals" in model.capabilities:
             grid = interior_grid(model_any)
             return model, grid, (f"the {2 ** model_any.n_elements} corners of the box of {self.model_file!r} "
                                  f"(verified on a {len(grid[0])}-plant grid of the box)")

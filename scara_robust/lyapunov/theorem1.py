@@ -24,7 +24,7 @@ from .._validation import check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..model.plant import ModelLike, as_box
 from ..model.uncertain import ANCHORS, ELEMENT_SETS
-from ..results import AnalysisResult, verdict_of
+from ..results import AnalysisResult, VerdictFromCertified
 from .gain import Design
 
 __all__ = ["Certificate", "UltimateBound", "certify"]
@@ -196,7 +196,7 @@ class UltimateBound:
 
 
 @dataclass(frozen=True)
-class Certificate(AnalysisResult):
+class Certificate(VerdictFromCertified, AnalysisResult):
     """Theorem 1 evaluated for one design.
 
     Attributes
@@ -235,16 +235,6 @@ class Certificate(AnalysisResult):
     P: Array
     lyapunov_residual: float
     riccati_mismatch: float
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'`` or ``'not certified'``."""
-        return verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict (Theorem 1 is a closed-form test: nothing can fail to converge)."""
-        return self.verdict
 
     @property
     def message(self) -> str:

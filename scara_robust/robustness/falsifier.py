@@ -28,7 +28,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_closed_loops, check_int, check_real, check_symmetric
-from ..results import AnalysisResult
+from ..results import AnalysisResult, VerdictFromCertified
 
 __all__ = ["FalsifierResult", "FALSIFIER_RULES", "falsify"]
 
@@ -43,7 +43,7 @@ FALSIFIER_RULES = ("norm", "lyapunov", "random")
 
 
 @dataclass(frozen=True)
-class FalsifierResult(AnalysisResult):
+class FalsifierResult(VerdictFromCertified, AnalysisResult):
     """Worst trajectory found.
 
     Attributes
@@ -98,11 +98,6 @@ class FalsifierResult(AnalysisResult):
         if self.found:
             return "unstable trajectory found"
         return "growth below the detection threshold" if self.growth_rate > 0 else "no counterexample found"
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
     def _factor(self) -> str:
         # beyond double precision the factor is still known through its logarithm

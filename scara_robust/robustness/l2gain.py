@@ -31,8 +31,44 @@ __all__ = ["L2Gain", "l2_gain", "L2_INFLATION", "PeakBound", "peak_gain"]
 Array = NDArray[np.float64]
 
 
+class GainBound:
+    """Mixin of a verified upper bound ``upper`` (``inf`` when none) and the solver's ``status``."""
+
+    @property
+    def certified(self) -> bool | None:
+        """True when numpy verified the finite upper bound, else None (no bound is no disproof)."""
+        return True if math.isfinite(self.upper) else None  # type: ignore[attr-defined]
+
+    @property
+    def verdict(self) -> str:
+        """``'certified'`` (a verified bound), ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
+        if math.isfinite(self.upper):  # type: ignore[attr-defined]
+            return "certified"
+        status: str = self.status  # type: ignore[attr-defined]
+        return status if status in ("infeasible", NOT_INSTALLED) else "unknown"
+
+
+def frozen_hinf_norms(A: Array, Bw: Array, C: Array, D: Array) -> list[float]:
+    """Each frozen closed loop's H∞ norm from w to z (python-control), ``inf`` for an unstable one.
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    Bw : ndarray, shape (V, n, q)
+    C : ndarray, shape (r, n)
+    D : ndarray, shape (r, q)
+
+    Returns
+    -------
+    list of float
+        Units of z per unit of w.
+    """
+    return [math.inf if np.linalg.eigvals(A_i).real.max() >= 0  # a frozen unstable plant: unbounded gain
+            else float(ct.norm(ct.ss(A_i, B_i, C, D), p="inf")) for A_i, B_i in zip(A, Bw)]
+
+
 @dataclass(frozen=True)
-class L2Gain(AnalysisResult):
+class L2Gain(GainBound, AnalysisResult):
     """Bounds on the worst-case L2 gain from w to z over the closed loops' hull.
 
     Attributes
@@ -63,18 +99,6 @@ class L2Gain(AnalysisResult):
     P: Array | None
     seconds: float
     inflation: float = 0.0
-
-    @property
-    def certified(self) -> bool | None:
-        """True when numpy verified the finite upper bound, else None (no bound is no disproof)."""
-        return True if math.isfinite(self.upper) else None
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'`` (a verified bound), ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
-        if math.isfinite(self.upper):
-            return "certified"
-        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
 
     @property
     def message(self) -> str:
@@ -153,12 +177,7 @@ def l2_gain(
     q = Bw.shape[2]
     D = np.zeros((C.shape[0], q)) if D is None else check_array("D", D, shape=(C.shape[0], q))
     check_choice("solver", solver, LMI_SOLVERS)
-    norms = []
-    for A_i, B_i in zip(A, Bw):
-        if np.linalg.eigvals(A_i).real.max() >= 0:
-            norms.append(math.inf)  # a frozen unstable plant: unbounded gain
-        else:
-            norms.append(float(ct.norm(ct.ss(A_i, B_i, C, D), p="inf")))
+    norms = frozen_hinf_norms(A, Bw, C, D)
     worst = int(np.argmax(norms))
     lower = norms[worst]
     if not cvxpy_available():
@@ -206,7 +225,7 @@ def l2_gain(
 
 
 @dataclass(frozen=True)
-class PeakBound(AnalysisResult):
+class PeakBound(GainBound, AnalysisResult):
     """A bound on the peak of the output for bounded disturbances: an invariant ellipsoid.
 
     If ``‖w(t)‖₂ <= 1`` at all times and ``x(0) = 0`` (or, from any x(0), ultimately),
@@ -233,18 +252,6 @@ class PeakBound(AnalysisResult):
     seconds: float
     lower: float = math.nan
     worst_index: int = -1
-
-    @property
-    def certified(self) -> bool | None:
-        """True when numpy verified the finite upper bound, else None."""
-        return True if math.isfinite(self.upper) else None
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'``, ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
-        if math.isfinite(self.upper):
-            return "certified"
-        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
 
     @property
     def message(self) -> str:

@@ -30,7 +30,6 @@ import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -38,7 +37,7 @@ from .._validation import check_array, check_choice, check_closed_loops, check_r
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 from .context import CertificateContext
-from .l2gain import L2_INFLATION
+from .l2gain import L2_INFLATION, GainBound, frozen_hinf_norms
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 from .registry import AnalysisMethod, register_method
 from .synthesis import error_output
@@ -49,7 +48,7 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class RateL2Gain(AnalysisResult):
+class RateL2Gain(GainBound, AnalysisResult):
     """Bounds on the worst-case L2 gain from w to z for a parameter varying at ``|ṗ| <= rate``.
 
     Attributes
@@ -90,18 +89,6 @@ class RateL2Gain(AnalysisResult):
     def value(self) -> float:
         """The verified upper bound (the table's column)."""
         return self.upper
-
-    @property
-    def certified(self) -> bool | None:
-        """True when numpy verified a finite bound, else None (no bound is no disproof)."""
-        return True if math.isfinite(self.upper) else None
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'``, ``'infeasible'``, ``'not installed'`` or ``'unknown'``."""
-        if math.isfinite(self.upper):
-            return "certified"
-        return self.status if self.status in ("infeasible", NOT_INSTALLED) else "unknown"
 
     @property
     def message(self) -> str:
@@ -273,9 +260,7 @@ def rate_bounded_l2_gain(
     A, p_, Bw_, C_, D_ = _inputs(closed_loops, p, Bw, C, D)
     nu = math.inf if rate == math.inf else check_real("rate", rate, nonnegative=True)
     check_choice("solver", solver, LMI_SOLVERS)
-    norms = [math.inf if np.linalg.eigvals(A_i).real.max() >= 0 else float(ct.norm(ct.ss(A_i, B_i, C_, D_), p="inf"))
-             for A_i, B_i in zip(A, Bw_)]
-    lower = max(norms)
+    lower = max(frozen_hinf_norms(A, Bw_, C_, D_))
     n_samples = A.shape[0]
     if not cvxpy_available():
         return RateL2Gain(math.nan, lower, nu, NOT_INSTALLED, None, None, n_samples, time.perf_counter() - start,

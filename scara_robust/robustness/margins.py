@@ -48,11 +48,10 @@ from .._validation import check_choice, check_int, check_real
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..lyapunov.gain import Design, as_design
 from ..lyapunov.theorem1 import affine_margin, theorem1_scaling
-from ..model.base import CAPABILITIES
 from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
-from ..results import AnalysisResult, verdict_of
+from ..results import AnalysisResult, VerdictFromCertified, verdict_of
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
 from .registry import AnalysisMethod, analysis_methods, checked_result, get_method, register_method
@@ -69,7 +68,7 @@ _THETA_MAX = 1e6
 
 
 @dataclass(frozen=True)
-class Margin(AnalysisResult):
+class Margin(VerdictFromCertified, AnalysisResult):
     """A robustness margin: a bound on the largest tolerated scaling of the uncertainty set.
 
     Attributes
@@ -109,11 +108,6 @@ class Margin(AnalysisResult):
     def verdict(self) -> str:
         """``'certified'``, ``'not certified'`` or ``'unknown'`` at θ = 1; ``'not installed'`` without cvxpy."""
         return NOT_INSTALLED if self.message == NOT_INSTALLED else verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
 
 def _closed_loops(model: Model, design: Design, theta: float, anchor: str = "lower") -> Array:
@@ -242,7 +236,7 @@ def robustness_margin(
     """
     model = as_model("model", model)
     design = as_design(model, design)
-    get_method("margin", method)
+    entry = get_method("margin", method)
     check_choice("elements", elements, ELEMENT_SETS)
     check_choice("anchor", anchor, ANCHORS)
     if anchor == "center" and elements != "all":
@@ -253,7 +247,6 @@ def robustness_margin(
     if model.is_fixed:
         raise ArgumentValueError("model", "has no uncertain elements: there is nothing to scale")
     model.subset(elements)  # a polytope takes 'all' only
-    entry = get_method("margin", method)
     start = time.perf_counter()
     if "upper" in entry.needs:
         upper = (_frozen(model, design, lower, anchor)[0] if upper is None
@@ -406,12 +399,12 @@ def margin_table(
     best = 0.0
     names = analysis_methods("margin", defaults=True)
     for method in tqdm(names, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
-        needs = get_method("margin", method).needs
-        if not needs & CAPABILITIES.keys() <= model.capabilities:
+        entry = get_method("margin", method)
+        if not entry.applies_to(model.capabilities):
             continue
         upper = min((r.theta for r in rows if r.bound == "upper" and math.isfinite(r.theta)), default=None)
         margin = robustness_margin(model, design, method, elements=elements, tol=tol,
-                                   lower=best if "lower" in needs else 0.0, upper=upper,
+                                   lower=best if "lower" in entry.needs else 0.0, upper=upper,
                                    falsifier_tries=falsifier_tries, seed=seed, anchor=anchor)
         rows.append(margin)
         if margin.bound == "lower" and math.isfinite(margin.theta):

@@ -40,7 +40,7 @@ from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant, require_plant
-from ..results import AnalysisResult, verdict_of
+from ..results import AnalysisResult, VerdictFromCertified
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .pdl import RateMargin, max_certified_rate
 from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
@@ -410,7 +410,7 @@ def parameter_switching_growth(
 
 
 @dataclass(frozen=True)
-class RateBracket(AnalysisResult):
+class RateBracket(VerdictFromCertified, AnalysisResult):
     """How fast a parameter may vary: a certified rate below, a growing variation above.
 
     Attributes
@@ -439,16 +439,6 @@ class RateBracket(AnalysisResult):
     def certified(self) -> bool | None:
         """True when some rate is certified (ν = 0, a frozen parameter, at least), else None."""
         return None if math.isnan(self.rate) else True
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'`` or ``'unknown'``."""
-        return verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
 
 def rate_bracket(

@@ -43,8 +43,6 @@ __all__ = [
 Array = NDArray[np.float64]
 
 
-
-
 def _design_p(context: PayloadContext) -> Callable[[float], bool]:
     def ok(mass: float) -> bool:
         loops = context.closed_loops(mass, context.n_times, context.n_masses)

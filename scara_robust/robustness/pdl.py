@@ -49,7 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
-from ..results import AnalysisResult, verdict_of
+from ..results import AnalysisResult, VerdictFromCertified, verdict_of
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
 from .search import bisect
 
@@ -416,7 +416,7 @@ def rate_bounded_certificate(
 
 
 @dataclass(frozen=True)
-class RateMargin(AnalysisResult):
+class RateMargin(VerdictFromCertified, AnalysisResult):
     """The largest rate ``|ṗ|`` the parameter-dependent test certifies.
 
     Attributes
@@ -452,11 +452,6 @@ class RateMargin(AnalysisResult):
     def verdict(self) -> str:
         """``'certified'``, ``'not installed'`` or ``'unknown'``."""
         return NOT_INSTALLED if self.common.status == NOT_INSTALLED else verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
     @property
     def message(self) -> str:

@@ -26,7 +26,7 @@ from .._validation import check_array, check_choice, check_closed_loops, check_s
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
-from ..results import AnalysisResult
+from ..results import AnalysisResult, VerdictFromCertified
 
 __all__ = ["PolytopeCertificate", "polytope_certificate", "vertex_certificate"]
 
@@ -38,7 +38,7 @@ _CHUNK = 4096
 
 
 @dataclass(frozen=True)
-class PolytopeCertificate(AnalysisResult):
+class PolytopeCertificate(VerdictFromCertified, AnalysisResult):
     """Result of the exact fixed-P test over a polytope.
 
     Attributes
@@ -75,11 +75,6 @@ class PolytopeCertificate(AnalysisResult):
         if self.certified:
             return "certified"
         return "not certified" if self.certifiable else "no certificate can exist"
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
     @property
     def certified(self) -> bool:

@@ -115,6 +115,20 @@ class AnalysisMethod:
         for need in self.needs:
             check_choice("needs", need, METHOD_NEEDS)
 
+    def applies_to(self, capabilities: frozenset[str]) -> bool:
+        """Whether a system with these capabilities has every capability the method needs.
+
+        Parameters
+        ----------
+        capabilities : frozenset of str
+            Keys of :data:`~scara_robust.CAPABILITIES` (``system.capabilities``).
+
+        Returns
+        -------
+        bool
+        """
+        return self.needs & CAPABILITIES.keys() <= capabilities
+
 
 _REGISTRY: dict[str, dict[str, AnalysisMethod]] = {family: {} for family in METHOD_FAMILIES}
 

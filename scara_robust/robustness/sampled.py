@@ -44,7 +44,7 @@ from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
-from ..results import AnalysisResult, verdict_of
+from ..results import AnalysisResult, VerdictFromCertified
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
 from .search import bisect
 
@@ -441,7 +441,7 @@ def _to_sampled_coordinates(P: ArrayLike, pid: DiscretePID, n: int) -> Array | N
 
 
 @dataclass(frozen=True)
-class SampleTimeLimit(AnalysisResult):
+class SampleTimeLimit(VerdictFromCertified, AnalysisResult):
     """Largest certified sample time and smallest sample time with an unstable frozen plant.
 
     Attributes
@@ -474,16 +474,6 @@ class SampleTimeLimit(AnalysisResult):
     def certified(self) -> bool | None:
         """True when some sample time is certified, else None."""
         return None if math.isnan(self.certified_ts) else True
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'`` or ``'unknown'``."""
-        return verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
 
 #: The default cap of :func:`max_sample_time`'s search for a frozen instability, s.
@@ -667,7 +657,7 @@ def interior_grid(model: UncertainLTVModel, points: int = 5, max_plants: int = 4
 
 
 @dataclass(frozen=True)
-class SampleTimeCheck(AnalysisResult):
+class SampleTimeCheck(VerdictFromCertified, AnalysisResult):
     """Is a discrete PID safe to run at its sample time? The certificate at Ts, and the limits.
 
     Attributes
@@ -684,16 +674,6 @@ class SampleTimeCheck(AnalysisResult):
     certificate: SampledCertificate
     limit: SampleTimeLimit | None
     set_name: str
-
-    @property
-    def verdict(self) -> str:
-        """``'certified'`` or ``'not certified'`` at this Ts."""
-        return verdict_of(self.certified)
-
-    @property
-    def status(self) -> str:
-        """The verdict."""
-        return self.verdict
 
     @property
     def certified(self) -> bool:
