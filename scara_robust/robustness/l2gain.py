@@ -48,6 +48,38 @@ class GainBound:
         return status if status in ("infeasible", NOT_INSTALLED) else "unknown"
 
 
+def check_gain_inputs(closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike,
+                      D: ArrayLike | None) -> tuple[Array, Array, Array, Array]:
+    """The closed loops, B_w (one per loop), C and D of a gain from w to z, or an error naming the argument.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+    Bw : array_like, shape (n, q) or (V, n, q)
+    C : array_like, shape (r, n)
+    D : array_like, shape (r, q), or None
+        None is zero.
+
+    Returns
+    -------
+    A : ndarray, shape (V, n, n)
+    Bw : ndarray, shape (V, n, q)
+    C : ndarray, shape (r, n)
+    D : ndarray, shape (r, q)
+    """
+    A = check_closed_loops("closed_loops", closed_loops)
+    n = A.shape[1]
+    Bw_ = check_array("Bw", Bw)
+    if Bw_.ndim == 2:
+        Bw_ = np.broadcast_to(Bw_, (A.shape[0], *Bw_.shape))
+    if Bw_.ndim != 3 or Bw_.shape[:2] != (A.shape[0], n):
+        raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw_.shape}")
+    C_ = check_array("C", C, shape=(None, n))
+    q = Bw_.shape[2]
+    D_ = np.zeros((C_.shape[0], q)) if D is None else check_array("D", D, shape=(C_.shape[0], q))
+    return A, Bw_, C_, D_
+
+
 def frozen_hinf_norms(A: Array, Bw: Array, C: Array, D: Array) -> list[float]:
     """Each frozen closed loop's H∞ norm from w to z (python-control), ``inf`` for an unstable one.
 
@@ -166,16 +198,8 @@ def l2_gain(
     synthesize : with the ``l2`` objective.
     """
     start = time.perf_counter()
-    A = check_closed_loops("closed_loops", closed_loops)
-    n = A.shape[1]
-    Bw = check_array("Bw", Bw)
-    if Bw.ndim == 2:
-        Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
-    if Bw.ndim != 3 or Bw.shape[:2] != (A.shape[0], n):
-        raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw.shape}")
-    C = check_array("C", C, shape=(None, n))
-    q = Bw.shape[2]
-    D = np.zeros((C.shape[0], q)) if D is None else check_array("D", D, shape=(C.shape[0], q))
+    A, Bw, C, D = check_gain_inputs(closed_loops, Bw, C, D)
+    n, q = A.shape[1], Bw.shape[2]
     check_choice("solver", solver, LMI_SOLVERS)
     norms = frozen_hinf_norms(A, Bw, C, D)
     worst = int(np.argmax(norms))
@@ -330,15 +354,8 @@ def peak_gain(
         (every frozen plant is an admissible variation).
     """
     start = time.perf_counter()
-    A = check_closed_loops("closed_loops", closed_loops)
+    A, Bw, C, D = check_gain_inputs(closed_loops, Bw, C, D)
     n = A.shape[1]
-    Bw = check_array("Bw", Bw)
-    if Bw.ndim == 2:
-        Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
-    if Bw.ndim != 3 or Bw.shape[:2] != (A.shape[0], n):
-        raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw.shape}")
-    C = check_array("C", C, shape=(None, n))
-    D = np.zeros((C.shape[0], Bw.shape[2])) if D is None else check_array("D", D, shape=(C.shape[0], Bw.shape[2]))
     feedthrough = float(np.linalg.norm(D, 2)) if D.size else 0.0
     check_choice("solver", solver, LMI_SOLVERS)
     grid = None if alphas is None else check_array("alphas", alphas, ndim=1)

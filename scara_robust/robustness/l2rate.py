@@ -33,11 +33,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_closed_loops, check_real
-from ..exceptions import ArgumentValueError
+from .._validation import check_array, check_choice, check_real
 from ..results import AnalysisResult
 from .context import CertificateContext
-from .l2gain import L2_INFLATION, GainBound, frozen_hinf_norms
+from .l2gain import L2_INFLATION, GainBound, check_gain_inputs, frozen_hinf_norms
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 from .registry import AnalysisMethod, register_method
 from .synthesis import error_output
@@ -149,18 +148,8 @@ def verify_rate_bounded_l2(
 
 def _inputs(closed_loops: ArrayLike, p: ArrayLike, Bw: ArrayLike, C: ArrayLike,
             D: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array]:
-    A = check_closed_loops("closed_loops", closed_loops)
-    n = A.shape[1]
-    p_ = check_array("p", p, shape=(A.shape[0],))
-    Bw_ = check_array("Bw", Bw)
-    if Bw_.ndim == 2:
-        Bw_ = np.broadcast_to(Bw_, (A.shape[0], *Bw_.shape))
-    if Bw_.ndim != 3 or Bw_.shape[:2] != (A.shape[0], n):
-        raise ArgumentValueError("Bw", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), found {Bw_.shape}")
-    C_ = check_array("C", C, shape=(None, n))
-    q = Bw_.shape[2]
-    D_ = np.zeros((C_.shape[0], q)) if D is None else check_array("D", D, shape=(C_.shape[0], q))
-    return A, p_, Bw_, C_, D_
+    A, Bw_, C_, D_ = check_gain_inputs(closed_loops, Bw, C, D)
+    return A, check_array("p", p, shape=(A.shape[0],)), Bw_, C_, D_
 
 
 def _solve(cp: Any, A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float, solver: str,
