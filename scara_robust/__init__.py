@@ -39,6 +39,7 @@ Model (:mod:`scara_robust.model`)
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
     ParameterSamples, PLANT_FORMS   -- its frozen plants on a grid; its design forms; the sampled hull's rtol
+    POSITIVE_UNITS                  -- units of a mass, a length, an inertia: a parameter positive by its unit
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
     RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
@@ -66,9 +67,14 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     falsify, FalsifierResult, FALSIFIER_RULES -- search for a destabilizing switching signal
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
+    worst_loop_margins, LoopMargins -- each input's worst disk margin (±dB, ±°) and delay margin (s), frozen plants
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
+    input_limit_certificate, InputLimitCertificate -- the initial errors certified within the input limits
+    initial_error_vertices, MAX_BOX_CORNERS -- a box of initial errors as its corners; the most enumerated
+    peak_inputs                     -- each input's peak |u| of a simulated run
+    LIMIT_MARGIN, MAX_LIMIT_VERTICES -- synthesize with input limits: the initial errors' margin, the most points
     l2_gain, L2Gain, L2_INFLATION   -- worst-case L2 gain: bounded-real LMI (upper, inflated), frozen H∞ norms (lower)
     rate_bounded_l2_gain, RateL2Gain, verify_rate_bounded_l2 -- the L2 gain for |ṗ| <= ν, P(p) = P0 + p·P1
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
@@ -77,6 +83,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     payload_rate_certificate        -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
     parameter_margin, PARAMETER_METHODS -- the certified range of every parameter, in its unit (``margin --model``)
+    frozen_end                      -- which end of a parameter's range holds the unstable frozen plant, in its unit
+    design_decay_rate, certified_decay_rate, DecayRate -- a design's decay rate: its own P or an LMI's, the larger
     parameter_rate, rate_bracket, RateBracket -- how fast a parameter may vary, unit/s: certificate below, growth above
     parameter_switching_growth      -- growth under a periodic ramp of a parameter at a given rate
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P

@@ -44,6 +44,7 @@ from __future__ import annotations
 import errno
 import importlib.metadata
 import json
+import math
 import os
 import sys
 import tempfile
@@ -72,6 +73,7 @@ from .model.robot import (
 )
 from .model.signals import Reference, SquareWave, paper_disturbance, paper_reference, sinusoidal_reference
 from .model.uncertain import UncertainElement, UncertainLTVModel
+from .paper import PAPER_DISTURBANCE_PERIOD
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -105,7 +107,7 @@ _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
 MODEL_FORMS = ("state", "pid", "integral")
 _MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices")
 _PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description")
-_PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "description")
+_PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "physical", "description")
 _ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
 #: Results tables by file extension.
 TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet"}
@@ -235,6 +237,60 @@ ARM_KEYS: dict[str, str] = {
     "payload_samples": "count", "prefix": "identifier", "design_plant": "center/lower",
 }
 _REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase": "rad"}
+#: An arm's ``[initial]`` and ``[disturbance]`` tables: the scenario file's fields, one value per joint.
+_ARM_RUN_FIELDS: dict[str, dict[str, str]] = {
+    "initial": {"e0": "rad", "edot0": "rad/s"},
+    "disturbance": {"amplitude": "N·m", "period": "s", "phase": "rad"},
+}
+
+
+def _arm_run_tables(where: str, data: Mapping[str, Any],
+                    n: int) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None, SquareWave | None]:
+    """An arm file's initial error ``(e0, edot0)`` and disturbance, from ``[initial]`` and ``[disturbance]``."""
+    initial = field_table(where, data, "initial", _ARM_RUN_FIELDS["initial"])
+    pair: dict[str, tuple[float, ...] | None] = {"e0": None, "edot0": None}
+    for key, unit in _ARM_RUN_FIELDS["initial"].items():
+        if key in initial:
+            pair[key] = tuple(_numbers(where, f"initial.{key}", initial[key], unit, n))
+        elif initial:
+            pair[key] = (0.0,) * n
+    table = field_table(where, data, "disturbance", _ARM_RUN_FIELDS["disturbance"])
+    wave = None
+    if table:
+        if "amplitude" not in table:
+            raise InputFileError(f"{where} missing field `disturbance.amplitude` [N·m]: one value for every joint or "
+                                 f"one per joint ({n})")
+        raw = table["amplitude"]
+        amplitudes = (_numbers(where, "disturbance.amplitude", raw, "N·m", n) if isinstance(raw, list)
+                      else [field_number(where, "disturbance.amplitude", raw, "N·m")] * n)
+        period = field_number(where, "disturbance.period", table.get("period", PAPER_DISTURBANCE_PERIOD), "s")
+        if period <= 0:
+            raise InputFileError(f"{where} field `disturbance.period` [s] must be > 0, found {period:g}")
+        phase = field_number(where, "disturbance.phase", table.get("phase", 0.0), "rad")
+        wave = square_wave(amplitudes, period, phase)
+    return pair["e0"], pair["edot0"], wave
+
+
+def square_wave(amplitudes: list[float], period: float, phase: float = 0.0) -> SquareWave:
+    """The square-wave torque with these amplitudes per joint (N·m; a negative one in antiphase).
+
+    Parameters
+    ----------
+    amplitudes : list of float
+        N·m, one per joint.
+    period : float
+        s (> 0).
+    phase : float
+        rad.
+
+    Returns
+    -------
+    SquareWave
+        Of amplitude ``max |amplitudes|``, the joints scaled by their share of it (all
+        zero: amplitude 0).
+    """
+    peak = max(abs(a) for a in amplitudes)
+    return SquareWave(peak, period, phase, tuple(a / peak if peak else 1.0 for a in amplitudes))
 
 
 def is_arm_file(path: str | os.PathLike[str]) -> bool:
@@ -301,7 +357,12 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     ``"lower"``: the nominal of the interval model, see :func:`scara_robust.arm_uncertain_plant`);
     a ``[reference]`` table with ``center``,
     ``amplitude``, ``omega`` and ``phase``, one value per joint:
-    ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``.
+    ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``. Optional, the runs'
+    initial error and disturbance, with the scenario file's names: ``[initial]`` with
+    ``e0`` (rad) and ``edot0`` (rad/s), one value per joint (a missing one is zero), and
+    ``[disturbance]``, a square wave with ``amplitude`` (N·m, one value for every joint
+    or one per joint, a negative one in antiphase), ``period`` (s, default the paper's
+    π/5) and ``phase`` (rad, default 0).
 
     Parameters
     ----------
@@ -330,7 +391,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
     data = read_mapping(text_path)
-    name = _top(text_path, data, ("robot", "reference"))
+    name = _top(text_path, data, ("robot", "reference", *_ARM_RUN_FIELDS))
     robot = field_table(where, data, "robot", ARM_KEYS)
     for key in ("urdf", "joints", "payload_frame", "payload_mass"):
         if key not in robot:
@@ -403,6 +464,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
         if key not in ref_table:
             raise InputFileError(f"{where} missing field `reference.{key}` [{unit}], one value per joint")
         values[key] = tuple(_numbers(where, f"reference.{key}", ref_table[key], unit, n))
+    e0, edot0, disturbance = _arm_run_tables(where, data, n)
     try:
         reference = JointSinusoids(values["center"], values["amplitude"], values["omega"], values["phase"])
         reference.period  # noqa: B018 - commensurate frequencies, checked here to name the file
@@ -413,7 +475,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
                              if not err.argument.startswith("reference") else f"{where} field `{err.argument}`: "
                              f"{err.problem}") from err
     return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
-                    prefix, design_plant)
+                    prefix, design_plant, e0, edot0, disturbance)
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:
@@ -737,11 +799,27 @@ def _signals(where: str, key: str, raw: Any) -> tuple[Signal, ...]:
             if not isinstance(table.get(field), str) or not table[field].strip():
                 raise InputFileError(f"{where} field `{key}[{k}].{field}` must be a non-empty string, found "
                                      f"{describe(table.get(field))}")
-        unknown = set(table) - {"name", "unit"}
+        valid = ("name", "unit", "limit") if key == "inputs" else ("name", "unit")
+        unknown = set(table) - set(valid)
         if unknown:
-            raise InputFileError(f"{where} unknown field `{key}[{k}].{sorted(unknown)[0]}`; valid: name, unit")
-        out.append(Signal(table["name"], table["unit"]))
+            raise InputFileError(f"{where} unknown field `{key}[{k}].{sorted(unknown)[0]}`; valid: {', '.join(valid)}")
+        limit = None
+        if "limit" in table:  # the actuator's largest |u|, in the input's unit
+            limit = field_number(where, f"{key}[{k}].limit", table["limit"], table["unit"])
+            if limit <= 0:
+                raise InputFileError(f"{where} field `{key}[{k}].limit` must be > 0 {table['unit']} (the largest "
+                                     f"|{table['name']}| the actuator delivers), found {limit:g} {table['unit']}")
+        out.append(Signal(table["name"], table["unit"], limit))
     return tuple(out)
+
+
+def _limit(where: str, field: str, value: Any, unit: str) -> float:
+    """A physical limit: a number, or ±inf (TOML's ``inf``; JSON's ``"inf"``)."""
+    if isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "-inf"):
+        return -math.inf if value.strip().startswith("-") else math.inf
+    if isinstance(value, float) and math.isinf(value):
+        return value
+    return field_number(where, field, value, unit)
 
 
 def _parameter(where: str, name: str, raw: Any) -> Parameter:
@@ -772,9 +850,16 @@ def _parameter(where: str, name: str, raw: Any) -> Parameter:
     samples = raw.get("samples", 5)
     if isinstance(samples, bool) or not isinstance(samples, int):
         raise InputFileError(f"{where} field `{field}.samples` must be an integer, found {describe(samples)}")
+    limits = None
+    if "physical" in raw:
+        limits = raw["physical"]
+        if not isinstance(limits, list) or len(limits) != 2:
+            raise InputFileError(f"{where} field `{field}.physical` must be [lower, upper] in {raw['unit']} (inf "
+                                 f"for no bound, e.g. [0, inf]), found {describe(limits)}")
+        limits = tuple(_limit(where, f"{field}.physical[{k}]", v, str(raw["unit"])) for k, v in enumerate(limits))
     try:
         return Parameter(name, raw["unit"], bounds, nominal=raw.get("nominal"), rate=raw.get("rate"),
-                         samples=samples, description=str(raw.get("description", "")))
+                         samples=samples, description=str(raw.get("description", "")), limits=limits)
     except ArgumentError as err:
         raise InputFileError(f"{where} field `parameters.{err.argument}` {err.problem}") from err
 

@@ -171,8 +171,11 @@ def test_certify_design_and_surface_take_model_files(capsys, name):
     assert main(["certify", "--model", path, "--rho", "1", "--eta", "2", "--format", "json", "--tries", "2"]) == 0
     rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
     applicable = {m for m, r in rows.items() if r["verdict"] != "skipped"}
+    # the table's rows, and the design's decay rate (one summary record after them)
+    assert list(rows)[-1] == "decay-rate" and rows["decay-rate"]["verdict"] == "certified"
     expected = {"vertex-polytope", "lmi-polytope", "falsifier-polytope"} if name.endswith("polytope") else {
         "theorem1-all", "theorem1-A", "theorem1-B", "vertex-box", "lmi-box", "falsifier-box"}
+    expected.add("decay-rate")
     if name == "plant-dc-motor":  # physical parameters: its frozen plants on the parameter grid are tested too
         expected |= {"physical-polytope", "lmi-physical", "falsifier-physical"}
     assert applicable == expected

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -33,6 +34,8 @@ from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant
 from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.decay import design_decay_rate
+from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.registry import analysis_methods, get_method
@@ -304,7 +307,7 @@ class DesignExplorer:
         values = np.full((n, n), np.nan)
         self.payload_values = values
         if self._mapper is None:  # its own worker: the map's minute of work never delays a click's answers
-            self._mapper = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+            self._mapper = ProcessPoolExecutor(1, mp_context=_WORKER_CONTEXT,
                                                initializer=_lower_priority)
         params, reference = self.robot_signals.get("params"), self.robot_signals.get("reference")
 
@@ -417,6 +420,8 @@ class DesignExplorer:
                                                self.settings)),
             "margins": (_margins, (self.model, d)),
             "certificates": (_certificates, (self.model, d, self.plant_source)),
+            "decay": (_decay, (self.model, d, self.plant_source)),
+            "loop_margins": (_loop_margins, (self.model, d, self.plant_source)),
         }
         if self.robot_signals is not None:
             answers["payload"] = (_payload, (d, self.robot_signals.get("params"), self.robot_signals.get("reference")))
@@ -534,14 +539,14 @@ class DesignExplorer:
 
     def _run_pool(self) -> ProcessPoolExecutor:
         if self._runner is None:
-            self._runner = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+            self._runner = ProcessPoolExecutor(1, mp_context=_WORKER_CONTEXT,
                                                initializer=threadpool_limits, initargs=(1,))
         return self._runner
 
     def _workers(self) -> ProcessPoolExecutor:
         if self._process is None:
             # at a lower priority: a click's K and response, and the browser, come first on the machine's cores
-            self._process = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+            self._process = ProcessPoolExecutor(1, mp_context=_WORKER_CONTEXT,
                                                 initializer=_lower_priority)
         return self._process
 
@@ -603,6 +608,36 @@ class DesignExplorer:
                 for worker in workers:
                     worker.terminate()
 
+
+
+class _WorkerProcess(multiprocessing.context.SpawnProcess):
+    """A spawned worker of the page that never receives SIGINT.
+
+    Ctrl-C in a terminal sends SIGINT to the whole process group; the page's own process
+    stops the workers (:meth:`DesignExplorer.close`), so a worker, even one still importing,
+    must not end in a ``KeyboardInterrupt`` traceback of its own. SIGINT is blocked in the
+    starting thread while the worker is spawned, and the new process keeps that mask.
+    """
+
+    def start(self) -> None:
+        """Start the process with SIGINT blocked in it."""
+        if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - Windows has no signal masks
+            super().start()
+            return
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            super().start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+class _WorkerContext(multiprocessing.context.SpawnContext):
+    """The spawn context of the page's worker processes (:class:`_WorkerProcess`)."""
+
+    Process = _WorkerProcess
+
+
+_WORKER_CONTEXT = _WorkerContext()
 
 def _timed(work: Callable[..., Any], *args: Any) -> tuple[Any, str, float]:
     """``work(*args)``, its error message ("" if none) and its wall time, s (run in a worker)."""
@@ -715,6 +750,19 @@ def _certificates(model: UncertainLTVModel, d: Design, plant_source: Callable[[]
     return certificate_table(model, d, plant=_plant_of(plant_source), falsifier_tries=5, seed=0)
 
 
+def _decay(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:
+    """The design's decay rate, as certify, compare and export report it."""
+    return design_decay_rate(model, d, plant=_plant_of(plant_source))
+
+
+def _loop_margins(model: UncertainLTVModel, d: Design, plant_source: Callable[[], Any] | None) -> Any:
+    """Each input's worst disk and delay margin, as certify reports them."""
+    plant = _plant_of(plant_source)
+    if plant is None:
+        return worst_loop_margins(model, d)
+    return worst_loop_margins(plant, d, points={p.name: p.samples for p in plant.varying})
+
+
 def _payload(d: Design, params: Any, reference: Any) -> Any:
     """The SCARA's payload bracket in kg: the design's P below, a frozen unstable payload above."""
     return payload_margin(d, params, reference, tol=1e-2,
@@ -733,4 +781,4 @@ def _payload_column(model: UncertainLTVModel, rho: float, etas: Array, params: A
 
 def _sample_time(plants: Any, check: Any, d: Design) -> Any:
     """The largest Ts the sampled-data certificate holds at (the PID discretized as export does)."""
-    return max_sample_time(plants, d, check=check, rtol=1e-2)
+    return max_sample_time(plants, d, check=check)

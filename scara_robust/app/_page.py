@@ -217,8 +217,8 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
 
     design_div = Div(text="Click the map, or type (ρ, η) and press Select.", width=560, name="design")
     response_div = Div(text="", width=560, name="response")
-    status = {kind: Div(text="", width=560, name=kind) for kind in ("certificates", "margins", "payload",
-                                                                    "sample_time")}
+    status = {kind: Div(text="", width=560, name=kind)
+              for kind in ("certificates", "decay", "loop_margins", "margins", "payload", "sample_time")}
     err_src = ColumnDataSource({"t": []})
     inp_src = ColumnDataSource({"t": []})
     ferr = figure(width=560, height=200, x_axis_label="time t [s]", y_axis_label="tracking error",
@@ -330,6 +330,11 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             hi = float(table.loc["payload-frozen", "mass [kg]"])
             div.text = (f"<b>Payload</b>{took}: certified for a peak payload up to {lo:.4g} kg (the design's P); "
                         f"a frozen payload of {hi:.4g} kg makes the loop unstable")
+        elif answer.kind == "decay":
+            div.text = f"<b>Decay rate</b>{took}: <span id='decay-rate'>{html.escape(answer.value.message)}</span>"
+        elif answer.kind == "loop_margins":
+            div.text = (f"<b>Loop margins</b>{took}: <span id='loop-margins'>{html.escape(answer.value.message)}"
+                        "</span>")
         elif answer.kind == "sample_time":
             div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
 

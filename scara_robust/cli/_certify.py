@@ -70,6 +70,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     d, label = resolve_gain(args, model)
     table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,
                               methods=args.methods)
+    decay = system.decay_rate(d)
+    loops = system.loop_margins(d)
     limit = None
     if args.max_ts:
         plants, check, set_name = system.sampled()
@@ -77,8 +79,15 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         limit = max_sample_time(plants, d.K if system.state_feedback else d, check=check, rtol=1e-3)
     if args.format == "json":
         records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        records.append({"method": "decay-rate", "verdict": decay.verdict, "certified": decay.certified,
+                        "decay_rate [1/s]": _json_value(decay.rate), "from": decay.source, "set": decay.set_name,
+                        "detail": decay.message})
+        records += [{"method": "loop-margins", "verdict": loops.verdict, "certified": loops.certified,
+                     **{k: _json_value(v) for k, v in row.items()}, "detail": loops.message}
+                    for row in loops.to_pandas().to_dict(orient="records")]
         if limit is not None:
-            records.append({"method": "max-ts", "certified_ts [s]": _json_value(limit.certified_ts),
+            records.append({"method": "max-ts", "verdict": limit.verdict, "certified": limit.certified,
+                            "certified_ts [s]": _json_value(limit.certified_ts),
                             "unstable_ts [s]": _json_value(limit.unstable_ts), "detail": limit.message})
         return json.dumps(records, indent=2)
     header = f"certificates of {label}, {system.source(model)}"
@@ -87,4 +96,5 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     )
     details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
     sampled = [] if limit is None else ["", f"sample time on {set_name}: {limit.message}"]
-    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details, *sampled])
+    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details, "",
+                      decay.message, f"loop margins: {loops.message}", *sampled])

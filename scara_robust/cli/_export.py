@@ -140,6 +140,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         meta: dict[str, Any] = ({"design_file": args.design} if args.design is not None else
                                 {"rho": d.rho, "eta": d.eta})
         meta["model"] = model.name
+        decay = system.decay_rate(d)
     elif args.design is not None:
         loaded = load_file("--design", args.design, load_design)
         m, n = loaded.K.shape
@@ -151,18 +152,22 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         controller = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
         gain = f"gain of {args.design!r}"
         meta = {"design_file": args.design, "model": model.name}
+        decay = system.decay_rate(loaded.K, P=loaded.P)
     else:
         d = design(model, args.rho, args.eta)
         controller = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
+        decay = system.decay_rate(d)
     plants, check, set_name = system.sampled()
     result = check_sample_time(plants, controller, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
         raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
     meta["certificate"] = result.record()
     meta["plant_file"] = system.file
-    notes = [f"Sampled-data certificate: {result.message}."]
+    meta["decay_rate"] = {"rate [1/s]": decay.rate if decay.certified else None, "from": decay.source,
+                          "set": decay.set_name}
+    notes = [f"Sampled-data certificate: {result.message}.", f"Continuous-time loop: {decay.message}."]
     if not result.certified:
         notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
                         "without your own analysis.")
@@ -173,12 +178,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                               precision=args.precision, **signals)
     if isinstance(controller, SampledStateFeedback):
         lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
-                 ("" if result.certified else "WARNING: not certified; ") + result.message]
+                 ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
         return "\n".join([*lines, *(f"wrote {f}" for f in files)])
     pid = controller
     lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
              f"{args.precision} precision",
-             ("" if result.certified else "WARNING: not certified; ") + result.message]
+             ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "

@@ -36,6 +36,8 @@ from ..model.robot import PayloadProfile, ScaraParams
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference, SquareWave
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.decay import DecayRate, design_decay_rate
+from ..robustness.loop_margins import LoopMargins, worst_loop_margins
 from ..robustness.parameters import parameter_margin
 from ..robustness.payload import payload_margin
 from ..robustness.sampled import interior_grid
@@ -249,6 +251,40 @@ class LoadedSystem:
         if physical is None:
             raise CommandLineError(message)
         return physical
+
+    def decay_rate(self, design: Design | Any, P: Any = None) -> DecayRate:
+        """The design's decay rate on this system, as every command reports it (:func:`scara_robust.design_decay_rate`).
+
+        Parameters
+        ----------
+        design : Design or array_like, shape (m, n)
+        P : array_like, shape (n, n), optional
+            A plain gain's Lyapunov matrix (a design file's).
+
+        Returns
+        -------
+        DecayRate
+        """
+        return design_decay_rate(self.model, design, P=P, plant=self.physical)
+
+    def loop_margins(self, design: Design | Any) -> LoopMargins:
+        """Each input's worst disk and delay margin over the frozen plants (:func:`scara_robust.worst_loop_margins`).
+
+        A plant's frozen plants on its default grid (each parameter's ``samples``), a set's
+        corners or vertices.
+
+        Parameters
+        ----------
+        design : Design or array_like, shape (m, n)
+
+        Returns
+        -------
+        LoopMargins
+        """
+        physical = self.physical
+        if physical is None:
+            return worst_loop_margins(self.model, design)
+        return worst_loop_margins(physical, design, points={p.name: p.samples for p in physical.varying})
 
     @property
     def state_feedback(self) -> bool:
@@ -687,8 +723,10 @@ def _check_arm(args: argparse.Namespace, robot: str) -> None:
         raise CommandLineError("`--robot` and `--model` each name the plant; give one")
     for option in ("bounds", "scenario"):
         if getattr(args, option, None) is not None:
+            runs = (" (its runs' initial error and disturbance too, [initial] and [disturbance], or --e0, --edot0 "
+                    "and --disturbance)" if args.command in ("simulate", "compare") else "")
             raise CommandLineError(f"`--{option}` describes the built-in SCARA; a URDF robot's reference, payload "
-                                   f"and linearization are in its file {robot!r}")
+                                   f"and linearization are in its file {robot!r}{runs}")
 
 
 def _kind(args: argparse.Namespace) -> str:

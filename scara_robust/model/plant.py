@@ -39,7 +39,7 @@ from ._expressions import Expression, parse_expression
 from .polytopic import PolytopicModel
 from .uncertain import ANCHORS, UncertainElement, UncertainLTVModel, state_space
 
-__all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "PLANT_FORMS"]
+__all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "PLANT_FORMS", "POSITIVE_UNITS"]
 
 Array = NDArray[np.float64]
 #: Design forms of a plant (see the module docstring).
@@ -48,6 +48,32 @@ PLANT_FORMS = ("pid", "integral", "state")
 #: magnitude (rounding of the samples is not variation).
 HULL_RTOL = 1e-9
 _MAX_SAMPLES = 2_000_000
+#: Units of a mass, a length or an inertia, as a plant file writes them: a parameter in one
+#: of them is physically positive, ``limits = (0, inf)``, unless its file says otherwise
+#: (compared with a space, ``*``, ``.`` and ``·`` alike and ``^2``/``**2`` as ``²``).
+POSITIVE_UNITS = frozenset({
+    "kg", "g", "mg", "t", "m", "mm", "cm", "km", "µm", "um",
+    "kg·m²", "g·cm²", "g·mm²", "kg·mm²", "kg·cm²",
+})
+
+
+def positive_unit(unit: str) -> bool:
+    """True when `unit` is one of :data:`POSITIVE_UNITS` (a mass, a length or an inertia)."""
+    text = unit.strip().replace("**2", "²").replace("^2", "²")
+    for sep in (" ", "*", "."):
+        text = text.replace(sep, "·")
+    while "··" in text:
+        text = text.replace("··", "·")
+    return text in POSITIVE_UNITS
+
+
+def _extended_real(name: str, value: object) -> float:
+    """A real number or ±inf (a physical limit), or raise naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ArgumentTypeError(name, f"must be a real number or ±inf, found {describe(value)}")
+    if math.isnan(float(value)):
+        raise ArgumentValueError(name, "must be a real number or ±inf, found nan")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -75,8 +101,11 @@ class Parameter:
         Grid points of the coarser grid on which LMIs are solved (their answer is then
         verified with numpy on ``samples``); default ``min(samples, 5)``.
     description : str
-    limits : (float, float)
-        The physical limits no scaled range crosses (a mass >= 0 kg); default none.
+    limits : (float, float), optional
+        The physical interval the parameter can never leave (a plant file's ``physical``):
+        no scaled range crosses it, and the range must lie in it. Default: ``(0, inf)``
+        for a unit of mass, length or inertia (:data:`POSITIVE_UNITS`: a mass, a length
+        or an inertia is positive by its unit), otherwise ``(-inf, inf)``.
     scales : bool
         Whether margins scale its range (default True). False for a coordinate that is
         not an uncertainty, such as the reference time of a robot's linearization: its
@@ -97,7 +126,7 @@ class Parameter:
     samples: int = 5
     coarse: int | None = None
     description: str = ""
-    limits: tuple[float, float] = (-math.inf, math.inf)
+    limits: tuple[float, float] | None = None
     scales: bool = True
 
     def __post_init__(self) -> None:
@@ -117,6 +146,7 @@ class Parameter:
             raise ArgumentValueError(f"{self.name}.range", f"must have lower <= upper, found [{lo:g}, {hi:g}] "
                                                            f"{self.unit}")
         object.__setattr__(self, "range", (lo, hi))
+        self._check_limits(lo, hi)
         nominal = lo if self.nominal is None else check_real(f"{self.name}.nominal", self.nominal)
         if not lo <= nominal <= hi:
             raise ArgumentValueError(f"{self.name}.nominal", f"must lie in the range [{lo:g}, {hi:g}] {self.unit}, "
@@ -131,6 +161,31 @@ class Parameter:
         object.__setattr__(self, "samples", check_int(f"{self.name}.samples", self.samples, 2 if lo < hi else 1))
         coarse = min(self.samples, 5) if self.coarse is None else self.coarse
         object.__setattr__(self, "coarse", check_int(f"{self.name}.coarse", coarse, 2 if lo < hi else 1))
+
+    def _check_limits(self, lo: float, hi: float) -> None:
+        if self.limits is None:
+            limits = (0.0, math.inf) if positive_unit(self.unit) else (-math.inf, math.inf)
+        else:
+            try:
+                a, b = self.limits
+            except (TypeError, ValueError):
+                raise ArgumentValueError(f"{self.name}.limits", "must be (lower, upper), found "
+                                                                f"{describe(self.limits)}") from None
+            limits = (_extended_real(f"{self.name}.limits[0]", a), _extended_real(f"{self.name}.limits[1]", b))
+            if not limits[0] < limits[1]:
+                raise ArgumentValueError(f"{self.name}.limits", f"must have lower < upper, found "
+                                                                f"[{limits[0]:g}, {limits[1]:g}] {self.unit}")
+        if lo < limits[0] or hi > limits[1]:
+            why = (f" ({self.unit} is a unit of mass, length or inertia: positive unless the limits say otherwise)"
+                   if self.limits is None else "")
+            raise ArgumentValueError(f"{self.name}.range", f"must lie in the physical limits [{limits[0]:g}, "
+                                                           f"{limits[1]:g}] {self.unit}{why}, found [{lo:g}, {hi:g}]")
+        object.__setattr__(self, "limits", limits)
+
+    @property
+    def physical(self) -> tuple[float, float]:
+        """The physical interval the parameter can never leave, ``(lower, upper)`` in its unit."""
+        return self.limits  # type: ignore[return-value]
 
     @property
     def varies(self) -> bool:
@@ -147,21 +202,60 @@ class Parameter:
         if not self.scales:
             return (lo, hi)
         p0 = float(self.nominal)  # type: ignore[arg-type]
-        return (max(p0 - theta * (p0 - lo), self.limits[0]), min(p0 + theta * (hi - p0), self.limits[1]))
+        return (max(p0 - theta * (p0 - lo), self.physical[0]), min(p0 + theta * (hi - p0), self.physical[1]))
+
+    def at_limit(self, theta: float) -> str:
+        """Which ends of :meth:`scaled_range` sit on the physical limits at θ.
+
+        Returns ``''``, ``'lower'``, ``'upper'`` or ``'both'``.
+        """
+        if not self.scales:
+            return ""
+        p0 = float(self.nominal)  # type: ignore[arg-type]
+        lo, hi = self.range
+        low = p0 - theta * (p0 - lo) <= self.physical[0] and lo < p0
+        high = p0 + theta * (hi - p0) >= self.physical[1] and hi > p0
+        return "both" if low and high else "lower" if low else "upper" if high else ""
 
 
 @dataclass(frozen=True)
 class Signal:
-    """A named input or output with its unit (``Signal("i", "A")``)."""
+    """A named input or output with its unit (``Signal("i", "A")``), and an input's limit.
+
+    Parameters
+    ----------
+    name : str
+    unit : str
+    limit : float, optional
+        The largest magnitude ``|u|`` the actuator delivers, in `unit` (> 0): a motor's
+        current limit. None (default) for none. Only the analyses that ask for it read it
+        (:func:`~scara_robust.input_limit_certificate`, :func:`~scara_robust.synthesize`
+        given ``input_limits``); no simulation saturates on it.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> sr.Signal("current", "A", limit=2.0).limit
+    2.0
+    """
 
     name: str
     unit: str
+    limit: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
             raise ArgumentValueError("name", f"must be a non-empty string, found {describe(self.name)}")
         if not isinstance(self.unit, str) or not self.unit.strip():
             raise ArgumentValueError(f"{self.name}.unit", f"must name the unit, found {describe(self.unit)}")
+        if self.limit is not None:
+            if isinstance(self.limit, bool) or not isinstance(self.limit, (int, float, np.integer, np.floating)):
+                raise ArgumentTypeError(f"{self.name}.limit", f"must be a number > 0 in {self.unit}, found "
+                                                              f"{type(self.limit).__name__} {describe(self.limit)}")
+            if not (math.isfinite(float(self.limit)) and self.limit > 0):
+                raise ArgumentValueError(f"{self.name}.limit", f"must be a finite number > 0 in {self.unit}, found "
+                                                               f"{float(self.limit):g}")
+            object.__setattr__(self, "limit", float(self.limit))
 
 
 @dataclass(frozen=True)
@@ -551,6 +645,17 @@ class UncertainPlant:
             return int(self.C.shape[0]) + self.n_states
         return self.n_states
 
+    @property
+    def input_limits(self) -> Array | None:
+        """Each input's limit (:attr:`Signal.limit`), shape (m,), in its unit; ``inf`` for an input without one.
+
+        None when no input has a limit. What :func:`~scara_robust.input_limit_certificate`
+        and :func:`~scara_robust.synthesize` take as their limits.
+        """
+        if all(s.limit is None for s in self.inputs):
+            return None
+        return np.array([math.inf if s.limit is None else s.limit for s in self.inputs], dtype=float)
+
     def box(self, theta: float = 1.0) -> dict[str, tuple[float, float]]:
         """Every parameter's range scaled by θ about its nominal (:meth:`Parameter.scaled_range`)."""
         theta = check_real("theta", theta, nonnegative=True)
@@ -777,11 +882,15 @@ class UncertainPlant:
     def interval_model(self, theta: float = 1.0) -> UncertainLTVModel:
         """The interval hull of the design-form family over the (scaled) box.
 
-        For a plant built from expressions, each entry's range is computed by interval
-        arithmetic (an enclosure: it holds every value over the box); otherwise it is the
-        range over :meth:`samples` (exact when the entries are monotone in each
-        parameter, the grid holding the corners). Nominal at the element-wise minima, each
-        varying entry ``[0, max − min]`` (the paper's convention, Tables 1–2).
+        For a plant built from expressions, each entry's range over the box is an
+        enclosure (it holds every value over the box): exact where the entry is proven
+        monotone in each parameter (the interval enclosure of each partial derivative
+        keeps one sign; its corners) or uses each varying parameter once, otherwise
+        refined by subdividing the box until it exceeds the sampled range by at most a
+        relative 1e-6 (:meth:`entry_ranges` says which, entry by entry). For any other
+        plant it is the range over :meth:`samples` (exact when the entries are monotone
+        in each parameter, the grid holding the corners). Nominal at the element-wise
+        minima, each varying entry ``[0, max − min]`` (the paper's convention, Tables 1–2).
 
         Parameters
         ----------
@@ -805,21 +914,15 @@ class UncertainPlant:
         return box.centered() if self.design_plant == "center" else box
 
     def _interval_box(self, theta: float) -> UncertainLTVModel:
+        from ._ranges import matrix_ranges  # the range of each entry: exact where provable, else refined
+
         plant = self if theta == 1.0 else self.scaled(theta)
         if self.entries is not None:
-            box = plant.box()
-            lows, highs = [], []
-            for table, shape in ((self.entries[0], (self.n_states, self.n_states)),
-                                 (self.entries[1], (self.n_states, self.n_inputs))):
-                lo, hi = np.empty(shape), np.empty(shape)
-                for i, row in enumerate(table):
-                    for j, expr in enumerate(row):
-                        if any(box[k][0] < box[k][1] for k in expr.names):
-                            lo[i, j], hi[i, j] = expr.interval({k: box[k] for k in expr.names})
-                        else:
-                            lo[i, j] = hi[i, j] = float(expr({k: box[k][0] for k in expr.names}))
-                lows.append(lo)
-                highs.append(hi)
+            lows = [np.empty((self.n_states, self.n_states)), np.empty((self.n_states, self.n_inputs))]
+            highs = [np.empty_like(lows[0]), np.empty_like(lows[1])]
+            for label, i, j, _, r in matrix_ranges((("A", self.entries[0]), ("B", self.entries[1])), plant.box()):
+                k = 0 if label == "A" else 1
+                lows[k][i, j], highs[k][i, j] = r.lower, r.upper
             A_from_lo, B_from_lo = self.design_form(lows[0], lows[1])
             A_from_hi, B_from_hi = self.design_form(highs[0], highs[1])
             # the PID form's input matrix is −B_u: min and max over both ends give its bounds
@@ -828,6 +931,64 @@ class UncertainPlant:
             return hull_of_stacks(stack_A, stack_B, self.name, self.n_joints, rtol=0.0)
         s = plant.samples()
         return hull_of_stacks(s.A, s.B, self.name, self.n_joints)
+
+    def entry_ranges(self, theta: float = 1.0) -> pd.DataFrame:
+        """The range of every entry of A and B over the (scaled) box, and whether it is exact.
+
+        The ranges :meth:`interval_model` builds its hull from, in plant coordinates (the
+        PID form's ``A[2][1]`` is the plant's ``A[1][0]``, its input matrix ``−B``).
+
+        Parameters
+        ----------
+        theta : float
+            Scaling of the parameter box about the nominal (1: the plant's own).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per entry, A's row by row then B's: ``matrix`` ('A' or 'B'), ``row``,
+            ``col``, ``text`` (the entry as written), ``lower`` and ``upper`` (an interval
+            holding every value over the box, in the entry's unit), ``how`` and ``gap``.
+            ``how`` is ``'constant'`` (no varying parameter), ``'monotone'`` (the interval
+            enclosure of every partial derivative keeps one sign: the range of the box's
+            corners, exact), ``'single-use'`` (each varying parameter occurs once: interval
+            arithmetic is exact), ``'refined'`` (the box subdivided until the enclosure
+            exceeds the sampled range by at most a relative 1e-6) or ``'enclosure'`` (that
+            tolerance not reached within 4096 sub-boxes). ``gap`` bounds how much wider
+            than the true range ``[lower, upper]`` is (0 where exact), in the entry's unit.
+
+        Raises
+        ------
+        ArgumentValueError
+            For a plant not written as expressions (:meth:`from_function`,
+            :meth:`from_system`: its hull is the range over :meth:`samples`), or naming
+            the entry where it is undefined on the box.
+
+        Examples
+        --------
+        >>> import scara_robust as sr
+        >>> m = sr.Parameter("m", "kg", (0.0, 1.0))
+        >>> plant = sr.UncertainPlant.from_expressions([m], [[0, 1], ["m/(1 + m) - 1", 0]], [[0], [1]])
+        >>> plant.entry_ranges()[["matrix", "row", "col", "lower", "upper", "how"]].iloc[2]
+        matrix           A
+        row              1
+        col              0
+        lower         -1.0
+        upper         -0.5
+        how       monotone
+        Name: 2, dtype: object
+        """
+        from ._ranges import matrix_ranges  # the range of each entry: exact where provable, else refined
+
+        theta = check_real("theta", theta, nonnegative=True)
+        if self.entries is None:
+            raise ArgumentValueError("plant", f"{self.name!r} is not written as expressions (a plant file or "
+                                              "UncertainPlant.from_expressions): its interval_model() is a "
+                                              "published hull or the range over its samples()")
+        plant = self if theta == 1.0 else self.scaled(theta)
+        rows = [(label, i, j, expr.text, r.lower, r.upper, r.how, r.gap) for label, i, j, expr, r in
+                matrix_ranges((("A", self.entries[0]), ("B", self.entries[1])), plant.box())]
+        return pd.DataFrame(rows, columns=["matrix", "row", "col", "text", "lower", "upper", "how", "gap"])
 
     def polytope(self, theta: float = 1.0, points: Mapping[str, int] | None = None) -> PolytopicModel:
         """The polytope whose vertices are the sampled design-form plants (nominal: the hull's).

@@ -7,8 +7,12 @@ the command line iterate it); every search for the end of an interval is
 """
 
 from . import certificates as _certificates  # noqa: F401  (the built-in rows register first, in the table's order)
+from .actuator import *  # noqa: F403
+from .actuator import __all__ as _actuator
 from .context import *  # noqa: F403
 from .context import __all__ as _context
+from .decay import *  # noqa: F403
+from .decay import __all__ as _decay
 from .falsifier import *  # noqa: F403
 from .falsifier import __all__ as _falsifier
 from .l2gain import *  # noqa: F403
@@ -17,6 +21,8 @@ from .l2rate import *  # noqa: F403
 from .l2rate import __all__ as _l2rate
 from .lmi import *  # noqa: F403
 from .lmi import __all__ as _lmi
+from .loop_margins import *  # noqa: F403
+from .loop_margins import __all__ as _loop_margins
 from .margins import *  # noqa: F403
 from .margins import __all__ as _margins
 from .parameters import *  # noqa: F403
@@ -39,4 +45,5 @@ from .table import *  # noqa: F403
 from .table import __all__ as _table
 
 __all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters,
-           *_payload, *_registry, *_context, *_search, *_l2rate]
+           *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
+           *_actuator, *_loop_margins]

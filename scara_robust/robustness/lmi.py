@@ -19,6 +19,7 @@ returns a result whose status is ``'not installed'``.
 
 from __future__ import annotations
 
+import hashlib
 import warnings
 from dataclasses import dataclass
 
@@ -310,11 +311,28 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     True
     """
     A_v = check_closed_loops("closed_loops", closed_loops)
-    n = A_v.shape[1]
     check_choice("solver", solver, LMI_SOLVERS)
     if not cvxpy_available():
         return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])
+    # one command asks the same question twice (its table's LMI row, then the design's decay
+    # rate): the answer for the same closed loops is kept, read-only
+    key = (hashlib.sha256(np.ascontiguousarray(A_v).tobytes()).hexdigest(), A_v.shape, solver)
+    if key not in _SOLVED:
+        if len(_SOLVED) >= _SOLVED_SIZE:
+            _SOLVED.pop(next(iter(_SOLVED)))
+        _SOLVED[key] = _solve_common_p(A_v, solver)
+    return _SOLVED[key]
+
+
+#: Answers of :func:`lmi_certificate` kept for the same closed loops and solver.
+_SOLVED: dict[tuple[str, tuple[int, ...], str], LMICertificate] = {}
+_SOLVED_SIZE = 16
+
+
+def _solve_common_p(A_v: NDArray[np.float64], solver: str) -> LMICertificate:
     import cvxpy as cp
+
+    n = A_v.shape[1]
 
     # Scaling the vertices by a positive constant leaves feasibility unchanged and keeps
     # the -I right-hand side commensurate with the data.
@@ -343,5 +361,6 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     if P.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return LMICertificate(status, solver, None, np.nan, np.nan, A_v.shape[0])
     P_val = np.array(P.value, dtype=float)
+    P_val.setflags(write=False)
     max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
     return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), A_v.shape[0], decay_floor(A_v))

@@ -39,7 +39,7 @@ from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
-from ..model.plant import UncertainPlant, require_plant
+from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
 from .pdl import RateMargin, max_certified_rate
@@ -54,6 +54,7 @@ __all__ = [
     "parameter_switching_growth",
     "rate_bracket",
     "RateBracket",
+    "frozen_end",
 ]
 
 Array = NDArray[np.float64]
@@ -253,22 +254,94 @@ def parameter_margin(
         upper = kind == "upper"
         lo, hi, note = _search(ok, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
         scale = lo if kind == "lower" else hi
-        if upper:
-            message = (f"a frozen plant of the grid is unstable at the scale hi (grid {plant.grid_values().shape[0]} "
-                       f"points; scan ratio x{_FROZEN_RATIO:g})") if math.isfinite(hi) else "no unstable frozen plant"
+        end = ""
+        if upper and math.isfinite(hi):
+            end, where = frozen_end(plant, K, hi)
+            message = (f"{where} (a frozen plant of the grid, {plant.grid_values().shape[0]} points, is unstable at "
+                       f"the scale hi; scan ratio x{_FROZEN_RATIO:g})")
+        elif upper:
+            message = "no unstable frozen plant"
         else:
             message = "certified up to lo, not at hi"
         if note:
             message = f"{message}; {note}"
+        stops = _at_limits(varying, scale)
+        if stops:
+            message = f"{message}; {stops}"
         ranges = []
         for p in varying:
-            a, b = p.scaled_range(scale) if math.isfinite(scale) else (math.nan, math.nan)
-            ranges += [a, b]
-        rows.append((method, kind, scale, f"[{lo:.6g}, {hi:.6g}]", *ranges, time.perf_counter() - start, message))
+            ranges += list(_range_at(p, scale))
+        rows.append((method, kind, scale, f"[{lo:.6g}, {hi:.6g}]", *ranges, end, time.perf_counter() - start,
+                     message))
     columns = ["method", "kind", "scale", "bracket"]
     for p in varying:
         columns += [f"{p.name} low [{p.unit}]", f"{p.name} high [{p.unit}]"]
-    return pd.DataFrame(rows, columns=[*columns, "seconds", "message"])
+    return pd.DataFrame(rows, columns=[*columns, "end", "seconds", "message"])
+
+
+def _range_at(p: Parameter, scale: float) -> tuple[float, float]:
+    """The parameter's range at the scale; at an infinite scale, what is left of it (nan when unbounded both ways)."""
+    if math.isnan(scale):
+        return (math.nan, math.nan)
+    if math.isfinite(scale):
+        return p.scaled_range(scale)
+    lo, hi = p.range
+    p0 = float(p.nominal)  # type: ignore[arg-type]
+    if not p.scales:
+        return (lo, hi)
+    return (p.physical[0] if lo < p0 else lo, p.physical[1] if hi > p0 else hi)
+
+
+def _at_limits(varying: Sequence[Parameter], scale: float) -> str:
+    """"m stops at its physical limit 0 kg" for each parameter whose scaled range reached its limits."""
+    parts = []
+    for p in varying:
+        side = p.at_limit(scale) if not math.isnan(scale) else ""
+        ends = {"lower": [0], "upper": [1], "both": [0, 1]}.get(side, [])
+        for k in (k for k in ends if math.isfinite(p.physical[k])):
+            parts.append(f"{p.name} stops at its physical limit {p.physical[k]:g} {p.unit}")
+    return "; ".join(parts)
+
+
+def frozen_end(plant: UncertainPlant, K: ArrayLike, scale: float) -> tuple[str, str]:
+    """Which end of the scaled box holds an unstable frozen plant, named in the parameters' units.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    K : array_like, shape (m, n)
+        Gain of ``u = −Kx`` on the design form.
+    scale : float
+        A scale at which a frozen plant of the grid is unstable (the frozen bound's hi).
+
+    Returns
+    -------
+    end : str
+        ``"NAME lower"`` or ``"NAME upper"`` for the parameter(s) at an end of their range
+        at the most unstable sample (several joined by ``", "``); ``"interior"`` when none is
+        at an end; ``""`` when no sample is unstable.
+    text : str
+        E.g. ``"the upper end: a frozen plant is unstable above m = 2.45 kg"``.
+    """
+    samples = plant.samples(theta=scale)
+    growth = np.linalg.eigvals(samples.closed_loops(K)).real.max(axis=1)
+    if not growth.max() >= 0:
+        return "", "no frozen plant of the grid is unstable"
+    worst = samples.values[int(np.argmax(growth))]
+    ends, words = [], []
+    for p in plant.varying:
+        value = float(worst[plant.names.index(p.name)])
+        a, b = p.scaled_range(scale)
+        if p.scales and value == a and a < float(p.nominal):  # type: ignore[arg-type]
+            ends.append(f"{p.name} lower")
+            words.append(f"the lower end: a frozen plant is unstable below {p.name} = {value:.6g} {p.unit}")
+        elif p.scales and value == b and b > float(p.nominal):  # type: ignore[arg-type]
+            ends.append(f"{p.name} upper")
+            words.append(f"the upper end: a frozen plant is unstable above {p.name} = {value:.6g} {p.unit}")
+    if not ends:
+        at = ", ".join(f"{name} = {v:.6g} {plant.parameter(name).unit}" for name, v in zip(plant.names, worst))
+        return "interior", f"a frozen plant inside the box is unstable, at {at}"
+    return ", ".join(ends), "; ".join(words)
 
 
 def _gain(plant: UncertainPlant, design: Design | ArrayLike) -> Array:

@@ -172,7 +172,8 @@ def payload_margin(
         lo, hi = bisect(ok, lo, hi, tol, midpoint="near-zero")
         value = lo if kind == "lower" else hi
         message = ("certified up to lo, not at hi" if kind == "lower"
-                   else "every frozen sample stable at lo, one unstable at hi")
+                   else f"the upper end: a frozen sample is unstable above a peak payload of {hi:.6g} kg (every "
+                        f"frozen sample stable at lo; the payload's lower end is 0 kg, its physical limit)")
         rows.append((name, kind, value, f"[{lo:.6g}, {hi:.6g}]", time.perf_counter() - start, message))
     return pd.DataFrame(rows, columns=["method", "kind", "mass [kg]", "bracket [kg]", "seconds", "message"])
 

@@ -478,6 +478,8 @@ class SampleTimeLimit(VerdictFromCertified, AnalysisResult):
 
 #: The default cap of :func:`max_sample_time`'s search for a frozen instability, s.
 MAX_SAMPLE_TIME_CAP = 100.0
+#: The default start of :func:`max_sample_time`'s search, s.
+TS_MIN = 1e-5
 
 
 def max_sample_time(
@@ -485,7 +487,7 @@ def max_sample_time(
     design: Design | DiscretePID | SampledStateFeedback | ArrayLike,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
-    ts_min: float = 1e-5,
+    ts_min: float = TS_MIN,
     ts_max: float = MAX_SAMPLE_TIME_CAP,
     rtol: float = 1e-3,
     solver: str = "CLARABEL",
@@ -729,7 +731,7 @@ def check_sample_time(
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     set_name: str = "the given plants",
-    rtol: float = 1e-2,
+    rtol: float = 1e-3,
     solver: str = "CLARABEL",
 ) -> SampleTimeCheck:
     """The sampled-data certificate of `pid` at its own Ts and, if it fails, the safe limits.
@@ -748,7 +750,9 @@ def check_sample_time(
     set_name : str
         What the plants are, for messages.
     rtol : float
-        Relative width of the limits' brackets.
+        Relative width of the limits' brackets (the default is :func:`max_sample_time`'s,
+        and so is its search range unless `pid`'s Ts lies outside it: one design, one
+        bracket, whichever command asks).
     solver : {'CLARABEL', 'SCS'}
 
     Returns
@@ -774,6 +778,6 @@ def check_sample_time(
     cert = sampled_certificate(model, pid, check=check, solver=solver)
     limit = None
     if not cert.certified:
-        limit = max_sample_time(model, pid, check=check, ts_min=min(1e-5, pid.Ts / 10),
-                                ts_max=max(10 * pid.Ts, 1.0), rtol=rtol, solver=solver)
+        limit = max_sample_time(model, pid, check=check, ts_min=min(TS_MIN, pid.Ts / 10),
+                                ts_max=max(10 * pid.Ts, MAX_SAMPLE_TIME_CAP), rtol=rtol, solver=solver)
     return SampleTimeCheck(cert, limit, set_name)

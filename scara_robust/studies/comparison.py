@@ -24,9 +24,9 @@ from ..lyapunov.theorem1 import certify
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant
 from ..paper import PAPER_T_FINAL
-from ..robustness.lmi import lmi_certificate
+from ..robustness.decay import design_decay_rate
+from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import parameter_margin
-from ..robustness.synthesis import decay_rate
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
@@ -77,9 +77,9 @@ def compare_controllers(
     Returns
     -------
     pandas.DataFrame
-        Columns :data:`COMPARISON_COLUMNS`: ``controller, scenario, payload, success``,
-        ``status`` (one of :data:`scara_robust.STATUSES`), the metric names (NaN for a run
-        without them) and ``status_reason``.
+        Columns :data:`COMPARISON_COLUMNS`: ``controller, scenario, payload``, ``success``
+        (True only when the run tracks), ``status`` (one of :data:`scara_robust.STATUSES`),
+        the metric names (NaN for a run without them) and ``status_reason``.
     """
     extra = {label: check_array(f"designs[{label!r}]", K, shape=(2, 6)) for label, K in (designs or {}).items()}
     clash = sorted(set(extra) & set(controllers))
@@ -96,7 +96,7 @@ def compare_controllers(
             "controller": c,
             "scenario": s if isinstance(s, str) else s.name,
             "payload": "on" if payload_on else "off",
-            "success": res.success,
+            "success": res.status == "tracking",
             "status": res.status,
             "status_reason": res.status_reason,
         }
@@ -129,13 +129,18 @@ def compare_plant_designs(
     -------
     pandas.DataFrame
         One row per design: ``design``, the gains (``K_I``, ``K_P``, ``K_D`` for the PID
-        form, else ``K``), ``theorem1 max eig`` (NaN without P), ``decay rate [1/s]`` (the
-        state decay α, ``V̇ <= −2αV``, that a common P certifies on the interval hull's
-        corners for this K: the design's own P checked by numpy, or one found by the LMI,
-        whichever is larger; NaN when none verifies),
+        form, else ``K``), ``theorem1 max eig`` (NaN without P), ``decay rate [1/s]`` and
+        ``decay rate from`` (the state decay α, ``V̇ <= −2αV``, of
+        :func:`~scara_robust.design_decay_rate`: the larger of the design's own P and a
+        common P by LMI, and which; NaN when none verifies), ``disk margin α`` and
+        ``delay margin [s]`` (the worst over the inputs and the frozen plants of the
+        parameter grid, :func:`~scara_robust.worst_loop_margins`; 0 when a frozen loop is
+        unstable),
         for each varying parameter ``NAME certified high [UNIT]`` (the design-P vertex
-        margin, NaN without P) and ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
-        beyond), then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
+        margin, NaN without P), ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
+        beyond, NaN when none is found up to the physical limits or the search's cap) and
+        ``NAME frozen end`` (``'lower'``, ``'upper'`` or ``'none'``: the end that fails),
+        then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
     """
     hull = plant.interval_model()
     rows = []
@@ -151,19 +156,25 @@ def compare_plant_designs(
             row["K"] = str(K.round(6).tolist())
         design = None if P is None else Design._of_gain(hull.A, hull.B, K, P, "given", hull.n_joints)
         row["theorem1 max eig"] = certify(hull, design).max_eig if design is not None else math.nan
-        loops = hull.vertex_closed_loops(K)
-        own = decay_rate(loops, P) if P is not None else -math.inf  # the design's own P, checked by numpy
-        lmi = lmi_certificate(loops)
-        best = max(own, lmi.decay_rate if lmi.certified else -math.inf)
-        row["decay rate [1/s]"] = best if best > 0 else math.nan
+        decay = design_decay_rate(hull, K, P=P, plant=plant)
+        row["decay rate [1/s]"] = decay.rate
+        row["decay rate from"] = decay.source or "none"
+        loops = worst_loop_margins(plant, K, points={prm.name: prm.samples for prm in plant.varying})
+        row["disk margin α"] = float(loops.disk_margin.min()) if loops.certified else 0.0
+        row["delay margin [s]"] = float(loops.delay_margin.min()) if loops.certified else 0.0
         margins = parameter_margin(plant, design if design is not None else K,
                                    ["vertex", "frozen"] if design is not None else ["frozen"])
         for prm in plant.varying:
             column = f"{prm.name} high [{prm.unit}]"
             vertex = margins.loc[margins["method"] == "vertex", column]
             row[f"{prm.name} certified high [{prm.unit}]"] = float(vertex.iloc[0]) if len(vertex) else math.nan
-            row[f"{prm.name} frozen limit [{prm.unit}]"] = float(
-                margins.loc[margins["method"] == "frozen", column].iloc[0])
+            frozen = margins.loc[margins["method"] == "frozen"].iloc[0]
+            end = "lower" if f"{prm.name} lower" in frozen["end"] else "upper" if f"{prm.name} upper" in \
+                frozen["end"] else "none"
+            side = "low" if end == "lower" else "high"
+            row[f"{prm.name} frozen limit [{prm.unit}]"] = (float(frozen[f"{prm.name} {side} [{prm.unit}]"])
+                                                            if end != "none" else math.nan)
+            row[f"{prm.name} frozen end"] = end
         run = simulate_plant(plant, K, profiles=profiles, reference=reference, disturbance=disturbance,
                              t_final=t_final)
         out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit

@@ -1,0 +1,203 @@
+"""Physical bounds of parameters, and one number per question across the commands.
+
+A parameter's physical interval stops every scaled range (a mass is never negative); the
+frozen bound names the end that fails. A design's decay rate and its sample-time bracket
+are the same number whichever command (certify, compare, export, the design page) asks.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.cli import build_parser, main
+from scara_robust.cli._app import explorer_of
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+MOTOR = str(EXAMPLES / "plant-dc-motor.toml")
+ARM = str(EXAMPLES / "plant-arm-payload.toml")
+ZOH = str(EXAMPLES / "plant-zoh-benchmark.toml")
+ZOH_GAIN = str(EXAMPLES / "gain-zoh.json")
+
+
+# ---------------------------------------------------------------- physical bounds
+
+
+@pytest.mark.parametrize("unit, positive", [("kg", True), ("kg·m²", True), ("kg*m^2", True), ("kg m**2", True),
+                                            ("m", True), ("N·m/A", False), ("1", False), ("s", False)])
+def test_a_mass_a_length_and_an_inertia_are_positive_by_their_unit(unit, positive):
+    p = sr.Parameter("p", unit, (1.0, 2.0))
+    assert p.limits == ((0.0, math.inf) if positive else (-math.inf, math.inf))
+
+
+def test_a_range_outside_the_physical_interval_is_refused_naming_it():
+    with pytest.raises(sr.ArgumentValueError, match=r"`m.range` must lie in the physical limits \[0, inf\] kg"):
+        sr.Parameter("m", "kg", (-1.0, 2.0))
+    assert sr.Parameter("x", "kg", (-1.0, 2.0), limits=(-math.inf, math.inf)).varies  # the file says otherwise
+    with pytest.raises(sr.ArgumentValueError, match="`k.limits` must have lower < upper"):
+        sr.Parameter("k", "N/m", (1.0, 2.0), limits=(3.0, 1.0))
+
+
+def test_the_scaled_range_stops_at_the_physical_limit():
+    m = sr.Parameter("m", "kg", (0.0, 2.0), nominal=1.0)
+    assert m.scaled_range(3.0) == (0.0, 4.0) and m.at_limit(3.0) == "lower" and m.at_limit(0.5) == ""
+
+
+@pytest.mark.parametrize("physical, expected", [("[0, inf]", (0.0, math.inf)), ('["-inf", 5]', (-math.inf, 5.0))])
+def test_a_plant_file_states_the_physical_interval(tmp_path, physical, expected):
+    text = Path(ARM).read_text(encoding="utf-8").replace("physical = [0, inf]", f"physical = {physical}")
+    path = tmp_path / "arm.toml"
+    path.write_text(text, encoding="utf-8")
+    assert sr.load_plant(path).parameter("m").limits == expected
+
+
+@pytest.mark.parametrize("physical, message", [
+    ("[1, inf]", "field `parameters.m.range` must lie in the physical limits [1, inf] kg, found [0, 2]"),
+    ('[0, "x"]', "field `parameters.m.physical[1]` must be a finite number in kg"),
+    ("0", "field `parameters.m.physical` must be [lower, upper] in kg"),
+])
+def test_a_bad_physical_interval_is_one_line_naming_the_field(tmp_path, capsys, physical, message):
+    text = Path(ARM).read_text(encoding="utf-8").replace("physical = [0, inf]", f"physical = {physical}")
+    path = tmp_path / "arm.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["certify", "--model", str(path), "--rho", "1", "--eta", "2"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and message in err and "Traceback" not in err
+
+
+def test_the_arm_margin_never_reaches_a_negative_mass():
+    """Scaled about its nominal 1 kg the payload range would reach m = −0.45 kg, where J = 0; it stops at 0."""
+    arm = sr.load_plant(ARM)
+    for rho, eta in ((1.0, 2.0), (1.0, 10.0)):
+        table = sr.parameter_margin(arm, sr.design(arm, rho, eta), ["physical", "frozen"])
+        assert (table["m low [kg]"].dropna() >= 0).all()
+        frozen = table.set_index("method").loc["frozen"]
+        # every frozen plant with m in [0, 1e6] kg is stable: no limit, and the message says where it stopped
+        assert frozen["end"] == "" and math.isinf(frozen["scale"])
+        assert "m stops at its physical limit 0 kg" in frozen["message"]
+        m = np.linspace(0.0, 100.0, 201)
+        loops = arm.samples({"m": 201}, theta=1.0)  # the default box, and far beyond below
+        assert np.linalg.eigvals(loops.closed_loops(sr.design(arm, rho, eta).K)).real.max() < 0
+        A, B = arm.plant_matrices(np.column_stack([m if n == "m" else np.full_like(m, arm.nominal[n])
+                                                   for n in arm.names]))
+        Aa, Ba = arm.design_form(A, B)
+        assert np.linalg.eigvals(Aa - Ba @ sr.design(arm, rho, eta).K).real.max() < 0
+
+
+def test_margin_and_compare_on_the_arm_print_no_negative_mass(capsys):
+    assert main(["margin", "--model", ARM, "--rho", "1", "--eta", "2", "--format", "json"]) == 0
+    out = capsys.readouterr().out
+    rows = json.loads(out)
+    parameter_rows = [r for r in (rows if isinstance(rows, list) else rows.get("parameters", []))
+                      if "m low [kg]" in r]
+    assert parameter_rows and all(r["m low [kg]"] is None or r["m low [kg]"] >= 0 for r in parameter_rows)
+    assert main(["compare", "--model", ARM, "--rho", "1", "--eta", "2", "--no-synthesis", "--t-final", "7"]) == 0
+    out = capsys.readouterr().out
+    line = next(s for s in out.splitlines() if s.startswith("m frozen end"))
+    assert line.split()[-1] == "none"
+    assert "-0.45" not in out
+
+
+def test_the_motor_frozen_bound_names_the_upper_end_and_its_routh_hurwitz_value():
+    motor = sr.load_plant(MOTOR)
+    d = sr.design(motor, 1, 10)
+    frozen = sr.parameter_margin(motor, d, ["frozen"]).iloc[0]
+    K_I, K_P, K_D = (-float(d.K[0, k]) for k in range(3))
+    b, kt = motor.nominal["b"], motor.nominal["kt"]
+    routh = (b + kt * K_D) * K_P / K_I  # J s³ + (b + kt K_D) s² + kt K_P s + kt K_I: stable iff J below this
+    assert frozen["end"] == "J upper"
+    assert frozen["J high [kg·m²]"] == pytest.approx(routh, rel=1e-6)
+    assert f"the upper end: a frozen plant is unstable above J = {frozen['J high [kg·m²]']:.6g} kg·m²" \
+        in frozen["message"]
+
+
+def test_a_frozen_bound_at_the_lower_end_is_named_as_such():
+    """An input gain a ∈ [0.5, 1] scaled down about 1 crosses 0, where the loop's sign flips."""
+    a = sr.Parameter("a", "1", (0.5, 1.0), nominal=1.0)
+    plant = sr.UncertainPlant.from_expressions([a], [[0, 1], [0, -1]], [[0], ["a"]], form="pid")
+    d = sr.design(plant, 1, 2)
+    frozen = sr.parameter_margin(plant, d, ["frozen"]).iloc[0]
+    assert frozen["end"] == "a lower"
+    low = float(frozen["a low [1]"])
+    assert "the lower end: a frozen plant is unstable below a = " in frozen["message"]
+    # the closed loop at a just above the reported end is stable, at the end it is not
+    for value, stable in ((low + 1e-3, True), (low, False)):
+        A, B = plant.plant_matrices(np.array([[value]]))
+        Aa, Ba = plant.design_form(A, B)
+        assert (np.linalg.eigvals(Aa - Ba @ d.K).real.max() < 0) == stable
+
+
+def test_the_scara_payload_bound_names_its_upper_end():
+    d = sr.design(sr.paper_model(), 3, 90)
+    table = sr.payload_margin(d, methods=["payload-frozen"], n_times=19, n_masses=3, tol=1e-2)
+    row = table.iloc[0]
+    assert f"the upper end: a frozen sample is unstable above a peak payload of {row['mass [kg]']:.6g} kg" \
+        in row["message"]
+
+
+# ---------------------------------------------------------------- one decay rate, one bracket
+
+
+def _certify_json(capsys, argv):
+    assert main(["certify", *argv, "--format", "json", "--tries", "2"]) == 0
+    return {r["method"]: r for r in json.loads(capsys.readouterr().out)}
+
+
+@pytest.mark.lmi
+def test_certify_compare_export_and_the_page_report_one_decay_rate(capsys, tmp_path):
+    setup = ["--model", MOTOR, "--rho", "1", "--eta", "10"]
+    rows = _certify_json(capsys, setup)
+    certified = rows["decay-rate"]["decay_rate [1/s]"]
+    assert certified > 0 and rows["decay-rate"]["from"] == "the design's P"
+    # the number itself: the design's own P, exact for that P (the generalized eigenvalue), checked here
+    motor = sr.load_plant(MOTOR)
+    d = sr.design(motor, 1, 10)
+    loops = motor.interval_model().vertex_closed_loops(d.K)
+    L = np.linalg.cholesky(d.P)
+    Li = np.linalg.inv(L)
+    own = min(-np.linalg.eigvalsh(Li @ (A.T @ d.P + d.P @ A) @ Li.T).max() / 2 for A in loops)
+    assert certified == pytest.approx(max(own, rows["decay-rate"]["decay_rate [1/s]"]), rel=1e-9)
+
+    assert main(["compare", *setup, "--no-synthesis", "--t-final", "7", "--format", "json"]) == 0
+    compared = json.loads(capsys.readouterr().out)
+    records = compared if isinstance(compared, list) else compared["designs"]
+    assert records[0]["decay rate [1/s]"] == pytest.approx(certified, rel=1e-12)
+
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["export", *setup, "--ts", "5e-4", "--format", "json", "--output", str(out)]) == 0
+    capsys.readouterr()
+    meta = json.loads(next(out.iterdir()).read_text(encoding="utf-8"))
+    found = meta["metadata"]["decay_rate"] if "metadata" in meta else meta["decay_rate"]
+    assert found["rate [1/s]"] == pytest.approx(certified, rel=1e-12)
+
+    explorer = explorer_of(build_parser().parse_args(["app", *setup[:2], "--rho", "1:1:1", "--eta", "10:10:1"]))
+    function, arguments = explorer.slow_answers(d)["decay"]
+    assert function(*arguments).rate == pytest.approx(certified, rel=1e-12)
+
+
+@pytest.mark.lmi
+def test_certify_export_and_the_page_bracket_the_sample_time_alike(capsys, tmp_path):
+    """The own-gain guide's ZOH benchmark: certify --max-ts and export beyond the limit give one bracket."""
+    rows = _certify_json(capsys, ["--model", ZOH, "--design", ZOH_GAIN, "--max-ts"])
+    bracket = rows["max-ts"]
+    certified, unstable = bracket["certified_ts [s]"], bracket["unstable_ts [s]"]
+    assert 0 < certified <= unstable
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["export", "--model", ZOH, "--design", ZOH_GAIN, "--ts", "1.8", "--output", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"the largest certified Ts is {certified:.4g} s" in err
+    assert f"a frozen plant is unstable from Ts = {unstable:.4g} s" in err
+    assert list(out.iterdir()) == []
+
+
+def test_a_comparison_succeeds_only_when_it_tracks():
+    table = sr.compare_controllers(["pid"], ["large"], t_final=2.0)
+    for row in table.itertuples():
+        assert row.success == (row.status == "tracking")
