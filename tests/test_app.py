@@ -289,6 +289,32 @@ def test_the_page_in_chromium(page_of_motor, tmp_path):
     assert not problems, problems
 
 
+def test_the_page_marks_a_design_beyond_the_current_limit(page_of_motor):
+    """The DC motor's file limits its current to 2 A; (ρ, η) = (10, 100) needs about 550 A for a unit step."""
+    page, explorer, problems = page_of_motor
+    motor = sr.load_plant(MOTOR)
+    assert motor.input_limits is not None and float(motor.input_limits[0]) == 2.0
+    d = sr.design(motor, 10, 100)
+    peak = float(np.abs(sr.simulate_plant(motor, d.K, t_final=explorer.t_final).u).max())
+    assert 500 < peak < 600  # the response the page runs: a unit step of the reference
+    page.get_by_label(LABELS["rho"]).fill("10")
+    page.get_by_label(LABELS["eta"]).fill("100")
+    page.get_by_role("button", name="Select (ρ, η)").click()
+    page.wait_for_selector(f"text={response_label(10, 100)}", timeout=120_000)
+    mark = page.locator("#deployable")
+    mark.wait_for(timeout=60_000)
+    assert mark.inner_text() == "Outside the input limit"
+    reason = page.locator("#deployable-reason").inner_text()
+    assert f"current needs {peak:.4g} A, beyond its limit of 2 A" in reason
+    # a design that stays within 2 A for the same step is marked so
+    page.get_by_label(LABELS["rho"]).fill("0.1")
+    page.get_by_label(LABELS["eta"]).fill("1")
+    page.get_by_role("button", name="Select (ρ, η)").click()
+    page.wait_for_selector(f"text={response_label(0.1, 1)}", timeout=120_000)
+    page.wait_for_selector("#deployable >> text=Within the input limits", timeout=60_000)
+    assert not problems, problems
+
+
 #: The page's text fields, by their labels.
 LABELS = {"rho": "ρ [-] (> 0)", "eta": "η [-] (>= 1)", "torque-limit": "input limit [A] (blank: none)",
           "ts": "Ts [s]", "rho-grid": "ρ grid START:STOP:NUM", "eta-grid": "η grid START:STOP:NUM"}

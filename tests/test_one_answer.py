@@ -201,3 +201,48 @@ def test_a_comparison_succeeds_only_when_it_tracks():
     table = sr.compare_controllers(["pid"], ["large"], t_final=2.0)
     for row in table.itertuples():
         assert row.success == (row.status == "tracking")
+
+
+# ---------------------------------------------------------------- input limits through the commands
+
+
+def test_certify_reports_the_initial_errors_certified_within_the_current_limit(capsys):
+    rows = _certify_json(capsys, ["--model", MOTOR, "--rho", "1", "--eta", "10", "--initial-error", "0,0.005,0"])
+    within = rows["input-limits"]
+    motor = sr.load_plant(MOTOR)
+    d = sr.design(motor, 1, 10)
+    # s* from the closed form with the P of the design's decay rate, recomputed here
+    P = sr.design_decay_rate(motor, d).P
+    K = d.K
+    c_star = 2.0 ** 2 / float(K[0] @ np.linalg.solve(P, K[0]))
+    v = np.array([0.0, 0.005, 0.0])
+    assert within["scale"] == pytest.approx(math.sqrt(c_star / float(v @ P @ v)), rel=1e-9)
+    assert within["certified"] is True and "certified within the limits for these initial errors" in within["detail"]
+    # the default: a unit step of the reference, which this gain cannot take within 2 A
+    rows = _certify_json(capsys, ["--model", MOTOR, "--rho", "1", "--eta", "10"])
+    assert rows["input-limits"]["certified"] is False and rows["input-limits"]["scale"] < 1
+
+
+@pytest.mark.lmi
+def test_synthesize_within_the_limits_writes_a_gain_certified_within_them(capsys, tmp_path):
+    out = tmp_path / "limited.json"
+    assert main(["synthesize", "--model", MOTOR, "--objective", "decay", "--within-limits", "--initial-error",
+                 "0,0.1,0", "--output", str(out)]) == 0
+    capsys.readouterr()
+    loaded = sr.load_design(out)
+    motor = sr.load_plant(MOTOR)
+    loops = motor.interval_model().vertex_closed_loops(loaded.K)
+    cert = sr.input_limit_certificate(loaded.K, loaded.P, motor.input_limits, [0.0, 0.1, 0.0], closed_loops=loops)
+    assert cert.certified and cert.scale >= 1 and cert.lyapunov_checked
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["synthesize", "--model", MOTOR, "--initial-error", "0,1,0"], "`--initial-error` goes with --within-limits"),
+    (["certify", "--model", MOTOR, "--rho", "1", "--eta", "2", "--initial-error", "1,2"],
+     "`--initial-error` must give 3"),
+    (["certify", "--model", ZOH, "--design", ZOH_GAIN, "--initial-error", "1"], "this plant has none"),
+])
+def test_bad_initial_errors_are_one_line(capsys, argv, text):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and text in err

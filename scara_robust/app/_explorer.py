@@ -231,6 +231,32 @@ class DesignExplorer:
         return (tuple(f"e {s.name} [{s.unit}]" for s in out), tuple(f"{s.name} [{s.unit}]" for s in inp),
                 out[0].unit, inp[0].unit)
 
+    def deployable(self, response: Response) -> tuple[bool, str] | None:
+        """Whether the response's inputs stay within the plant file's input limits, and why.
+
+        Parameters
+        ----------
+        response : Response
+            The selected design's run (its ``inputs``, shape (m, n_t), in the inputs' units).
+
+        Returns
+        -------
+        (bool, str) or None
+            None when the plant gives no input limit.
+        """
+        limits = None if self.plant is None or self.robot_signals is not None else self.plant.input_limits
+        if limits is None:
+            return None
+        peaks = np.abs(np.asarray(response.inputs, dtype=float)).max(axis=1)
+        inputs = self.plant.inputs  # type: ignore[union-attr]
+        parts = [f"peak |{s.name}| = {peak:.4g} {s.unit} (limit {limit:g} {s.unit})"
+                 for s, peak, limit in zip(inputs, peaks, limits) if np.isfinite(limit)]
+        over = [f"{s.name} needs {peak:.4g} {s.unit}, beyond its limit of {limit:g} {s.unit}"
+                for s, peak, limit in zip(inputs, peaks, limits) if peak > limit]
+        if over:
+            return False, "; ".join(over) + " in this run: not deployable on this actuator"
+        return True, "; ".join(parts) + " in this run"
+
     @property
     def limit_name(self) -> str:
         """What the page calls the saturation of the controller's outputs."""

@@ -159,6 +159,17 @@ def _gain_table(answer: QuickAnswer, output_unit: str, input_unit: str, elements
     return "".join(lines)
 
 
+def _deployable_html(verdict: tuple[bool, str] | None) -> str:
+    """The selected design's deployability beside its response: red when it needs more than the actuator gives."""
+    if verdict is None:
+        return ""
+    ok, text = verdict
+    colour = "#1a7f37" if ok else "#b00020"
+    word = "Within the input limits" if ok else "Outside the input limit"
+    return (f"<br><b id='deployable' style='color:{colour}'>{word}</b>: "
+            f"<span id='deployable-reason'>{html.escape(text)}</span>")
+
+
 def _table_html(frame: Any, columns: list[str], table_id: str) -> str:
     shown = frame[columns].copy()
     return str(shown.to_html(index=False, table_id=table_id, float_format=lambda v: f"{v:.4g}", na_rep="–",
@@ -297,7 +308,8 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                              f"{scenario}: "
                              f"<span id='response-status'>{resp.status}</span> "
                              f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
-                             f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>")
+                             f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>"
+                             + _deployable_html(explorer.deployable(resp)))
 
     def show_answer(answer: Answer) -> None:
         if answer.generation != explorer.generation:

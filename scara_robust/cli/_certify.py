@@ -10,7 +10,7 @@ import numpy as np
 
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
-from ._common import CommandLineError, add_setup_options, finite_float, method_names, resolve_gain
+from ._common import CommandLineError, add_setup_options, finite_float, method_names, per_joint_values, resolve_gain
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -39,6 +39,10 @@ def add_parser(sub: Any) -> None:
                    help="also: the largest sample time the sampled-data certificate holds at (a PID discretized as "
                    "export does: Tustin integral, measured derivative; a gain on a plant file's state or integral "
                    "form: u = -K x(t_k) held), and the smallest at which a frozen plant is unstable (extra lmi)")
+    p.add_argument("--initial-error", type=per_joint_values, metavar="V,V,...",
+                   help="half-widths of the box of initial errors on the design state (x = [∫e, e, ė] for a PID) for "
+                   "which the plant file's input limits are certified (default: a unit step of each reference from "
+                   "rest, e(0) = 1 output unit)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
@@ -72,6 +76,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                               methods=args.methods)
     decay = system.decay_rate(d)
     loops = system.loop_margins(d)
+    limit_box = system.initial_errors(args.initial_error)
+    within = system.input_limit(d, decay, limit_box)
+    limits = [] if limit_box is None else [
+        "input limits: " + (within.message if within is not None else
+                            "no certified Lyapunov function, so no certified bound on the inputs")
+        + f" (initial errors: the box of half-widths {np.round(limit_box, 6).tolist()} on the design state)"]
     limit = None
     if args.max_ts:
         plants, check, set_name = system.sampled()
@@ -85,6 +95,11 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         records += [{"method": "loop-margins", "verdict": loops.verdict, "certified": loops.certified,
                      **{k: _json_value(v) for k, v in row.items()}, "detail": loops.message}
                     for row in loops.to_pandas().to_dict(orient="records")]
+        if limit_box is not None:
+            records.append({"method": "input-limits", "verdict": within.verdict if within else "not certified",
+                            "certified": bool(within is not None and within.certified),
+                            "scale": _json_value(within.scale) if within else None,
+                            "initial_errors": limit_box.tolist(), "detail": limits[0]})
         if limit is not None:
             records.append({"method": "max-ts", "verdict": limit.verdict, "certified": limit.certified,
                             "certified_ts [s]": _json_value(limit.certified_ts),
@@ -97,4 +112,4 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
     sampled = [] if limit is None else ["", f"sample time on {set_name}: {limit.message}"]
     return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details, "",
-                      decay.message, f"loop margins: {loops.message}", *sampled])
+                      decay.message, f"loop margins: {loops.message}", *limits, *sampled])

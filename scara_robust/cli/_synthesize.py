@@ -15,7 +15,7 @@ from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
-from ._common import CommandLineError, add_range_option, add_setup_options, finite_float
+from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
@@ -57,6 +57,12 @@ def add_parser(sub: Any) -> None:
                    f"{L2_DECAY:g} for the l2 objective)")
     p.add_argument("--gain-bound", type=finite_float, default=GAIN_BOUND,
                    help=f"bound on ||K||_2 (default {GAIN_BOUND:g})")
+    p.add_argument("--within-limits", action="store_true",
+                   help="keep every input within the plant file's `limit` (of its [[inputs]]) from the initial errors "
+                   "of --initial-error: constraints of the LMI, the answer re-verified with numpy")
+    p.add_argument("--initial-error", type=per_joint_values, metavar="V,V,...",
+                   help="with --within-limits: half-widths of the box of initial errors on the design state "
+                   "(default: a unit step of each reference from rest, e(0) = 1 output unit)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     # dest is not `output`: the design file goes there, the summary to stdout
     p.add_argument("--output", dest="design_output", metavar="FILE.json",
@@ -110,6 +116,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.range and uncertainty_set != "box":
         raise CommandLineError("`--range` changes a parameter of a plant file (--model); it goes with --set box")
     model = as_model("model", system.with_ranges(args.range)) if uncertainty_set == "box" else None
+    limits: dict[str, Any] = {}
+    if args.within_limits:
+        physical_plant = system.physical
+        box = system.initial_errors(args.initial_error)
+        if physical_plant is None or physical_plant.input_limits is None or box is None or model is None:
+            raise CommandLineError("`--within-limits` needs a plant file in the PID form (or --initial-error) whose "
+                                   "[[inputs]] give a `limit`, and --set box")
+        limits = {"input_limits": physical_plant.input_limits, "initial_errors": box}
+    elif args.initial_error is not None:
+        raise CommandLineError("`--initial-error` goes with --within-limits")
     if uncertainty_set == "physical":  # the SCARA's physical set, or an arm's samples
         physical = system.physical_set(PHYSICAL_GRID, CHECK_GRID)
         objective = args.objective or physical.objective
@@ -122,7 +138,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         assert model is not None
         structured = model.B.shape[0] == 3 * model.B.shape[1]
         objective = args.objective or ("l2" if structured else "decay")
-        result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound)
+        result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound, **limits)
         kind = model.kind
         what = f"the {kind} of {model.name}, objective {objective}"
     if result.status == NOT_INSTALLED:
@@ -148,6 +164,11 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         "gain_bound": result.gain_bound, "n_vertices": result.n_vertices, "n_checked": result.n_checked,
         "solver_status": result.solver_status, **margin_value,
     }
+    if limits and result.input_limit is not None:
+        info["input_limits"] = {"certified": result.input_limit.certified, "scale": result.input_limit.scale,
+                                "limits": [float(v) for v in limits["input_limits"]],
+                                "initial_errors": limits["initial_errors"].tolist(),
+                                "message": result.input_limit.message}
     info = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in info.items()}
     if output is not None:  # the design file; main() prints the summary
         if result.K is None:

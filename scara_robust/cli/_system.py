@@ -36,6 +36,7 @@ from ..model.robot import PayloadProfile, ScaraParams
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference, SquareWave
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.actuator import InputLimitCertificate, input_limit_certificate
 from ..robustness.decay import DecayRate, design_decay_rate
 from ..robustness.loop_margins import LoopMargins, worst_loop_margins
 from ..robustness.parameters import parameter_margin
@@ -266,6 +267,69 @@ class LoadedSystem:
         DecayRate
         """
         return design_decay_rate(self.model, design, P=P, plant=self.physical)
+
+    def initial_errors(self, given: list[float] | None) -> np.ndarray | None:
+        """The box of initial errors the input limits are certified for: ``--initial-error``, or a unit step.
+
+        Parameters
+        ----------
+        given : list of float or None
+            Half-widths on the design state (n values), or None: for a PID plant, a unit
+            step of each reference from rest (``e(0) = 1`` output unit, ``∫e = ė = 0``).
+
+        Returns
+        -------
+        ndarray, shape (n,), or None
+            None when the plant has no input limit, or is not in the PID form and no box
+            was given.
+
+        Raises
+        ------
+        CommandLineError
+            For a box of the wrong size or with a negative half-width.
+        """
+        physical = self.physical
+        if physical is None or physical.input_limits is None:
+            if given is not None:
+                raise CommandLineError("`--initial-error` bounds the initial errors for the input limits of a plant "
+                                       "file (`limit` of its [[inputs]]); this plant has none")
+            return None
+        n = physical.n_design_states
+        if given is None:
+            if physical.form != "pid":
+                return None
+            q = physical.n_states // 2
+            return np.concatenate([np.zeros(q), np.ones(q), np.zeros(q)])
+        if len(given) != n or min(given) < 0:
+            raise CommandLineError(f"`--initial-error` must give {n} half-widths >= 0 (one per state of the design "
+                                   f"form), found {len(given)} value(s) {given}")
+        return np.asarray(given, dtype=float)
+
+    def input_limit(self, design: Design | Any, decay: DecayRate,
+                    box: np.ndarray | None) -> InputLimitCertificate | None:
+        """The initial errors certified within the input limits, with the P of the design's decay rate.
+
+        Parameters
+        ----------
+        design : Design or array_like, shape (m, n)
+        decay : DecayRate
+            Its certified P (:meth:`decay_rate`) makes the invariant ellipsoids.
+        box : ndarray, shape (n,), or None
+            Half-widths of the initial errors (:meth:`initial_errors`).
+
+        Returns
+        -------
+        InputLimitCertificate or None
+            None without limits or without a box.
+        """
+        physical = self.physical
+        if physical is None or physical.input_limits is None or box is None:
+            return None
+        K = design.K if isinstance(design, Design) else np.asarray(design, dtype=float)
+        if decay.P is None:  # no certified Lyapunov function: no invariant ellipsoid either
+            return None
+        return input_limit_certificate(K, decay.P, physical.input_limits, box, inputs=physical.inputs,
+                                       closed_loops=decay.loops)
 
     def loop_margins(self, design: Design | Any) -> LoopMargins:
         """Each input's worst disk and delay margin over the frozen plants (:func:`scara_robust.worst_loop_margins`).

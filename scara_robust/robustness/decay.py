@@ -18,7 +18,7 @@ grid).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -67,6 +67,8 @@ class DecayRate(AnalysisResult):
         The smallest rate reported as certified, 1/s (:func:`~scara_robust.decay_floor`).
     P : ndarray, shape (n, n), or None
         The P that gives :attr:`rate`.
+    loops : ndarray, shape (V, n, n), or None
+        The closed loops of the set (the LMI's; P was verified on them and on the checks).
     """
 
     rate: float
@@ -78,6 +80,7 @@ class DecayRate(AnalysisResult):
     n_loops: int
     floor: float
     P: Array | None = None
+    loops: Array | None = field(default=None, repr=False)
 
     @property
     def certified(self) -> bool:
@@ -170,9 +173,9 @@ def certified_decay_rate(
                   if np.isfinite(r) and r > 0 and r >= floor]
     n_loops = sum(len(c) for c in every)
     if not candidates:
-        return DecayRate(math.nan, "", own, lmi_rate, status, set_name, n_loops, floor)
+        return DecayRate(math.nan, "", own, lmi_rate, status, set_name, n_loops, floor, None, loops)
     rate, source, best = max(candidates, key=lambda c: c[0])
-    return DecayRate(rate, source, own, lmi_rate, status, set_name, n_loops, floor, best)
+    return DecayRate(rate, source, own, lmi_rate, status, set_name, n_loops, floor, best, loops)
 
 
 def design_decay_rate(

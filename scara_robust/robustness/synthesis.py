@@ -15,6 +15,12 @@ by bisection (each step an LMI, cvxpy + Clarabel: extra ``lmi``). ``‖K‖₂ <
 the largest scaling θ of the uncertainty set one gain certifies. The answer is re-verified
 with numpy on the same set and, when given, on an independent one; a gain numpy cannot
 verify is reported as not certified.
+
+Input limits ``|u_i| <= ū_i`` from a set of initial errors with vertices v are constraints
+of every objective (§5.2.2, §7.2.3): with the level of ``E = {xᵀQ⁻¹x <= 1}`` fixed at 1,
+``[[1, vᵀ], [v, Q]] ⪰ 0`` puts every v in E and ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` keeps
+``|K_i x| <= ū_i`` on E, which V makes invariant
+(:func:`~scara_robust.input_limit_certificate` re-verifies both with numpy).
 """
 
 from __future__ import annotations
@@ -33,11 +39,12 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_model, is_model
 from ..results import AnalysisResult
+from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
 from .search import bisect
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "OBJECTIVES"]
+__all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "OBJECTIVES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES"]
 
 Array = NDArray[np.float64]
 
@@ -57,6 +64,15 @@ OBJECTIVES = ("decay", "l2", "margin")
 
 #: Largest scaling θ searched by the ``'margin'`` objective.
 MARGIN_CAP = 1e3
+
+#: With input limits, the initial errors the LMI must hold are the given ones scaled by
+#: ``1 + LIMIT_MARGIN``, so that numpy's re-verification of the solver's answer
+#: (:func:`~scara_robust.input_limit_certificate`, ``s* >= 1``) is not a coin toss on its
+#: tolerances (~1e-8).
+LIMIT_MARGIN = 1e-3
+
+#: The most points of an initial-error set the synthesis takes (one LMI each).
+MAX_LIMIT_VERTICES = 1024
 
 #: The ``'margin'`` objective's default decay rate, relative to the plants' largest spectral
 #: norm ‖A_i‖₂ (1/s): with no decay required the LMI returns gains at the edge of
@@ -172,6 +188,13 @@ class Synthesis(AnalysisResult):
     design : Design or None
         The gain as a :class:`~scara_robust.Design` on the model's nominal (ρ and η NaN),
         so every certificate, margin and simulation takes it.
+    input_limits : ndarray, shape (m,), or None
+        The limits ``ū_i`` the gain must keep, in the inputs' units (``inf``: none); None
+        without.
+    input_limit : InputLimitCertificate or None
+        With ``input_limits``: numpy's check that the initial errors lie in an invariant
+        ellipsoid of P on which every input stays within its limit (certified only then);
+        P is scaled so that ellipsoid is ``{xᵀPx <= 1}``. None without limits.
     """
 
     status: str
@@ -193,6 +216,8 @@ class Synthesis(AnalysisResult):
     theta: float = math.nan
     search: str = ""
     decay_floor: float = math.nan
+    input_limits: Array | None = None
+    input_limit: InputLimitCertificate | None = None
 
     @property
     def verdict(self) -> str:
@@ -227,25 +252,35 @@ class Synthesis(AnalysisResult):
                               if math.isfinite(self.check_gamma) else " (not verified by P on the independent samples)")
             if self.objective == "margin":
                 extra += f"; the set scaled by θ = {self.theta:.4g} is certified ({self.search})"
+            if self.input_limit is not None:
+                extra += f"; inputs within their limits: {self.input_limit.message}"
             return (f"gain found with ‖K‖ = {self.gain_norm:.4g} <= {self.gain_bound:g}; numpy verifies the decay "
                     f"rate α >= {self.verified_decay:.4g} 1/s (V̇ <= −2αV) on the {self.n_vertices} synthesis "
                     f"points{extra}")
         if self.status == "infeasible":
-            return f"no gain with ‖K‖ <= {self.gain_bound:g} and a common quadratic Lyapunov function exists"
+            limits = "" if self.input_limits is None else (
+                " that keeps every input within its limit from the initial errors")
+            return f"no gain with ‖K‖ <= {self.gain_bound:g} and a common quadratic Lyapunov function exists{limits}"
         if self.status == "marginal":
             return (f"marginal, not certified: numpy verifies a decay of only {self.verified_decay:.3g} 1/s, below "
                     f"the floor {self.decay_floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm), within the "
                     "solver's tolerances of zero")
         if self.K is not None:
+            limits = "" if self.input_limit is None else f"; input limits: {self.input_limit.message}"
             return (f"the solver returned a gain ({self.status}) that numpy does not certify: decay "
-                    f"{self.verified_decay:.4g} 1/s on the synthesis set, {self.check_decay:.4g} on the check set")
+                    f"{self.verified_decay:.4g} 1/s on the synthesis set, {self.check_decay:.4g} on the check set"
+                    f"{limits}")
         return f"no gain: {self.status}"
 
 
 def _solve(
-    A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None
+    A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None,
+    limits: tuple[Array, Array] | None = None,
 ) -> tuple[str, Array | None, Array | None, float]:
     """One LMI: decay ``alpha`` and ``‖K‖ <= κ``; with ``l2 = (B_w, C)`` also minimize γ.
+
+    With ``limits = (ū (m,), V (k, n))`` also ``[[1, v_jᵀ], [v_j, Q]] ⪰ 0`` for every point
+    and ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` for every finite ū_i.
 
     Returns the solver status, Q, Y and γ (NaN without `l2`).
     """
@@ -256,9 +291,17 @@ def _solve(
     Y = cp.Variable((m, n))
     eye = np.eye(n)
     # Q ⪰ μI and Y Q⁻¹ Yᵀ ⪯ κ²μI give ‖K‖ = ‖(YQ^{-1/2}) Q^{-1/2}‖ <= κ√μ / √μ = κ. The decay
-    # LMI is homogeneous in (Q, Y), so μ = 1 there; the bounded-real one is not, so μ is free.
-    mu: cp.Variable | float = cp.Variable(nonneg=True) if l2 is not None else 1.0
+    # LMI is homogeneous in (Q, Y), so μ = 1 there; the bounded-real one and the limits are
+    # not, so μ is free.
+    mu: cp.Variable | float = cp.Variable(nonneg=True) if l2 is not None or limits is not None else 1.0
     constraints = [Q >> mu * eye, cp.bmat([[kappa**2 * mu * np.eye(m), Y], [Y.T, Q]]) >> 0]  # type: ignore[attr-defined]
+    if limits is not None:
+        u_max, points = limits
+        for v in points:
+            constraints.append(cp.bmat([[np.ones((1, 1)), v[None, :]], [v[:, None], Q]]) >> 0)  # type: ignore[attr-defined]
+        for k in np.flatnonzero(np.isfinite(u_max)).tolist():
+            row = Y[k:k + 1, :]
+            constraints.append(cp.bmat([[np.full((1, 1), u_max[k] ** 2), row], [row.T, Q]]) >> 0)  # type: ignore[attr-defined]
     gamma = cp.Variable(nonneg=True) if l2 is not None else None
     for i, (A_i, B_i) in enumerate(zip(A, B)):
         AQ = A_i @ Q - B_i @ Y
@@ -271,6 +314,11 @@ def _solve(
                              [C @ Q, np.zeros((p, q)), -gamma * np.eye(p)]])
             constraints.append(0.5 * (block + block.T) << -1e-9 * np.eye(n + q + p))
     objective = cp.Minimize(gamma) if gamma is not None else cp.Minimize(cp.trace(Q))  # type: ignore[attr-defined]
+    if limits is not None and gamma is None:
+        # the feasible Q are bounded above by the limits, not below: make E as round as the limits allow
+        # (Q ⪰ μI, μ <= 1, the size of the initial errors) instead of shrinking it onto them
+        constraints.append(mu <= 1.0)
+        objective = cp.Maximize(mu)
     problem = cp.Problem(objective, constraints)
     try:
         with warnings.catch_warnings():
@@ -321,14 +369,21 @@ def _largest(
     return lo, hi, f"certified at {lo:.6g}; at {hi:.6g} the LMI is {proof}"
 
 
-def _verdict(A: Array, B: Array, solution: tuple[str, Array | None, Array | None, float], alpha: float) -> str:
-    """One synthesis LMI's answer, checked with numpy: certified only if V decays at >= α and the floor."""
+def _verdict(A: Array, B: Array, solution: tuple[str, Array | None, Array | None, float], alpha: float,
+             accept: Callable[[Array, Array], bool] | None = None) -> str:
+    """One synthesis LMI's answer, checked with numpy: certified only if V decays at >= α and the floor.
+
+    `accept(K, P)`, when given, must also hold (the input limits).
+    """
     status, Q, Y, _ = solution
     if Q is None or Y is None:
         return lmi_verdict(status, False)
     P = np.linalg.inv(Q)
-    loops = A - B @ (Y @ P)
+    K = Y @ P
+    loops = A - B @ K
     rate = decay_rate(loops, 0.5 * (P + P.T))
+    if accept is not None and not accept(K, 0.5 * (P + P.T)):
+        return lmi_verdict(status, False)
     if rate >= max(alpha * (1 - 1e-6), decay_floor(loops)):
         return "certified"
     return "marginal" if rate > 0 else lmi_verdict(status, False)
@@ -383,6 +438,8 @@ def synthesize(
     nominal: ModelLike | None = None,
     tol: float = 1e-2,
     solver: str = "CLARABEL",
+    input_limits: ArrayLike | None = None,
+    initial_errors: ArrayLike | None = None,
 ) -> Synthesis:
     """Synthesize ``u = −Kx`` and its common Lyapunov matrix over an uncertainty set.
 
@@ -419,11 +476,24 @@ def synthesize(
     tol : float
         Relative tolerance of the bisections on α or θ.
     solver : {'CLARABEL', 'SCS'}
+    input_limits : float or array_like, shape (m,), optional
+        ``ū_i > 0`` per input, in its unit (``inf``: none; a plant's
+        :attr:`~scara_robust.UncertainPlant.input_limits`): every objective is then
+        constrained to keep ``|u_i(t)| <= ū_i`` for all t from every initial error in
+        `initial_errors` (with :data:`LIMIT_MARGIN`), on every plant of the set. A decay or
+        margin the limits do not allow is not reached: the bisection stops below it, and a
+        set the limits make impossible is reported infeasible. Needs `initial_errors`.
+    initial_errors : array_like, shape (n,) or (k, n), optional
+        Half-widths of a box of initial errors (state units; zeros allowed) or its points
+        (at most :data:`MAX_LIMIT_VERTICES`), as for
+        :func:`~scara_robust.input_limit_certificate`. Needs `input_limits`.
 
     Returns
     -------
     Synthesis
-        Never raises for an infeasible or inaccurate problem: those are results.
+        Never raises for an infeasible or inaccurate problem: those are results. With
+        limits, :attr:`Synthesis.input_limit` is numpy's check of them, and the result is
+        certified only if it passes.
 
     See Also
     --------
@@ -433,7 +503,8 @@ def synthesize(
     References
     ----------
     Boyd, El Ghaoui, Feron, Balakrishnan, *Linear Matrix Inequalities in System and
-    Control Theory*, SIAM 1994: §7.2.1 (decay), §7.5.1 (L2 gain, state feedback).
+    Control Theory*, SIAM 1994: §7.2.1 (decay), §7.5.1 (L2 gain, state feedback), §5.2.2
+    and §7.2.3 (invariant ellipsoids, input constraints).
 
     Examples
     --------
@@ -480,10 +551,40 @@ def synthesize(
         if A_chk.shape[1:] != A.shape[1:] or B_chk.shape[1:] != B.shape[1:]:
             raise ArgumentValueError("check", f"must hold matrices of the sizes of `model`, found {A_chk.shape}")
     n_chk = 0 if A_chk is None else int(A_chk.shape[0])
+    u_lim: Array | None = None
+    points: Array | None = None
+    lim: tuple[Array, Array] | None = None
+    accept: Callable[[Array, Array], bool] | None = None
+    s0 = 1.0
+    if (input_limits is None) != (initial_errors is None):
+        missing = "initial_errors" if initial_errors is None else "input_limits"
+        raise ArgumentValueError(missing, "is needed with the other: input limits hold from a set of initial errors "
+                                          "(input_limits per input, initial_errors in state units)")
+    if input_limits is not None and initial_errors is not None:
+        u_lim = input_limits_of("input_limits", input_limits, m)
+        points = initial_error_vertices(initial_errors, n)
+        s0 = float(np.abs(points).max())
+        if s0 == 0.0:
+            raise ArgumentValueError("initial_errors", "must hold a nonzero initial error (from the origin alone every "
+                                                       "gain keeps u = 0)")
+        if len(points) > MAX_LIMIT_VERTICES:
+            raise ArgumentValueError("initial_errors", f"has {len(points)} points, more than {MAX_LIMIT_VERTICES} "
+                                                       "(one LMI each): pass fewer")
+        # the LMI is solved for x / s0 (points of size 1: Q, Y scale by s0², the limits by 1/s0)
+        lim = (u_lim / s0, points * (1 + LIMIT_MARGIN) / s0)
+        limits, initial, size = u_lim, points, s0
+
+        def limits_hold(K: Array, P_scaled: Array) -> bool:
+            return input_limit_certificate(K, P_scaled / size**2, limits, initial).certified
+
+        accept = limits_hold
+
+    # without limits, _solve is called exactly as before
+    extra: dict[str, tuple[Array, Array]] = {} if lim is None else {"limits": lim}
 
     def empty(status: str, search: str = "") -> Synthesis:
         return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
-                         time.perf_counter() - start, None, objective=objective, search=search)
+                         time.perf_counter() - start, None, objective=objective, search=search, input_limits=u_lim)
 
     if not cvxpy_available():
         return empty(NOT_INSTALLED)
@@ -492,7 +593,10 @@ def synthesize(
     searched = ""
     if objective == "l2":
         alpha = L2_DECAY if alpha is None else alpha
-        status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2)
+        # in x / s0 the disturbance enters through B_w / s0 and the output is s0·C (same L2 gain)
+        assert l2 is not None
+        l2_scaled = l2 if lim is None else (l2[0] / s0, l2[1] * s0)
+        status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2_scaled, **extra)
     elif objective == "margin":
         if alpha is None:  # a decay the numpy check can tell from zero (see MARGIN_DECAY_RTOL)
             alpha = MARGIN_DECAY_RTOL * float(np.linalg.norm(A, 2, axis=(1, 2)).max())
@@ -502,8 +606,8 @@ def synthesize(
 
         def feasible(th: float) -> str:
             A_t, B_t = uncertain.scaled(th).vertex_matrices()
-            found[th] = _solve(A_t, B_t, floor, kappa, solver)
-            return _verdict(A_t, B_t, found[th], floor)
+            found[th] = _solve(A_t, B_t, floor, kappa, solver, **extra)
+            return _verdict(A_t, B_t, found[th], floor, accept)
 
         first = feasible(0.0)
         if first != "certified":
@@ -514,13 +618,13 @@ def synthesize(
             status, Q, Y, _ = found[theta]
             A, B = uncertain.scaled(theta).vertex_matrices()
     elif alpha is not None:
-        status, Q, Y, _ = _solve(A, B, alpha, kappa, solver)
+        status, Q, Y, _ = _solve(A, B, alpha, kappa, solver, **extra)
     else:
         by_alpha: dict[float, tuple[str, Array | None, Array | None, float]] = {}
 
         def decays(a: float) -> str:
-            by_alpha[a] = _solve(A, B, a, kappa, solver)
-            return _verdict(A, B, by_alpha[a], a)
+            by_alpha[a] = _solve(A, B, a, kappa, solver, **extra)
+            return _verdict(A, B, by_alpha[a], a, accept)
 
         first = decays(0.0)
         if first not in ("certified", "marginal"):
@@ -533,6 +637,7 @@ def synthesize(
     if Q is None or Y is None:
         return empty("infeasible" if status == "infeasible" else status, searched)
     assert alpha is not None
+    Q, Y = Q * s0**2, Y * s0**2  # back to the state's units (s0 = 1 without limits)
     K = Y @ np.linalg.inv(Q)
     P = np.linalg.inv(Q)
     P = 0.5 * (P + P.T)
@@ -547,6 +652,11 @@ def synthesize(
         if A_chk is not None and B_chk is not None:
             Bw_chk = B_chk if disturbance is None else np.broadcast_to(l2[0][0], (len(A_chk), *l2[0].shape[1:]))
             check_gamma = _verified_gamma(A_chk - B_chk @ K, Bw_chk, l2[1], P, gamma)
+    limit_cert = None
+    if u_lim is not None and points is not None:
+        loops = A - B @ K if A_chk is None or B_chk is None else np.concatenate([A - B @ K, A_chk - B_chk @ K])
+        limit_cert = input_limit_certificate(K, P, u_lim, points, closed_loops=loops)
+        ok = ok and limit_cert.certified
     verdict = "not verified"
     if ok:
         verdict = "certified" if min(verified, checked if not math.isnan(checked) else math.inf) >= floor_rate \
@@ -555,7 +665,7 @@ def synthesize(
     return Synthesis(verdict, K, P, alpha, verified, checked,
                      float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status,
                      objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta,
-                     search=searched, decay_floor=floor_rate)
+                     search=searched, decay_floor=floor_rate, input_limits=u_lim, input_limit=limit_cert)
 
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:
