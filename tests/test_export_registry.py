@@ -186,7 +186,7 @@ def test_the_command_line_offers_every_registered_target(restored, tmp_path, cap
     assert "--format {c,json,toy}" in capsys.readouterr().out
     assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.001", "--format", "toy", "--prefix", "arm",
                  "--output", str(tmp_path)]) == 0
-    assert (tmp_path / "arm.txt").read_text() == "arm: Ts = 0.001 s, double, 1 note(s)\n"
+    assert (tmp_path / "arm.txt").read_text() == "arm: Ts = 0.001 s, double, 2 note(s)\n"
     assert f"wrote {tmp_path / 'arm.txt'}" in capsys.readouterr().out
 
 

@@ -171,8 +171,9 @@ def test_certify_design_and_surface_take_model_files(capsys, name):
     assert main(["certify", "--model", path, "--rho", "1", "--eta", "2", "--format", "json", "--tries", "2"]) == 0
     rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
     applicable = {m for m, r in rows.items() if r["verdict"] != "skipped"}
-    # the table's rows, and the design's decay rate (one summary record after them)
-    assert list(rows)[-1] == "decay-rate" and rows["decay-rate"]["verdict"] == "certified"
+    # the table's rows, then the design's decay rate and loop margins (summary records after them)
+    assert rows["decay-rate"]["verdict"] == "certified" and rows["loop-margins"]["verdict"] == "frozen loops stable"
+    applicable -= {"loop-margins", "input-limits"}
     expected = {"vertex-polytope", "lmi-polytope", "falsifier-polytope"} if name.endswith("polytope") else {
         "theorem1-all", "theorem1-A", "theorem1-B", "vertex-box", "lmi-box", "falsifier-box"}
     expected.add("decay-rate")

@@ -104,7 +104,11 @@ def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) ->
 
 
 def run(args: argparse.Namespace, system: LoadedSystem) -> str:
-    """Serve the page until interrupted.
+    """Serve the page until SIGINT (Ctrl-C) or SIGTERM stops it.
+
+    A stop signal, while the page starts or once it serves, stops it and its worker
+    processes and says so in one line on stderr (``the design page stopped (SIGTERM)``);
+    the command then exits with 0, as a server asked to stop does.
 
     Parameters
     ----------
@@ -114,6 +118,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     Returns
     -------
     str
+        Empty: the page prints nothing on stdout.
     """
     if not 1 <= args.port <= 65535:
         raise CommandLineError(f"`--port` must be a TCP port in 1..65535, found {args.port}")
@@ -126,21 +131,56 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     # one BLAS thread: a click's matrices are 6 x 6 or smaller, and the page shares the machine's cores
     # with its browser and its worker process (whose own BLAS is limited the same way)
     threadpool_limits(1)
-    explorer = explorer_of(args, system)
+    # SIGTERM (a service manager, a test) and SIGINT (Ctrl-C) stop the page, its worker processes with
+    # it, in one line: while it starts, by interrupting the start; once it serves, by stopping its loop
+    stopped: list[int] = []
+
+    def stop_start(signum: int, frame: Any) -> None:
+        if not stopped:  # a second signal while the start unwinds changes nothing
+            stopped.append(signum)
+            raise _Stopped
+
+    previous = {sig: signal.signal(sig, stop_start) for sig in _STOP_SIGNALS}
+    explorer, handled = None, None
     try:
-        server = serve(explorer, args.port)
-        server.start()
-    except OSError as err:
-        why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
-        raise CommandLineError(f"`--port` {args.port}: {why}") from None
-    explorer.start_workers()
-    loop = server.io_loop
-    # SIGTERM (a service manager, a test) stops the page as Ctrl-C does: the worker process goes with it
-    signal.signal(signal.SIGTERM, lambda signum, frame: loop.add_callback_from_signal(loop.stop))
-    sys.stderr.write(f"serving the design page at http://127.0.0.1:{args.port}/ (Ctrl-C stops it)\n")
-    sys.stderr.flush()
-    try:
-        loop.start()
+        explorer = explorer_of(args, system)
+        try:
+            server = serve(explorer, args.port)
+            server.start()
+        except OSError as err:
+            why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
+            raise CommandLineError(f"`--port` {args.port}: {why}") from None
+        explorer.start_workers()
+        handled = server.io_loop.asyncio_loop
+        for sig in _STOP_SIGNALS:
+            handled.add_signal_handler(sig, _stop_loop, server.io_loop, sig, stopped)
+        sys.stderr.write(f"serving the design page at http://127.0.0.1:{args.port}/ (Ctrl-C stops it)\n")
+        sys.stderr.flush()
+        server.io_loop.start()
+    except _Stopped:
+        pass  # stopped before it served
     finally:
-        explorer.close()
+        if explorer is not None:
+            explorer.close()
+        for sig, handler in previous.items():
+            if handled is not None:
+                handled.remove_signal_handler(sig)
+            signal.signal(sig, handler)
+    if stopped:
+        sys.stderr.write(f"scara_robust: the design page stopped ({signal.Signals(stopped[0]).name})\n")
     return ""
+
+
+#: The signals that stop the page (exit status 0: stopping is how a page ends).
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class _Stopped(BaseException):
+    """A stop signal while the page starts (a BaseException, as KeyboardInterrupt: no handler keeps it)."""
+
+
+def _stop_loop(loop: Any, signum: int, stopped: list[int]) -> None:
+    """Stop the page's loop for the signal `signum` (run by the loop, after the signal arrived)."""
+    if not stopped:
+        stopped.append(signum)
+    loop.stop()

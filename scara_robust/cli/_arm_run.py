@@ -9,26 +9,106 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..io import square_wave
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.arm import ArmSetup
+from ..paper import PAPER_DISTURBANCE_PERIOD
 from ..plotting import plot_arm_run
-from ..robustness.lmi import lmi_certificate
+from ..robustness.decay import design_decay_rate
 from ..robustness.parameters import parameter_margin
-from ..robustness.synthesis import decay_rate, synthesize
+from ..robustness.synthesis import synthesize
 from ..simulation.arm import ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
-from ._common import CommandLineError, resolve_design, save_figure
-from ._plant_run import plant_gain, plant_profiles, series_output
+from ._common import CommandLineError, per_joint_values, resolve_design, save_figure
+from ._plant_run import _floats, plant_gain, plant_profiles, series_output
 from ._system import LoadedSystem
 
-__all__ = ["run_arm", "compare_arm"]
+__all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options"]
 
 #: Options of the SCARA's or a plant file's runs that mean nothing for an arm.
-_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "method", "torque_limit", "disturbance")
+_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
+#: Options of an arm's run only: its initial error.
+_ARM_ONLY = ("e0", "edot0")
+
+
+def add_arm_run_options(p: argparse.ArgumentParser) -> None:
+    """Options of a URDF arm's runs: its initial error ``--e0``, ``--edot0`` (``--disturbance`` is shared).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    """
+    p.add_argument("--e0", type=per_joint_values, default=None, metavar="E[,E2,...]",
+                   help="with a URDF --robot: initial tracking error e(0) = r(0) - q(0), rad, one value for every "
+                   "joint or one per joint (default: the robot file's [initial], else 0; a negative first value "
+                   "as --e0=-1.5,2.5)")
+    p.add_argument("--edot0", type=per_joint_values, default=None, metavar="V[,V2,...]",
+                   help="with a URDF --robot: initial error rate, rad/s, one value for every joint or one per joint "
+                   "(default: the robot file's [initial], else 0)")
+
+
+def refuse_arm_options(args: argparse.Namespace, instead: str) -> None:
+    """Refuse ``--e0``/``--edot0`` on a run that is not an arm's.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    instead : str
+        What gives that run its initial condition, for the message.
+
+    Raises
+    ------
+    CommandLineError
+    """
+    given = [o for o in _ARM_ONLY if getattr(args, o, None) is not None]
+    if given:
+        raise CommandLineError(f"`--{given[0]}` is the initial error of a URDF robot's run; {instead}")
+
+
+def _per_joint(option: str, values: list[float], n: int, unit: str) -> list[float]:
+    if len(values) not in (1, n):
+        raise CommandLineError(f"`{option}` takes 1 or {n} values in {unit} (one for every joint, or one per joint "
+                               f"of the arm's {n}), found {len(values)}")
+    return values * n if len(values) == 1 else values
+
+
+def _run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
+    """:func:`simulate_arm`'s ``e0``, ``edot0`` and ``disturbance`` from the options (None: the robot file's)."""
+    n = setup.arm.n_joints
+    inputs: dict[str, Any] = {}
+    for key, unit in (("e0", "rad"), ("edot0", "rad/s")):
+        values = getattr(args, key, None)
+        inputs[key] = None if values is None else _per_joint(f"--{key}", values, n, unit)
+    inputs["disturbance"] = None
+    if getattr(args, "disturbance", None) is not None:
+        amplitudes = _per_joint("--disturbance", _floats("--disturbance", args.disturbance), n, "N·m")
+        wave = setup.disturbance  # its period and phase, else the paper's
+        inputs["disturbance"] = square_wave(amplitudes, PAPER_DISTURBANCE_PERIOD if wave is None else wave.period,
+                                            0.0 if wave is None else wave.phase)
+    return inputs
+
+
+def _describe_inputs(inputs: dict[str, Any], setup: ArmSetup) -> str:
+    """How a run's head names its initial error and disturbance ("" when the run has neither)."""
+    e0 = inputs["e0"] if inputs["e0"] is not None else setup.e0
+    edot0 = inputs["edot0"] if inputs["edot0"] is not None else setup.edot0
+    wave = inputs["disturbance"] if inputs["disturbance"] is not None else setup.disturbance
+    parts = []
+    if (e0 is not None and any(e0)) or (edot0 is not None and any(edot0)):
+        zero = [0.0] * setup.arm.n_joints
+        parts.append(f"from e0 = [{', '.join(f'{v:g}' for v in e0 or zero)}] rad, "
+                     f"ė0 = [{', '.join(f'{v:g}' for v in edot0 or zero)}] rad/s")
+    if wave is not None and wave.amplitude > 0:
+        torques = ", ".join(f"{wave.amplitude * s:g}" for s in wave.signs)
+        parts.append(f"disturbance ±[{torques}] N·m square wave of period {wave.period:.4g} s")
+    return "".join(f", {p}" for p in parts)
 
 
 def _refuse(args: argparse.Namespace, system: LoadedSystem) -> None:
+    if getattr(args, "x0", None) is not None:
+        raise CommandLineError("`--x0` is a plant file's initial state; a URDF robot's run starts from the initial "
+                               "error --e0 (rad) and --edot0 (rad/s), one value per joint")
     given = [o for o in _NOT_FOR_ARMS if getattr(args, o, None) is not None]
     if getattr(args, "reference", "1") != "1":
         given.append("reference")
@@ -46,15 +126,16 @@ def _payload(args: argparse.Namespace, setup: ArmSetup, t_final: float) -> Any:
 
 
 def _lines(run: ArmRun, elapsed: float) -> list[str]:
-    worst = run.metrics().max_abs_error if run.has_metrics else float("nan")
+    worst = (f"= {run.metrics().max_abs_error:.4g} rad" if run.has_metrics else
+             f"not resolved (the run ends at {run.t[-1]:g} s)")
     lines = [f"status: {run.status} ({run.status_reason})",
-             f"  max |e| after {run.t_transient:g} s = {worst:.4g} rad; peak |τ| = {np.abs(run.torque).max():.4g} N·m",
+             f"  max |e| after {run.t_transient:g} s {worst}; peak |τ| = {np.abs(run.torque).max():.4g} N·m",
              f"  payload in [{run.payload.min():.4g}, {run.payload.max():.4g}] kg",
              f"  run: {elapsed:.2f} s of computing for {run.t[-1]:g} s simulated ({run.method})"]
     for i, joint in enumerate(run.joints):
         after = run.t >= run.t_transient
-        e_i = float(np.abs(run.e[i, after]).max()) if after.sum() else float("nan")
-        lines.append(f"    {joint}: max |e| after = {e_i:.4g} rad, peak |τ| = {np.abs(run.torque[i]).max():.4g} N·m")
+        e_i = f"= {float(np.abs(run.e[i, after]).max()):.4g} rad" if after.sum() >= 2 else "not resolved"
+        lines.append(f"    {joint}: max |e| after {e_i}, peak |τ| = {np.abs(run.torque[i]).max():.4g} N·m")
     return lines
 
 
@@ -77,9 +158,10 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     n = setup.arm.n_joints
     K, gain = plant_gain(args, plant, f"this arm's PID form ({n} joints)")
     t_final = 20.0 if args.t_final is None else args.t_final
+    inputs = _run_inputs(args, setup)
     start = time.perf_counter()
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
-                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance)
+                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance, **inputs)
     elapsed = time.perf_counter() - start
     files = []
     if args.plot is not None:
@@ -91,7 +173,8 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     if text is not None:
         return text
     files += [written] if written else []
-    head = f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
+    head = (f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
+            f"{_describe_inputs(inputs, setup)}")
     return "\n".join([head, *_lines(run, elapsed),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
 
@@ -101,10 +184,11 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
     """``compare --robot F`` on an arm: the Riccati PID, the synthesized PID and design files side by side.
 
     Each row: the gain's size, Theorem 1 on the interval box (with the Riccati design's
-    P), the decay rate ``V̇ <= −2αV`` that a common P proves on the arm's samples (the
-    larger of one found by the LMI and a design file's own P, each verified by numpy on
-    the file's grid; a lower bound on the best one), the payload beyond which a frozen
-    plant is unstable (kg) and a run of the nonlinear arm.
+    P), the decay rate ``V̇ <= −2αV`` of :func:`scara_robust.design_decay_rate` on the
+    arm's samples (the larger of the design's own P and a common P found by the LMI, each
+    verified by numpy on the file's grids; a lower bound on the best one), the payload
+    beyond which a frozen plant is unstable (kg, and which end) and a run of the
+    nonlinear arm.
 
     Parameters
     ----------
@@ -128,7 +212,7 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
     d = design(model, rho, eta)
     designs: dict[str, Any] = {f"riccati (rho={d.rho:g}, eta={d.eta:g})": d}
     notes: list[str] = []
-    on, check = plant.samples(plant.coarse_points()), plant.samples()
+    on = plant.samples(plant.coarse_points())
     if not args.no_synthesis:
         synth = synthesize((on.A, on.B))
         if synth.design is not None and synth.certified:
@@ -141,6 +225,7 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         designs[f"file {path}"] = (loaded.K, loaded.P)
     t_final = 20.0 if t_final is None else t_final
     payload = _payload(args, setup, t_final)
+    inputs = _run_inputs(args, setup)
     rows = []
     for name, des in designs.items():
         K, P_file = des if isinstance(des, tuple) else (des.K, None)
@@ -148,14 +233,16 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         # Theorem 1 needs the Riccati design's P; the decay is the larger of what a common P found by
         # the LMI on the arm's coarse samples and the file's own P prove, each verified on the file's grid
         row["theorem1 max eig"] = certify(model, des).max_eig if not isinstance(des, tuple) else np.nan
-        loops, coarse = check.closed_loops(K), on.closed_loops(K)
-        lmi = lmi_certificate(coarse)
-        candidates = [P for P in (lmi.P, P_file) if P is not None]
-        decay = max((min(decay_rate(coarse, P), decay_rate(loops, P)) for P in candidates), default=np.nan)
-        row["decay rate [1/s]"] = decay if decay > 0 else np.nan
-        row["m_p frozen limit [kg]"] = float(parameter_margin(plant, K, ["frozen"])["m_p high [kg]"].iloc[0])
+        decay = design_decay_rate(model, K if isinstance(des, tuple) else des, P=P_file, plant=plant)
+        row["decay rate [1/s]"] = decay.rate
+        row["decay rate from"] = decay.source or "none"
+        frozen = parameter_margin(plant, K, ["frozen"]).iloc[0]
+        end = "lower" if "m_p lower" in frozen["end"] else "upper" if "m_p upper" in frozen["end"] else "none"
+        row["m_p frozen limit [kg]"] = (float(frozen["m_p low [kg]" if end == "lower" else "m_p high [kg]"])
+                                        if end != "none" else np.nan)
+        row["m_p frozen end"] = end
         start = time.perf_counter()
-        run = simulate_arm(setup, K, payload, t_final=t_final)
+        run = simulate_arm(setup, K, payload, t_final=t_final, **inputs)
         row.update({"status": run.status,
                     "max |e| after 6 s [rad]": run.metrics().max_abs_error if run.has_metrics else np.nan,
                     "peak |τ| [N·m]": float(np.abs(run.torque).max()),
@@ -163,4 +250,5 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         rows.append(row)
     table = pd.DataFrame(rows)
     table.attrs["notes"] = notes
+    table.attrs["inputs"] = _describe_inputs(inputs, setup)  # the runs' initial error and disturbance, for the head
     return table

@@ -19,7 +19,7 @@ from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
 from ..studies.comparison import compare_controllers, compare_plant_designs
-from ._arm_run import compare_arm
+from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
 from ._system import LoadedSystem
@@ -44,6 +44,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-synthesis", action="store_true",
                    help="with --model: leave out the synthesized PID (an LMI, extra lmi)")
     add_plant_run_options(p)
+    add_arm_run_options(p)
     p.add_argument("--design", metavar="FILE.json", action="append",
                    help="add rows for the PID gain of a design file (written by synthesize --output); repeatable")
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
@@ -93,6 +94,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             f"`--t-final` must be > {PAPER_TRANSIENT:g} s (metrics are taken after {PAPER_TRANSIENT:g} s), "
             f"found {args.t_final}"
         )
+    if system.capabilities.run != "arm":
+        refuse_arm_options(args, "the SCARA's runs start from --scenario's initial errors" if
+                           system.capabilities.run == "scara" else "a plant file's runs start at rest")
     return _COMPARES[system.capabilities.run](args, system)
 
 
@@ -146,7 +150,8 @@ def _compare_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
         return json.dumps(arm_table.to_dict(orient="records"), indent=2, default=str)
     if args.format == "csv":
         return str(arm_table.to_csv(index=False))
-    head = f"{system.file}: designs side by side on the arm; runs of the nonlinear arm, payload {args.profile}"
+    head = (f"{system.file}: designs side by side on the arm; runs of the nonlinear arm, payload {args.profile}"
+            f"{arm_table.attrs.get('inputs', '')}")
     return "\n".join([head, str(arm_table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")),
                       *arm_table.attrs.get("notes", [])])
 

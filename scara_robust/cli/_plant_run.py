@@ -37,7 +37,10 @@ def add_plant_run_options(p: argparse.ArgumentParser) -> None:
                    help="with --model: reference a·sin(omega t) per output, in the outputs' units and rad/s; "
                    "OMEGA 0 or absent: a step of height A (default 1)")
     p.add_argument("--disturbance", default=None, metavar="D[,D2,...]",
-                   help="with --model: constant input disturbance from t_final/4 on, in the inputs' units")
+                   help="with --model: constant input disturbance from t_final/4 on, in the inputs' units; with a "
+                   "URDF --robot: the amplitudes, N·m, one for every joint or one per joint, of a square-wave "
+                   "disturbance torque whose period and phase are the robot file's [disturbance] (default pi/5 s, "
+                   "0 rad); 0 switches the file's off")
 
 
 def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tuple[Any, str]:
@@ -238,8 +241,9 @@ def summary(run: PlantRun, plant: UncertainPlant, head: str) -> list[str]:
     list of str
     """
     out_unit = plant.outputs[0].unit
-    lines = [head, f"status: {run.status} ({run.reason})",
-             f"  max |e| after the transient = {run.max_abs_error:.4g} {out_unit}",
+    worst = ("not resolved (fewer than 2 samples after it)" if np.isnan(run.max_abs_error)
+             else f"= {run.max_abs_error:.4g} {out_unit}")
+    lines = [head, f"status: {run.status} ({run.reason})", f"  max |e| after the transient {worst}",
              *[f"  peak |{s.name}| = {float(np.abs(run.u[k]).max()):.4g} {s.unit}" for k, s in enumerate(plant.inputs)]]
     for k, prm in enumerate(plant.parameters):
         if prm.varies:

@@ -22,7 +22,7 @@ from ..simulation.plants import PLANT_TRACKING_RTOL
 from ..simulation.run import SimulationResult, run_scenario
 from ..studies.campaign.inputs import replay_scenario
 from ..studies.campaign.runner import read_results
-from ._arm_run import run_arm
+from ._arm_run import add_arm_run_options, refuse_arm_options, run_arm
 from ._common import (
     CommandLineError,
     add_design_option,
@@ -59,6 +59,7 @@ def add_parser(sub: Any) -> None:
                    help="with --model: design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, default=None, help="with --model: design parameter eta >= 1")
     add_plant_run_options(p)
+    add_arm_run_options(p)
     p.add_argument("--ts", type=finite_float, default=None, metavar="S",
                    help="with --model: the gain sampled every S seconds and held (zero-order hold), u = -K x(t_k) on "
                    "the design form, the loop that certify --max-ts certifies (default: continuous)")
@@ -151,7 +152,14 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             raise CommandLineError(f"`--torque-limit` must be > 0 N·m, found {limit[0] if len(limit) == 1 else limit}")
     if args.tolerance is not None and args.tolerance <= 0:
         raise CommandLineError(f"`--tolerance` must be > 0, found {args.tolerance}")
+    if system.capabilities.run != "arm":
+        refuse_arm_options(args, _INITIAL[system.capabilities.run])
     return _RUNS[system.capabilities.run](args, system)
+
+
+#: What gives the SCARA's and a plant file's runs their initial condition, for a refused ``--e0``.
+_INITIAL = {"scara": "the SCARA's is --scenario (large, small, or a scenario file's [initial])",
+            "plant": "a plant file's run starts from --x0 (its initial state)"}
 
 
 def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
@@ -288,7 +296,8 @@ def _run_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
         files.append(f"figure: {args.plot}")
     text, written = series_output(args, run_.to_pandas(), {"plant": plant.name, "status": run_.status,
                                                            "status_reason": run_.reason,
-                                                           "max_abs_error": run_.max_abs_error})
+                                                           "max_abs_error": None if np.isnan(run_.max_abs_error)
+                                                           else run_.max_abs_error})
     if text is not None:
         return text
     files += [written] if written else []

@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentValueError
 from .plant import Parameter, Signal, UncertainPlant
+from .signals import SquareWave
 
 __all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio"]
 
@@ -682,6 +683,12 @@ class ArmSetup:
         Identifier prefix of exported code.
     design_plant : {'center', 'lower'}
         Nominal of the interval model (:func:`arm_uncertain_plant`).
+    e0, edot0 : tuple of float, shape (n,), or None
+        The runs' initial tracking error ``e(0) = r(0) − q(0)`` (rad) and its rate (rad/s),
+        the file's ``[initial]``; None: zero.
+    disturbance : SquareWave or None
+        The runs' disturbance torque (one sign or scale per joint, N·m), the file's
+        ``[disturbance]``; None: none.
     """
 
     arm: RobotArm
@@ -695,6 +702,9 @@ class ArmSetup:
     name: str = "arm"
     prefix: str = "arm_pid"
     design_plant: str = "center"
+    e0: tuple[float, ...] | None = None
+    edot0: tuple[float, ...] | None = None
+    disturbance: SquareWave | None = None
 
     @cached_property
     def plant(self) -> UncertainPlant:

@@ -268,7 +268,7 @@ def input_limit_certificate(
         Half-widths of a box of initial errors, or its points (:func:`initial_error_vertices`).
     closed_loops : array_like, shape (V, n, n), optional
         ``A_v − B_vK`` at the vertices of the uncertainty set: numpy verifies ``V̇ < 0`` on
-        them (decay rate above :func:`~scara_robust.robustness.lmi.decay_floor`) and the
+        them (decay rate above the LMI module's ``decay_floor``) and the
         certificate holds only then. Without them, V is assumed to be a Lyapunov function.
     inputs : sequence of Signal, optional
         Names and units of the inputs for the message (a plant's ``inputs``).

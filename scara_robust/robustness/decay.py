@@ -64,7 +64,7 @@ class DecayRate(AnalysisResult):
     n_loops : int
         Closed loops tested (the verification sets included).
     floor : float
-        The smallest rate reported as certified, 1/s (:func:`~scara_robust.decay_floor`).
+        The smallest rate reported as certified, 1/s (``decay_floor`` of the LMI module: a fraction of the loops' norm).
     P : ndarray, shape (n, n), or None
         The P that gives :attr:`rate`.
     loops : ndarray, shape (V, n, n), or None

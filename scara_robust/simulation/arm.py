@@ -224,9 +224,11 @@ def simulate_arm(
     payload : callable, optional
         ``m_p(t)`` in kg (default: constant at the setup's nominal payload).
     e0, edot0 : array_like, shape (n,), optional
-        Initial errors (rad) and error rates (rad/s); default 0. ``∫e`` starts at 0.
+        Initial errors ``e(0) = r(0) − q(0)`` (rad) and error rates (rad/s); default the
+        setup's (its robot file's ``[initial]``), else 0. ``∫e`` starts at 0.
     disturbance : SquareWave, optional
-        Disturbance torque with one sign per joint (default none).
+        Disturbance torque with one sign (or scale) per joint; default the setup's (its
+        robot file's ``[disturbance]``), else none.
     t_final : float
         Horizon, s (> 0).
     dt : float
@@ -265,6 +267,9 @@ def simulate_arm(
     if Ts is not None:
         Ts = check_real("Ts", Ts, positive=True)
         method = "rk4"
+    e0 = setup.e0 if e0 is None else e0
+    edot0 = setup.edot0 if edot0 is None else edot0
+    disturbance = setup.disturbance if disturbance is None else disturbance
     if disturbance is not None and len(disturbance.signs) != n:
         raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
     loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from .._resources import check_memory, simulation_bytes
 from .._validation import check_array, check_choice, check_int, check_real
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError, InputFileError
@@ -36,6 +37,12 @@ PROFILES = ("constant", "sinusoid", "ramp", "random-walk", "csv")
 #: peak (or this many output units for a zero reference), per output.
 PLANT_TRACKING_RTOL = 0.02
 _DIVERGED = 1e6
+#: The output grid of :func:`simulate_plant` takes at least this many samples per time scale
+#: ``1/|λ|`` of the closed loop's transient modes, and per period of the reference / 2.
+_SAMPLES_PER_TIME_SCALE = 10
+#: A mode belongs to the transient when it decays at most this many times faster than the
+#: slowest (dominant) mode of its frozen plant; faster ones are over within a tenth of it.
+_TRANSIENT_SPREAD = 10.0
 
 
 def parameter_profile(
@@ -235,7 +242,14 @@ def simulate_plant(
     t_final : float
         Horizon, s.
     n_points : int
-        Output samples.
+        Output samples, at least: where ``t_final/(n_points − 1)`` would be coarser than
+        the step that resolves the closed loop's transient (a tenth of the shortest time
+        scale ``1/|λ|`` of the transient modes of the frozen closed loops on the coarse
+        parameter grid, the modes decaying at most ten times faster than the slowest; a
+        twentieth of the reference's period; the sample time Ts), the run takes that step
+        instead, so that its samples and metrics show the transient. Faster modes (a PID's
+        derivative action on a light load) are over within a tenth of the transient and
+        are not resolved.
     x0 : array_like, shape (n_x,), optional
         Initial plant state (default zero).
     t_transient : float, optional
@@ -248,6 +262,15 @@ def simulate_plant(
     Returns
     -------
     PlantRun
+        Status ``too-short`` (and ``max_abs_error`` NaN) when fewer than two samples
+        follow `t_transient`: the tracking is then not judged.
+
+    Raises
+    ------
+    ArgumentValueError
+        Naming ``t_final``, when the resolved output grid would need more memory than one
+        request may use (the memory check of the SCARA's runs; the message gives
+        the samples and the memory).
 
     See Also
     --------
@@ -279,6 +302,20 @@ def simulate_plant(
     d = np.zeros(m) if disturbance is None else check_array("disturbance", disturbance, shape=(m,))
     x_init = np.zeros(n_x) if x0 is None else check_array("x0", x0, shape=(n_x,))
     t_on = 0.25 * t_final
+    n_int = q if plant.form != "state" else 0
+    # never coarser than the transient: a grid that misses it would show (and judge) nothing of it
+    step, why = _transient_step(plant, K, omega, Ts)
+    rows = float(n_points)
+    if t_final / (n_points - 1) > step:
+        rows = t_final / step + 1.0
+        rows = float(math.ceil(rows)) if math.isfinite(rows) else rows  # an infinite estimate is refused
+    else:
+        why = f"n_points = {n_points}"
+    segments = 0.0 if Ts is None else t_final / Ts + 1  # a sampled loop's breaks and held inputs
+    n_out = 1 + 2 * q + m + len(plant.names)
+    check_memory("t_final", simulation_bytes(t_final, t_final / (rows - 1), n_x + n_int, n_out) + 32.0 * segments,
+                 f"{rows:.3g} output samples ({t_final:g} s every {t_final / (rows - 1):.3g} s: {why})")
+    n_points = int(rows)
 
     def ref(t: float) -> tuple[Array, Array]:
         if omega == 0.0:
@@ -288,7 +325,6 @@ def simulate_plant(
     def params_at(t: float) -> dict[str, float]:
         return {k: (profiles[k](t) if k in profiles else v) for k, v in nominal.items()}
 
-    n_int = q if plant.form != "state" else 0
 
     def control(t: float, x: Array, z: Array) -> Array:
         r, rd = ref(t)
@@ -336,11 +372,15 @@ def simulate_plant(
     start = 0.5 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
     after = T >= start
     finite = bool(np.isfinite(states).all())
-    worst = float(np.abs(e[:, after]).max()) if finite else math.inf
+    judged = int(after.sum()) >= 2
+    worst = (float(np.abs(e[:, after]).max()) if judged else math.nan) if finite else math.inf
     scale = max(1.0, peak_r, float(np.abs(x_init).max()) if x_init.size else 0.0)
     unit = plant.outputs[0].unit
     if not ok:
         status, reason = "failed", message
+    elif finite and not judged:
+        status, reason = "too-short", (f"fewer than 2 samples after {start:g} s (the run ends at {t_final:g} s): "
+                                       "max |e| after the transient is not resolved; tracking is not judged")
     elif not finite or worst > _DIVERGED * scale:
         status, reason = "diverged", f"the state grew beyond {_DIVERGED:g} times its scale"
     elif worst <= tol:
@@ -354,6 +394,55 @@ def simulate_plant(
               *(f"{prm.name} [{prm.unit}]" for prm in plant.parameters))
     return PlantRun(T, y, r, e, u, p, status, reason, worst, float(np.abs(u).max()) if finite else math.inf,
                     rates, labels)
+
+
+def _transient_step(plant: UncertainPlant, K: ArrayLike, omega: float = 0.0,
+                   Ts: float | None = None) -> tuple[float, str]:
+    """The largest output step (s) that resolves the closed loop's transient, and why.
+
+    Over the frozen closed loops ``A_i − B_i K`` on the plant's coarse parameter grid, the
+    transient modes of each are its eigenvalues λ that decay at most ``_TRANSIENT_SPREAD``
+    (10) times faster than its slowest mode (the dominant one: the
+    error's settling; faster modes are over within a tenth of it and are not resolved); the
+    step is a tenth of the shortest time scale ``1/|λ|`` (decay and oscillation) among them,
+    at most a twentieth of the reference's period ``2π/ω`` (ω > 0) and at most the sample
+    time Ts of a sampled gain.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    K : array_like, shape (m, n)
+        Gain on the design form.
+    omega : float
+        Reference frequency, rad/s (0: a step).
+    Ts : float, optional
+        Sample time of a sampled gain, s.
+
+    Returns
+    -------
+    step : float
+        s (``inf`` when nothing bounds it: every closed-loop eigenvalue zero, a step
+        reference, a continuous gain).
+    why : str
+        What sets it, for messages.
+    """
+    loops = plant.samples(plant.coarse_points()).closed_loops(K)
+    lam = np.linalg.eigvals(loops)
+    size = np.abs(lam)
+    alive = size > 1e-12 * np.maximum(size.max(axis=1, keepdims=True), np.finfo(float).tiny)
+    decay = np.where(alive, np.abs(lam.real), np.inf)
+    transient = alive & (decay <= _TRANSIENT_SPREAD * decay.min(axis=1, keepdims=True))
+    rate = float(np.where(transient, size, 0.0).max()) if lam.size else 0.0
+    bounds = [(math.inf, "no time scale bounds it")]
+    if rate > 0:
+        bounds.append((1.0 / (_SAMPLES_PER_TIME_SCALE * rate),
+                       f"a tenth of the closed loop's shortest transient time scale 1/|λ| = {1 / rate:.3g} s"))
+    if omega > 0:
+        bounds.append((2 * math.pi / omega / (2 * _SAMPLES_PER_TIME_SCALE),
+                       f"a twentieth of the reference's period {2 * math.pi / omega:.3g} s"))
+    if Ts is not None:
+        bounds.append((float(Ts), f"the sample time Ts = {Ts:g} s"))
+    return min(bounds, key=lambda b: b[0])
 
 
 def _integrate(sys: ct.NonlinearIOSystem, T: Array, U: Array, x0: Array) -> Array:
