@@ -84,6 +84,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
     parameter_margin, PARAMETER_METHODS -- the certified range of every parameter, in its unit (``margin --model``)
     frozen_end                      -- which end of a parameter's range holds the unstable frozen plant, in its unit
+    frozen_limit                    -- one parameter's frozen bound and its end, from a parameter_margin table
     design_decay_rate, certified_decay_rate, DecayRate -- a design's decay rate: its own P or an LMI's, the larger
     parameter_rate, rate_bracket, RateBracket -- how fast a parameter may vary, unit/s: certificate below, growth above
     parameter_switching_growth      -- growth under a periodic ramp of a parameter at a given rate

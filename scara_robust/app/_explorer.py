@@ -786,7 +786,7 @@ def _loop_margins(model: UncertainLTVModel, d: Design, plant_source: Callable[[]
     plant = _plant_of(plant_source)
     if plant is None:
         return worst_loop_margins(model, d)
-    return worst_loop_margins(plant, d, points={p.name: p.samples for p in plant.varying})
+    return worst_loop_margins(plant, d, points=plant.grid_points())
 
 
 def _payload(d: Design, params: Any, reference: Any) -> Any:

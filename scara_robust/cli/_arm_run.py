@@ -16,12 +16,12 @@ from ..model.arm import ArmSetup
 from ..paper import PAPER_DISTURBANCE_PERIOD
 from ..plotting import plot_arm_run
 from ..robustness.decay import design_decay_rate
-from ..robustness.parameters import parameter_margin
+from ..robustness.parameters import frozen_limit, parameter_margin
 from ..robustness.synthesis import synthesize
 from ..simulation.arm import ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ._common import CommandLineError, per_joint_values, resolve_design, save_figure
-from ._plant_run import _floats, plant_gain, plant_profiles, series_output
+from ._plant_run import option_floats, plant_gain, plant_profiles, series_output
 from ._system import LoadedSystem
 
 __all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options"]
@@ -82,7 +82,7 @@ def _run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
         inputs[key] = None if values is None else _per_joint(f"--{key}", values, n, unit)
     inputs["disturbance"] = None
     if getattr(args, "disturbance", None) is not None:
-        amplitudes = _per_joint("--disturbance", _floats("--disturbance", args.disturbance), n, "N·m")
+        amplitudes = _per_joint("--disturbance", option_floats("--disturbance", args.disturbance), n, "N·m")
         wave = setup.disturbance  # its period and phase, else the paper's
         inputs["disturbance"] = square_wave(amplitudes, PAPER_DISTURBANCE_PERIOD if wave is None else wave.period,
                                             0.0 if wave is None else wave.phase)
@@ -236,11 +236,8 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         decay = design_decay_rate(model, K if isinstance(des, tuple) else des, P=P_file, plant=plant)
         row["decay rate [1/s]"] = decay.rate
         row["decay rate from"] = decay.source or "none"
-        frozen = parameter_margin(plant, K, ["frozen"]).iloc[0]
-        end = "lower" if "m_p lower" in frozen["end"] else "upper" if "m_p upper" in frozen["end"] else "none"
-        row["m_p frozen limit [kg]"] = (float(frozen["m_p low [kg]" if end == "lower" else "m_p high [kg]"])
-                                        if end != "none" else np.nan)
-        row["m_p frozen end"] = end
+        row["m_p frozen limit [kg]"], row["m_p frozen end"] = frozen_limit(parameter_margin(plant, K, ["frozen"]),
+                                                                           plant.parameter("m_p"))
         start = time.perf_counter()
         run = simulate_arm(setup, K, payload, t_final=t_final, **inputs)
         row.update({"status": run.status,

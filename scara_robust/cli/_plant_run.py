@@ -15,8 +15,8 @@ from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
 
-__all__ = ["add_plant_run_options", "plant_gain", "plant_profiles", "plant_run", "run_inputs", "series_output",
-           "summary"]
+__all__ = ["add_plant_run_options", "option_floats", "plant_gain", "plant_profiles", "plant_run", "run_inputs",
+           "series_output", "summary"]
 
 
 def add_plant_run_options(p: argparse.ArgumentParser) -> None:
@@ -94,7 +94,8 @@ def series_output(args: argparse.Namespace, frame: Any, record: dict[str, Any]) 
     return (series if args.format != "text" else None), None
 
 
-def _floats(option: str, text: str) -> list[float]:
+def option_floats(option: str, text: str) -> list[float]:
+    """An option's ``V,V,...`` as finite floats, or a :class:`CommandLineError` naming `option`."""
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
@@ -146,7 +147,7 @@ def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: flo
         if kind == "ramp":
             raise CommandLineError(f"`--profile` ramp takes no value (it runs at the rate bound), found "
                                    f"{args.profile!r}")
-        value = _floats("--profile", rest)[0]
+        value = option_floats("--profile", rest)[0]
         key = {"constant": "value", "sinusoid": "period", "random-walk": "seed"}[kind]
         if key == "seed":
             if value != int(value) or value < 0:
@@ -187,7 +188,7 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
     gain = K if ts is None else SampledStateFeedback(K, ts)
     x0 = None
     if getattr(args, "x0", None) is not None:
-        x0 = _floats("--x0", args.x0)
+        x0 = option_floats("--x0", args.x0)
         if len(x0) != plant.n_states:
             raise CommandLineError(f"`--x0` takes {plant.n_states} values (one per state of the plant), found "
                                    f"{len(x0)}")
@@ -211,14 +212,14 @@ def run_inputs(args: argparse.Namespace, plant: UncertainPlant) -> tuple[tuple[f
     reference : (float, float)
     disturbance : ndarray, shape (m,), or None
     """
-    ref = _floats("--reference", args.reference)
+    ref = option_floats("--reference", args.reference)
     if len(ref) > 2:
         raise CommandLineError(f"`--reference` is A or A,OMEGA, found {args.reference!r}")
     if len(ref) == 2 and ref[1] < 0:
         raise CommandLineError(f"`--reference` OMEGA must be >= 0 rad/s, found {ref[1]:g}")
     dist = None
     if args.disturbance is not None:
-        values = _floats("--disturbance", args.disturbance)
+        values = option_floats("--disturbance", args.disturbance)
         m = plant.n_inputs
         if len(values) not in (1, m):
             raise CommandLineError(f"`--disturbance` takes 1 or {m} values (one per input), found {len(values)}")

@@ -348,7 +348,7 @@ class LoadedSystem:
         physical = self.physical
         if physical is None:
             return worst_loop_margins(self.model, design)
-        return worst_loop_margins(physical, design, points={p.name: p.samples for p in physical.varying})
+        return worst_loop_margins(physical, design, points=physical.grid_points())
 
     @property
     def state_feedback(self) -> bool:

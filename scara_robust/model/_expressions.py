@@ -97,18 +97,19 @@ def _names(node: ast.AST) -> frozenset[str]:
                      if isinstance(n, ast.Name) and n.id not in CONSTANTS and id(n) not in called)
 
 
-def _evaluate(node: ast.AST, values: Mapping[str, Array]) -> Array:
+def evaluate_tree(node: ast.AST, values: Mapping[str, Array]) -> Array:
+    """The value of a checked syntax tree at parameter values (arrays broadcast), by the whitelist's own walker."""
     if isinstance(node, ast.Expression):
-        return _evaluate(node.body, values)
+        return evaluate_tree(node.body, values)
     if isinstance(node, ast.Constant):
         return np.asarray(float(node.value))  # type: ignore[arg-type]  # a number: checked when parsed
     if isinstance(node, ast.Name):
         return np.asarray(values[node.id], dtype=float) if node.id in values else np.asarray(CONSTANTS[node.id])
     if isinstance(node, ast.UnaryOp):
-        operand = _evaluate(node.operand, values)
+        operand = evaluate_tree(node.operand, values)
         return -operand if isinstance(node.op, ast.USub) else operand
     if isinstance(node, ast.BinOp):
-        a, b = _evaluate(node.left, values), _evaluate(node.right, values)
+        a, b = evaluate_tree(node.left, values), evaluate_tree(node.right, values)
         op = _BINARY[type(node.op)]
         if op == "+":
             return a + b
@@ -120,7 +121,7 @@ def _evaluate(node: ast.AST, values: Mapping[str, Array]) -> Array:
             return a / b
         return np.power(a, b)
     assert isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-    return FUNCTIONS[node.func.id](_evaluate(node.args[0], values))
+    return FUNCTIONS[node.func.id](evaluate_tree(node.args[0], values))
 
 
 def _monotone(f: Callable[[float], float], x: Interval) -> Interval:
@@ -242,7 +243,7 @@ class Expression:
         """
         with np.errstate(all="ignore"):
             try:
-                return np.asarray(_evaluate(self._tree, {k: np.asarray(v, dtype=float) for k, v in values.items()}),
+                return np.asarray(evaluate_tree(self._tree, {k: np.asarray(v, dtype=float) for k, v in values.items()}),
                                   dtype=float)
             except OverflowError:
                 return np.asarray(math.inf)

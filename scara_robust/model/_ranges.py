@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..exceptions import ArgumentValueError
-from ._expressions import CONSTANTS, Expression, _evaluate
+from ._expressions import CONSTANTS, Expression, evaluate_tree
 
 __all__ = ["EntryRange", "entry_range", "matrix_ranges", "partial_derivative", "RANGE_RTOL", "RANGE_MAX_BOXES",
            "RANGE_HOWS"]
@@ -194,7 +194,7 @@ def _derive(node: ast.AST, p: str) -> ast.expr:
         u, v = node.left, node.right
         du = _derive(u, p)
         if isinstance(node.op, ast.Pow):  # the exponent is a number (checked when parsed)
-            k = float(_evaluate(v, {}))
+            k = float(evaluate_tree(v, {}))
             return _mul(_mul(_num(k), _pow(u, k - 1.0)), du)
         dv = _derive(v, p)
         if isinstance(node.op, ast.Add):

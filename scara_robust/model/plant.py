@@ -36,6 +36,7 @@ from .._resources import check_memory
 from .._validation import check_array, check_choice, check_int, check_real, describe
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ._expressions import Expression, parse_expression
+from ._ranges import matrix_ranges
 from .polytopic import PolytopicModel
 from .uncertain import ANCHORS, UncertainElement, UncertainLTVModel, state_space
 
@@ -682,6 +683,10 @@ class UncertainPlant:
         """Each parameter's ``coarse`` count (the grid LMIs are solved on)."""
         return {p.name: int(p.coarse) for p in self.parameters}  # type: ignore[arg-type]
 
+    def grid_points(self) -> dict[str, int]:
+        """Each parameter's ``samples`` count: the default grid (of :meth:`samples` without points)."""
+        return {p.name: p.samples for p in self.parameters}
+
     def fine_points(self) -> dict[str, int]:
         """``2·samples − 1`` per parameter: the default grid refined once between its points."""
         return {p.name: 2 * p.samples - 1 for p in self.parameters}
@@ -914,7 +919,6 @@ class UncertainPlant:
         return box.centered() if self.design_plant == "center" else box
 
     def _interval_box(self, theta: float) -> UncertainLTVModel:
-        from ._ranges import matrix_ranges  # the range of each entry: exact where provable, else refined
 
         plant = self if theta == 1.0 else self.scaled(theta)
         if self.entries is not None:
@@ -978,7 +982,6 @@ class UncertainPlant:
         how       monotone
         Name: 2, dtype: object
         """
-        from ._ranges import matrix_ranges  # the range of each entry: exact where provable, else refined
 
         theta = check_real("theta", theta, nonnegative=True)
         if self.entries is None:

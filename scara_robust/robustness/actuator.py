@@ -38,7 +38,7 @@ from .._validation import check_array, check_closed_loops, check_symmetric, desc
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.plant import Signal
 from ..results import AnalysisResult
-from .lmi import decay_floor
+from .lmi import decay_floor, decay_rate
 
 __all__ = ["InputLimitCertificate", "input_limit_certificate", "initial_error_vertices", "peak_inputs",
            "MAX_BOX_CORNERS"]
@@ -324,10 +324,7 @@ def input_limit_certificate(
         return InputLimitCertificate("P not positive definite", limits, math.nan, math.nan, math.nan, None, nan_m,
                                      nan_m, decay, len(vertices), names, units)
     if loops is not None:
-        # the decay rate of V (the formula of scara_robust.decay_rate): min_v −λmax(P^{-1/2}(Ā_vᵀP + PĀ_v)P^{-1/2})/2
-        root_inv = (V / np.sqrt(w)) @ V.T
-        PA = P @ loops
-        decay = float(-np.linalg.eigvalsh(root_inv @ (PA + np.swapaxes(PA, -1, -2)) @ root_inv)[:, -1].max() / 2)
+        decay = decay_rate(loops, P)
     # sqrt(K_i P⁻¹ K_iᵀ) = ‖K_i V Λ^{-1/2}‖
     unit_peaks = np.linalg.norm((K @ V) / np.sqrt(w), axis=1)
     initial = float(max(np.einsum("ki,ij,kj->k", vertices, P, vertices).max(), 0.0))

@@ -30,9 +30,8 @@ from ..model.plant import UncertainPlant
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
 from ..results import AnalysisResult
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, decay_rate, lmi_certificate
 from .polytope import MAX_BOX_ELEMENTS
-from .synthesis import decay_rate
 
 __all__ = ["DecayRate", "certified_decay_rate", "design_decay_rate"]
 

@@ -55,6 +55,7 @@ __all__ = [
     "rate_bracket",
     "RateBracket",
     "frozen_end",
+    "frozen_limit",
 ]
 
 Array = NDArray[np.float64]
@@ -301,6 +302,32 @@ def _at_limits(varying: Sequence[Parameter], scale: float) -> str:
         for k in (k for k in ends if math.isfinite(p.physical[k])):
             parts.append(f"{p.name} stops at its physical limit {p.physical[k]:g} {p.unit}")
     return "; ".join(parts)
+
+
+def frozen_limit(margins: pd.DataFrame, parameter: Parameter) -> tuple[float, str]:
+    """One parameter's frozen bound from a :func:`parameter_margin` table: its value at the end that fails.
+
+    Parameters
+    ----------
+    margins : pandas.DataFrame
+        A table of :func:`parameter_margin` with its ``frozen`` row.
+    parameter : Parameter
+        A varying parameter of the plant.
+
+    Returns
+    -------
+    value : float
+        Where a frozen plant becomes unstable, in the parameter's unit; nan when no end of
+        its range fails (none found up to the physical limits or the search's cap).
+    end : str
+        ``'lower'``, ``'upper'`` or ``'none'``.
+    """
+    row = margins.loc[margins["method"] == "frozen"].iloc[0]
+    ends = dict(item.rsplit(" ", 1) for item in str(row["end"]).split(", ") if " " in item)
+    end = ends.get(parameter.name)
+    if end is None:
+        return math.nan, "none"
+    return float(row[f"{parameter.name} {'low' if end == 'lower' else 'high'} [{parameter.unit}]"]), end
 
 
 def frozen_end(plant: UncertainPlant, K: ArrayLike, scale: float) -> tuple[str, str]:

@@ -41,10 +41,10 @@ from ..model.plant import ModelLike, as_model, is_model
 from ..results import AnalysisResult
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
-from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_verdict
+from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, decay_rate, lmi_verdict
 from .search import bisect
 
-__all__ = ["Synthesis", "synthesize", "decay_rate", "GAIN_BOUND", "OBJECTIVES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES"]
+__all__ = ["Synthesis", "synthesize", "GAIN_BOUND", "OBJECTIVES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES"]
 
 Array = NDArray[np.float64]
 
@@ -94,45 +94,6 @@ def vertices_of(model: ModelLike) -> tuple[Array, Array]:
     B : ndarray, shape (V, n, m)
     """
     return as_model("model", model).vertex_matrices()
-
-
-def decay_rate(closed_loops: ArrayLike, P: ArrayLike) -> float:
-    """The decay rate α of ``V = xᵀPx`` guaranteed on the closed loops, checked with numpy alone.
-
-    ``α = min_i −λmax(P^{-1/2}(A_iᵀP + PA_i)P^{-1/2}) / 2``: ``V̇ <= −2αV`` at every A_i
-    (hence on their convex hull). Negative means not certified; ``-inf`` if P is not
-    symmetric positive definite.
-
-    Parameters
-    ----------
-    closed_loops : array_like, shape (V, n, n)
-    P : array_like, shape (n, n)
-
-    Returns
-    -------
-    float
-        1/s.
-
-    Examples
-    --------
-    >>> import numpy as np, scara_robust as sr
-    >>> box = sr.UncertainLTVModel(np.array([[0.0, 1.0], [0.0, -0.15]]), np.array([[0.0], [0.05]]),
-    ...                            (sr.UncertainElement("A", 1, 1, 0.0, 0.1), sr.UncertainElement("B", 1, 0, 0.0, 0.1)))
-    >>> d = sr.design(box, 1.0, 2.0)
-    >>> bool(sr.decay_rate(np.array([d.A_cl]), d.P) > 0)   # V = xᵀPx decays on the nominal loop
-    True
-    """
-    A = check_array("closed_loops", closed_loops, ndim=3)
-    P = check_array("P", P, shape=(A.shape[1], A.shape[1]))
-    if not np.allclose(P, P.T, rtol=1e-9, atol=1e-12 * float(np.abs(P).max())):
-        return -math.inf
-    w, V = np.linalg.eigh(0.5 * (P + P.T))
-    if w[0] <= 0:
-        return -math.inf
-    root_inv = V @ np.diag(w**-0.5) @ V.T
-    PA = P @ A
-    M = root_inv @ (PA + np.swapaxes(PA, -1, -2)) @ root_inv
-    return float(-np.linalg.eigvalsh(M)[:, -1].max() / 2)
 
 
 @dataclass(frozen=True)

@@ -131,7 +131,7 @@ def certificate_table(
     context = CertificateContext(model, design, plant, lmi_solver=lmi_solver, falsifier_tries=falsifier_tries,
                                  seed=seed)
     if plant is not None:
-        context.grid = {**{p.name: p.samples for p in plant.parameters}, **dict(points or {})}
+        context.grid = {**plant.grid_points(), **dict(points or {})}
         context.fine = {k: 2 * v - 1 for k, v in context.grid.items()}
         context.coarse = {**plant.coarse_points(), **dict(lmi_points or {})}
         for key, value in context.coarse.items():

@@ -26,7 +26,7 @@ from ..model.plant import UncertainPlant
 from ..paper import PAPER_T_FINAL
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
-from ..robustness.parameters import parameter_margin
+from ..robustness.parameters import frozen_limit, parameter_margin
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
@@ -159,7 +159,7 @@ def compare_plant_designs(
         decay = design_decay_rate(hull, K, P=P, plant=plant)
         row["decay rate [1/s]"] = decay.rate
         row["decay rate from"] = decay.source or "none"
-        loops = worst_loop_margins(plant, K, points={prm.name: prm.samples for prm in plant.varying})
+        loops = worst_loop_margins(plant, K, points=plant.grid_points())
         row["disk margin α"] = float(loops.disk_margin.min()) if loops.certified else 0.0
         row["delay margin [s]"] = float(loops.delay_margin.min()) if loops.certified else 0.0
         margins = parameter_margin(plant, design if design is not None else K,
@@ -168,13 +168,7 @@ def compare_plant_designs(
             column = f"{prm.name} high [{prm.unit}]"
             vertex = margins.loc[margins["method"] == "vertex", column]
             row[f"{prm.name} certified high [{prm.unit}]"] = float(vertex.iloc[0]) if len(vertex) else math.nan
-            frozen = margins.loc[margins["method"] == "frozen"].iloc[0]
-            end = "lower" if f"{prm.name} lower" in frozen["end"] else "upper" if f"{prm.name} upper" in \
-                frozen["end"] else "none"
-            side = "low" if end == "lower" else "high"
-            row[f"{prm.name} frozen limit [{prm.unit}]"] = (float(frozen[f"{prm.name} {side} [{prm.unit}]"])
-                                                            if end != "none" else math.nan)
-            row[f"{prm.name} frozen end"] = end
+            row[f"{prm.name} frozen limit [{prm.unit}]"], row[f"{prm.name} frozen end"] = frozen_limit(margins, prm)
         run = simulate_plant(plant, K, profiles=profiles, reference=reference, disturbance=disturbance,
                              t_final=t_final)
         out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit
