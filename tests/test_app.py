@@ -22,7 +22,7 @@ import pytest
 from page_driver import click_grid_point, design_label, open_page, painted_after_release, response_label, watch
 
 import scara_robust as sr
-from scara_robust.app import PAYLOAD_MAP_TOL, Answer, RunSettings, envelope
+from scara_robust.app import MEASURES, PAYLOAD_MAP_TOL, Answer, RunSettings, envelope
 from scara_robust.cli import build_parser, main
 from scara_robust.cli._app import explorer_of
 
@@ -56,6 +56,20 @@ def test_a_selection_shows_the_library_s_gain_and_theorem1_verdict(motor):
     surface = sr.design_surface(motor.model, motor.rhos, motor.etas, measure="margin")
     assert np.array_equal(motor.measure("max_eig"), surface.max_eig)
     assert np.array_equal(motor.measure("margin"), surface.margin)
+
+
+def test_the_deployable_map_is_each_design_s_input_limit_certificate(motor):
+    """log₁₀ s* of every certified grid design, each computed here with its own P and K; grey where not certified."""
+    values = motor.measure("deployable")
+    plant = sr.load_plant(MOTOR)
+    assert motor.has_input_limits and values.shape == (motor.rhos.size, motor.etas.size)
+    certified = sr.design_surface(motor.model, motor.rhos, motor.etas).certified
+    assert np.array_equal(np.isnan(values), ~certified) and certified.any()
+    for i, k in zip(*np.nonzero(certified)):
+        d = sr.design(motor.model, float(motor.rhos[i]), float(motor.etas[k]))
+        cert = sr.input_limit_certificate(d.K, d.P, plant.input_limits, [0.0, 1.0, 0.0])
+        assert values[i, k] == pytest.approx(np.log10(cert.scale), rel=1e-9, abs=1e-12)
+        assert (values[i, k] >= 0) == cert.certified
 
 
 def test_a_new_selection_drops_the_pending_answers_of_the_previous(motor, monkeypatch):
@@ -312,6 +326,14 @@ def test_the_page_marks_a_design_beyond_the_current_limit(page_of_motor):
     page.get_by_role("button", name="Select (ρ, η)").click()
     page.wait_for_selector(f"text={response_label(0.1, 1)}", timeout=120_000)
     page.wait_for_selector("#deployable >> text=Within the input limits", timeout=60_000)
+    # the map coloured by certified-and-deployable: offered because the file limits the current
+    choice = page.locator("select").first
+    label = MEASURES["deployable"][0]
+    assert label in choice.locator("option").evaluate_all("options => options.map(o => o.value)")
+    choice.select_option(label=label)
+    page.wait_for_timeout(1500)
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SCREENSHOTS / "app-deployable.png"), full_page=True)
     assert not problems, problems
 
 

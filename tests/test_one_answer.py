@@ -259,3 +259,43 @@ def test_bad_initial_errors_are_one_line(capsys, argv, text):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and text in err
+
+
+@pytest.mark.lmi
+def test_the_readme_design_reports_one_decay_rate_in_certify_export_and_the_page(capsys, tmp_path):
+    """The README's SCARA design (ρ, η) = (3, 90): certify, export and the page's answer agree."""
+    rows = _certify_json(capsys, ["--rho", "3", "--eta", "90"])
+    record = rows["decay-rate"]
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.001", "--format", "json",
+                 "--output", str(out)]) == 0
+    capsys.readouterr()
+    meta = json.loads(next(out.iterdir()).read_text(encoding="utf-8"))
+    exported = (meta["metadata"] if "metadata" in meta else meta)["decay_rate"]
+    explorer = explorer_of(build_parser().parse_args(["app", "--rho", "3:3:1", "--eta", "90:90:1"]))
+    d = sr.design(explorer.model, 3, 90)
+    function, arguments = explorer.slow_answers(d)["decay"]
+    page = function(*arguments)
+    explorer.close()
+    assert exported["from"] == record["from"] == page.source and exported["set"] == record["set"] == page.set_name
+    # the paper's box certifies no rate for this design (its LMI is infeasible): the robot's own frozen plants do
+    assert "frozen plants" in page.set_name and page.certified
+    assert exported["rate [1/s]"] == pytest.approx(record["decay_rate [1/s]"], rel=1e-12)
+    assert page.rate == pytest.approx(record["decay_rate [1/s]"], rel=1e-12)
+    # the number, re-verified with numpy on the robot's samples it names (both grids)
+    plant = sr.scara_uncertain_plant(bounds="paper")
+    rates = [sr.decay_rate(plant.samples(points).closed_loops(d.K), page.P)
+             for points in (plant.grid_points(), plant.fine_points())]
+    assert min(rates) >= page.rate * (1 - 1e-9) and min(rates) > 0
+
+
+@pytest.mark.lmi
+def test_the_page_brackets_the_sample_time_as_certify_does(capsys):
+    setup = ["--model", MOTOR, "--rho", "1", "--eta", "10"]
+    bracket = _certify_json(capsys, [*setup, "--max-ts"])["max-ts"]
+    explorer = explorer_of(build_parser().parse_args(["app", *setup[:2], "--rho", "1:1:1", "--eta", "10:10:1"]))
+    function, arguments = explorer.slow_answers(sr.design(explorer.model, 1, 10))["sample_time"]
+    limit = function(*arguments)
+    explorer.close()
+    assert limit.certified_ts == bracket["certified_ts [s]"] and limit.unstable_ts == bracket["unstable_ts [s]"]

@@ -34,6 +34,7 @@ from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant
 from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
+from ..robustness.actuator import input_limit_certificate
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.margins import robustness_margin
@@ -56,6 +57,9 @@ MEASURES: dict[str, tuple[str, str]] = {
                                "(certified where θ >= 1)"),
     "payload": ("certified payload [kg]", "the largest peak payload the design's P certifies, on a coarse grid "
                                           "(certified where it reaches the robot's payload)"),
+    "deployable": ("log₁₀ s* [-]", "certified and within the input limits: a unit step of the reference is "
+                                   "certified within every input's limit where s* >= 1 (log₁₀ s* >= 0); grey where "
+                                   "Theorem 1 does not certify"),
 }
 
 #: Points per axis of the payload map (one payload bisection per point, about half a second each).
@@ -217,6 +221,7 @@ class DesignExplorer:
     _mapper: ProcessPoolExecutor | None = field(default=None, init=False)
     _map_jobs: list[Future[Any]] = field(default_factory=list, init=False)
     payload_values: Array | None = field(default=None, init=False)
+    _deployable: tuple[DesignSurface, Array] | None = field(default=None, init=False, repr=False)
     settings: RunSettings = field(default_factory=RunSettings, init=False)
 
     def __post_init__(self) -> None:
@@ -355,6 +360,39 @@ class DesignExplorer:
         self._map_jobs = []
         self.payload_values = None
 
+    @property
+    def has_input_limits(self) -> bool:
+        """True for a plant file in the PID form whose inputs have limits: the map's ``deployable`` measure."""
+        return (self.robot_signals is None and self.plant is not None and self.plant.form == "pid"
+                and self.plant.input_limits is not None)
+
+    def deployable_map(self) -> Array:
+        """log₁₀ s* over the map: the unit step certified within the input limits where >= 0.
+
+        For each design the invariant ellipsoids of its own P (:func:`scara_robust.input_limit_certificate`)
+        give s*, the scale of the initial errors of a unit step of each reference (``e(0) = 1``
+        output unit) certified within every input's limit. For fixed ρ the Riccati P is fixed
+        and ``K = ηK₁`` (see :mod:`scara_robust.lyapunov.surface`), so ``s*(ρ, η) = s*(ρ, 1)/η``:
+        one certificate per ρ. NaN where Theorem 1 does not certify the design (its P is then
+        no Lyapunov function of the set).
+
+        Returns
+        -------
+        ndarray, shape (n_rho, n_eta)
+        """
+        assert self.surface is not None and self.plant is not None and self.plant.input_limits is not None
+        if self._deployable is not None and self._deployable[0] is self.surface:
+            return self._deployable[1]
+        q = self.plant.n_states // 2
+        step = np.concatenate([np.zeros(q), np.ones(q), np.zeros(q)])
+        per_rho = np.array([input_limit_certificate(d.K, d.P, self.plant.input_limits, step).scale
+                            for d in (design(self.model, float(rho), 1.0) for rho in self.rhos)])
+        with np.errstate(divide="ignore"):
+            values = np.log10(per_rho[:, None] / np.asarray(self.etas)[None, :])
+        values = np.where(self.surface.certified, values, np.nan)
+        self._deployable = (self.surface, values)
+        return values
+
     def measure(self, key: str) -> Array:
         """The map's values of one measure.
 
@@ -368,6 +406,8 @@ class DesignExplorer:
         ndarray, shape (n_rho, n_eta)
         """
         assert self.surface is not None
+        if key == "deployable":
+            return self.deployable_map()
         values = self.surface.max_eig if key == "max_eig" else self.surface.margin
         assert values is not None
         return np.asarray(values, dtype=float)

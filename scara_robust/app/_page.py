@@ -39,7 +39,8 @@ from ._explorer import MEASURES, PAYLOAD_MAP_TOL, Answer, DesignExplorer, QuickA
 __all__ = ["build_page", "envelope", "serve", "start_in_thread"]
 
 #: Certified is blue, not certified red (RdBu11 runs from dark blue at the low end to dark red).
-_PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11)), "payload": tuple(reversed(RdBu11))}
+_PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11)), "payload": tuple(reversed(RdBu11)),
+            "deployable": tuple(reversed(RdBu11))}
 _TABLE = "style='border-collapse:collapse' cellpadding='3' border='1'"
 #: The page's roots in a grid: the title across, the map on the left, K and then the answers on the right.
 _TEMPLATE = get_env().from_string("""{% extends base %}
@@ -213,7 +214,9 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     fmap.scatter("x", "y", source=chosen, marker="x", size=16, line_width=3, color="black")
 
     robot = explorer.robot_signals is not None
-    options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items() if robot or k != "payload"]
+    shown = {"max_eig", "margin", *(["payload"] if robot else []),
+             *(["deployable"] if explorer.has_input_limits else [])}
+    options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items() if k in shown]
     measure = Select(title="Map colour", value=first, options=options, width=260,
                      name="measure")
     rho_in = TextInput(title="ρ [-] (> 0)", value="3", width=120, name="rho")
@@ -269,17 +272,20 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             level = explorer.payload_level
         else:
             vals, grid_r, grid_e = explorer.measure(key), explorer.rhos, explorer.etas
-            level = 0.0 if key == "max_eig" else 1.0
+            level = 1.0 if key == "margin" else 0.0
         lo, hi = _color_range(key, vals, level)
         mapper.update(low=lo, high=hi, palette=_PALETTE[key])
         (x0, dw), (y0, dh) = _cells(grid_r), _cells(grid_e)
         image_src.data = {"image": [vals.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]}
-        done = bool(np.isfinite(vals).all())
+        # the payload map fills in column by column; the deployable map is grey (NaN) where not certified
+        done = key == "deployable" or bool(np.isfinite(vals).all())
         contour.visible = done
         if done:
-            contour.set_data(contour_data(grid_r, grid_e, vals.T, levels=[level, level + 1e-12]))
+            lines = np.where(np.isfinite(vals), vals, level - 1.0)
+            contour.set_data(contour_data(grid_r, grid_e, lines.T, levels=[level, level + 1e-12]))
         colorbar.title = MEASURES[key][0]
-        what = {"max_eig": "certified where < 0", "margin": "certified where θ >= 1"}.get(key, "")
+        what = {"max_eig": "certified where < 0", "margin": "certified where θ >= 1",
+                "deployable": "step within limits where >= 0; grey: not certified"}.get(key, "")
         if key == "payload":
             what = f"{vals.shape[0]} × {vals.shape[1]} points, to {PAYLOAD_MAP_TOL:.0%}; blue: >= {level:.3g} kg"
             if not done:

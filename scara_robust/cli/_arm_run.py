@@ -16,6 +16,7 @@ from ..model.arm import ArmSetup
 from ..paper import PAPER_DISTURBANCE_PERIOD
 from ..plotting import plot_arm_run
 from ..robustness.decay import design_decay_rate
+from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
 from ..robustness.synthesis import synthesize
 from ..simulation.arm import ArmRun, simulate_arm
@@ -188,7 +189,8 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
     arm's samples (the larger of the design's own P and a common P found by the LMI, each
     verified by numpy on the file's grids; a lower bound on the best one), the payload
     beyond which a frozen plant is unstable (kg, and which end) and a run of the
-    nonlinear arm.
+    nonlinear arm, the worst disk and delay margins over the arm's samples
+    (:func:`scara_robust.worst_loop_margins`; 0 when a frozen loop is unstable).
 
     Parameters
     ----------
@@ -236,6 +238,9 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         decay = design_decay_rate(model, K if isinstance(des, tuple) else des, P=P_file, plant=plant)
         row["decay rate [1/s]"] = decay.rate
         row["decay rate from"] = decay.source or "none"
+        loops = worst_loop_margins(plant, K, points=plant.grid_points())
+        row["disk margin α"] = float(loops.disk_margin.min()) if loops.certified else 0.0
+        row["delay margin [s]"] = float(loops.delay_margin.min()) if loops.certified else 0.0
         row["m_p frozen limit [kg]"], row["m_p frozen end"] = frozen_limit(parameter_margin(plant, K, ["frozen"]),
                                                                            plant.parameter("m_p"))
         start = time.perf_counter()

@@ -10,9 +10,10 @@ checked with numpy on every closed loop; the answer is the larger of the two, la
 with the P that gives it.
 
 The set is the one the design's certificate is about: the interval box's corners (or the
-polytope's vertices) when they can be enumerated, otherwise the plant's own frozen plants
-(the LMI solved on its coarse grid, every rate verified on its grid and on the refined
-grid).
+polytope's vertices) when they can be enumerated and a rate is certified there (exact for
+the box, parameters varying arbitrarily within it), otherwise the plant's own frozen
+plants (the LMI solved on its coarse grid, every rate verified on its grid and on the
+refined grid); the message names the set.
 """
 
 from __future__ import annotations
@@ -191,9 +192,9 @@ def design_decay_rate(
     Parameters
     ----------
     model : UncertainLTVModel, PolytopicModel or UncertainPlant
-        The set: its corners when they can be enumerated (at most 2^``MAX_BOX_ELEMENTS``),
-        else the frozen plants of `plant` (a plant's own interval hull is used for the
-        corners).
+        The set: its corners when they can be enumerated (at most 2^``MAX_BOX_ELEMENTS``)
+        and certify a rate, else the frozen plants of `plant` (a plant's own interval hull
+        is used for the corners).
     design : Design or array_like, shape (m, n)
         The design (its P is a candidate) or a plain gain K of ``u = −Kx``.
     P : array_like, shape (n, n), optional
@@ -224,7 +225,9 @@ def design_decay_rate(
         loops = np.asarray(model.vertex_closed_loops(K))  # type: ignore[union-attr]
         name = (f"the polytope's {len(loops)} vertices" if polytope else
                 f"the interval box's {len(loops)} corners")
-        return certified_decay_rate(loops, own, set_name=name, lmi=lmi, solver=solver)
+        on_box = certified_decay_rate(loops, own, set_name=name, lmi=lmi, solver=solver)
+        if on_box.certified or plant is None:
+            return on_box
     coarse = plant.samples(plant.coarse_points())
     grid, fine = plant.samples(), plant.samples(plant.fine_points())
     name = (f"the plant's frozen plants ({coarse.n_samples} samples for the LMI, verified on {grid.n_samples} "
