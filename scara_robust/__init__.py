@@ -74,6 +74,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     input_limit_certificate, InputLimitCertificate -- the initial errors certified within the input limits
     initial_error_vertices, MAX_BOX_CORNERS -- a box of initial errors as its corners; the most enumerated
     peak_inputs                     -- each input's peak |u| of a simulated run
+    step_initial_errors             -- the initial errors of a reference step from rest, on the PID form's state
     LIMIT_MARGIN, MAX_LIMIT_VERTICES -- synthesize with input limits: the initial errors' margin, the most points
     l2_gain, L2Gain, L2_INFLATION   -- worst-case L2 gain: bounded-real LMI (upper, inflated), frozen H∞ norms (lower)
     rate_bounded_l2_gain, RateL2Gain, verify_rate_bounded_l2 -- the L2 gain for |ṗ| <= ν, P(p) = P0 + p·P1

@@ -180,6 +180,10 @@ def test_certify_compare_export_and_the_page_report_one_decay_rate(capsys, tmp_p
     compared = json.loads(capsys.readouterr().out)
     records = compared if isinstance(compared, list) else compared["designs"]
     assert records[0]["decay rate [1/s]"] == pytest.approx(certified, rel=1e-12)
+    # deployability beside it: the same input-limit certificate certify reports, and the run against the limit
+    assert records[0]["unit step certified within limits s*"] == pytest.approx(rows["input-limits"]["scale"],
+                                                                               rel=1e-12)
+    assert records[0]["run within input limits"] is (records[0]["peak |u| [A]"] <= 2.0) is False
 
     out = tmp_path / "out"
     out.mkdir()

@@ -34,7 +34,7 @@ from ..lyapunov.theorem1 import certify
 from ..model.plant import UncertainPlant
 from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
-from ..robustness.actuator import input_limit_certificate
+from ..robustness.actuator import input_limit_certificate, step_initial_errors
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.margins import robustness_margin
@@ -383,8 +383,7 @@ class DesignExplorer:
         assert self.surface is not None and self.plant is not None and self.plant.input_limits is not None
         if self._deployable is not None and self._deployable[0] is self.surface:
             return self._deployable[1]
-        q = self.plant.n_states // 2
-        step = np.concatenate([np.zeros(q), np.ones(q), np.zeros(q)])
+        step = step_initial_errors(self.plant)
         per_rho = np.array([input_limit_certificate(d.K, d.P, self.plant.input_limits, step).scale
                             for d in (design(self.model, float(rho), 1.0) for rho in self.rhos)])
         with np.errstate(divide="ignore"):

@@ -36,7 +36,7 @@ from ..model.robot import PayloadProfile, ScaraParams
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference, SquareWave
 from ..model.uncertain import UncertainLTVModel
-from ..robustness.actuator import InputLimitCertificate, input_limit_certificate
+from ..robustness.actuator import InputLimitCertificate, input_limit_certificate, step_initial_errors
 from ..robustness.decay import DecayRate, design_decay_rate
 from ..robustness.loop_margins import LoopMargins, worst_loop_margins
 from ..robustness.parameters import parameter_margin
@@ -296,10 +296,7 @@ class LoadedSystem:
             return None
         n = physical.n_design_states
         if given is None:
-            if physical.form != "pid":
-                return None
-            q = physical.n_states // 2
-            return np.concatenate([np.zeros(q), np.ones(q), np.zeros(q)])
+            return step_initial_errors(physical) if physical.form == "pid" else None
         if len(given) != n or min(given) < 0:
             raise CommandLineError(f"`--initial-error` must give {n} half-widths >= 0 (one per state of the design "
                                    f"form), found {len(given)} value(s) {given}")

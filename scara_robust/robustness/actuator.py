@@ -34,20 +34,44 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_closed_loops, check_symmetric, describe
+from .._validation import check_array, check_closed_loops, check_real, check_symmetric, describe
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ..model.plant import Signal
+from ..model.plant import Signal, UncertainPlant
 from ..results import AnalysisResult
 from .lmi import decay_floor, decay_rate
 
 __all__ = ["InputLimitCertificate", "input_limit_certificate", "initial_error_vertices", "peak_inputs",
-           "MAX_BOX_CORNERS"]
+           "step_initial_errors", "MAX_BOX_CORNERS"]
 
 Array = NDArray[np.float64]
 
 #: Largest number of nonzero half-widths of a box of initial errors (its 2^k corners are
 #: enumerated: ``max vᵀPv`` over a box is attained at a corner).
 MAX_BOX_CORNERS = 16
+
+
+def step_initial_errors(plant: UncertainPlant, size: float = 1.0) -> Array:
+    """The initial errors of a step of every reference from rest, on the PID form's state.
+
+    ``x = [∫e, e, ė]`` with ``e(0) = size`` (output unit), ``∫e = ė = 0``: the box of
+    half-widths that :func:`input_limit_certificate` takes for "a step of `size`".
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+        A plant in the PID form (``form = 'pid'``).
+    size : float
+        The step, in the outputs' unit (> 0).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    if plant.form != "pid":
+        raise ArgumentValueError("plant", f"must be in the PID form for a reference step, found form {plant.form!r}")
+    size = check_real("size", size, positive=True)
+    q = plant.n_states // 2
+    return np.concatenate([np.zeros(q), np.full(q, size), np.zeros(q)])
 
 
 def initial_error_vertices(initial_errors: ArrayLike, n: int) -> Array:

@@ -24,6 +24,7 @@ from ..lyapunov.theorem1 import certify
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant
 from ..paper import PAPER_T_FINAL
+from ..robustness.actuator import input_limit_certificate, peak_inputs, step_initial_errors
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
@@ -140,7 +141,10 @@ def compare_plant_designs(
         margin, NaN without P), ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
         beyond, NaN when none is found up to the physical limits or the search's cap) and
         ``NAME frozen end`` (``'lower'``, ``'upper'`` or ``'none'``: the end that fails),
-        then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``.
+        then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``; for a PID-form
+        plant with input limits, ``run within input limits`` and ``unit step certified
+        within limits s*`` (:func:`~scara_robust.input_limit_certificate` with the P of the
+        decay rate).
     """
     hull = plant.interval_model()
     rows = []
@@ -174,5 +178,11 @@ def compare_plant_designs(
         out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit
         row.update({"status": run.status, f"max |e| [{out_unit}]": run.max_abs_error,
                     f"peak |u| [{in_unit}]": run.peak_input})
+        limits = plant.input_limits
+        if limits is not None and plant.form == "pid":  # deployable: the run and the certificate against the limits
+            row["run within input limits"] = bool((peak_inputs(run) <= limits).all())
+            row["unit step certified within limits s*"] = (
+                input_limit_certificate(K, decay.P, limits, step_initial_errors(plant), closed_loops=decay.loops).scale
+                if decay.P is not None else math.nan)
         rows.append(row)
     return pd.DataFrame(rows)
