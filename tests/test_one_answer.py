@@ -295,11 +295,23 @@ def test_the_readme_design_reports_one_decay_rate_in_certify_export_and_the_page
 
 
 @pytest.mark.lmi
-def test_the_page_brackets_the_sample_time_as_certify_does(capsys):
-    setup = ["--model", MOTOR, "--rho", "1", "--eta", "10"]
+@pytest.mark.parametrize("setup, app_setup, rho, eta", [
+    (["--model", MOTOR, "--rho", "1", "--eta", "10"], ["--model", MOTOR], 1.0, 10.0),  # the own-plant guide
+    (["--rho", "3", "--eta", "90"], [], 3.0, 90.0),  # the README
+], ids=["guide-motor", "readme-scara"])
+def test_certify_export_and_the_page_bracket_the_sample_time_as_one(capsys, tmp_path, setup, app_setup, rho, eta):
     bracket = _certify_json(capsys, [*setup, "--max-ts"])["max-ts"]
-    explorer = explorer_of(build_parser().parse_args(["app", *setup[:2], "--rho", "1:1:1", "--eta", "10:10:1"]))
-    function, arguments = explorer.slow_answers(sr.design(explorer.model, 1, 10))["sample_time"]
+    certified, unstable = bracket["certified_ts [s]"], bracket["unstable_ts [s]"]
+    explorer = explorer_of(build_parser().parse_args(["app", *app_setup, "--rho", f"{rho}:{rho}:1",
+                                                      "--eta", f"{eta}:{eta}:1"]))
+    function, arguments = explorer.slow_answers(sr.design(explorer.model, rho, eta))["sample_time"]
     limit = function(*arguments)
     explorer.close()
-    assert limit.certified_ts == bracket["certified_ts [s]"] and limit.unstable_ts == bracket["unstable_ts [s]"]
+    assert limit.certified_ts == certified and limit.unstable_ts == unstable
+    # export at a Ts beyond the frozen instability refuses it, naming the same two limits
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["export", *setup, "--ts", repr(1.5 * unstable), "--output", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"the largest certified Ts is {certified:.4g} s" in err
+    assert f"a frozen plant is unstable from Ts = {unstable:.4g} s" in err
