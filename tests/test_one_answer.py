@@ -308,6 +308,10 @@ def test_certify_export_and_the_page_bracket_the_sample_time_as_one(capsys, tmp_
     limit = function(*arguments)
     explorer.close()
     assert limit.certified_ts == certified and limit.unstable_ts == unstable
+    if "--model" in setup:  # compare, on a plant file, sets its designs side by side with the same bracket
+        assert main(["compare", *setup, "--no-synthesis", "--t-final", "7", "--format", "json"]) == 0
+        record = json.loads(capsys.readouterr().out)[0]
+        assert record["certified Ts [s]"] == certified and record["unstable Ts [s]"] == unstable
     # export at a Ts beyond the frozen instability refuses it, naming the same two limits
     out = tmp_path / "out"
     out.mkdir()

@@ -28,6 +28,7 @@ from ..robustness.actuator import input_limit_certificate, peak_inputs, step_ini
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
+from ..robustness.sampled import max_sample_time
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
@@ -141,7 +142,9 @@ def compare_plant_designs(
         margin, NaN without P), ``NAME frozen limit [UNIT]`` (a frozen plant is unstable
         beyond, NaN when none is found up to the physical limits or the search's cap) and
         ``NAME frozen end`` (``'lower'``, ``'upper'`` or ``'none'``: the end that fails),
-        then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``; for a PID-form
+        then the run's ``status``, ``max |e| [UNIT]`` and ``peak |u| [UNIT]``; ``certified Ts
+        [s]`` and ``unstable Ts [s]`` (:func:`~scara_robust.max_sample_time` on the plant's grid,
+        verified on its refinement, as ``certify --max-ts`` and ``export``); for a PID-form
         plant with input limits, ``run within input limits`` and ``unit step certified
         within limits s*`` (:func:`~scara_robust.input_limit_certificate` with the P of the
         decay rate).
@@ -178,6 +181,12 @@ def compare_plant_designs(
         out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit
         row.update({"status": run.status, f"max |e| [{out_unit}]": run.max_abs_error,
                     f"peak |u| [{in_unit}]": run.peak_input})
+        # the certified sample time, on the sets certify --max-ts and export use (the plant's grid, verified on
+        # its refinement): a PID discretized as export does; a state-form gain u = −K x(t_k) held
+        on, fine = plant.samples(), plant.samples(plant.fine_points())
+        held = design if design is not None else Design.from_gain(hull, K) if plant.form == "pid" else K
+        limit = max_sample_time((on.A, on.B), held if plant.form == "pid" else K, check=(fine.A, fine.B))
+        row["certified Ts [s]"], row["unstable Ts [s]"] = limit.certified_ts, limit.unstable_ts
         limits = plant.input_limits
         if limits is not None and plant.form == "pid":  # deployable: the run and the certificate against the limits
             row["run within input limits"] = bool((peak_inputs(run) <= limits).all())
