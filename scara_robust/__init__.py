@@ -61,7 +61,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     CertificateContext, PayloadContext -- what a registered method is given
     bisect, MIDPOINTS               -- the one bisection of every margin, range, rate and sample-time search
     vertex_certificate, physical_certificate, polytope_certificate, PolytopeCertificate -- exact test of P
-    lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``)
+    lmi_certificate, LMICertificate, verify_lyapunov -- common quadratic P by SDP (extra ``lmi``), by cutting planes
+    lmi_search, LMI_STOPS           -- the common-P test of a search, each solve from the last active set
     LMI_VERDICTS                    -- what an LMI answer proves: certified, infeasible, inaccurate, unknown
     LMI_SOLVERS, cvxpy_available    -- its solvers, and whether cvxpy is there
     falsify, FalsifierResult, FALSIFIER_RULES -- search for a destabilizing switching signal

@@ -209,6 +209,12 @@ def falsify(
     huge = ~(np.abs(Phi).max(axis=(1, 2)) <= FALSIFIER_OVERFLOW)
     if huge.any():
         return _overflow(A_v, np.flatnonzero(huge), int(n_tries), steps * dwell, dwell)
+    # every vertex's step as one matrix-vector product: rows v·n .. v·n + n − 1 are Φ_v
+    Phi_rows = np.ascontiguousarray(Phi.reshape(n_v * n, n))
+    # V(Φ_v x) = Σ_i w_i (u_iᵀ Φ_v x)² with P = U diag(w) Uᵀ: the 'lyapunov' rule's values, one product too
+    w, U = np.linalg.eigh(P_sym)
+    U_rows = np.ascontiguousarray((U.T[None] @ Phi).reshape(n_v * n, n))
+    weights = {"norm": np.ones(n), "lyapunov": w}
     rng = np.random.default_rng(seed)
     best: tuple[float, float, str, NDArrayInt, Array] | None = None
     log_norm: float
@@ -221,15 +227,13 @@ def falsify(
         log_half = 0.0
         sequence = np.empty(steps, dtype=np.int64)
         for k in range(steps):
-            candidates = Phi @ x  # (V, n)
-            if rule == "norm":
-                v = int(np.argmax(np.einsum("vi,vi->v", candidates, candidates)))
-            elif rule == "lyapunov":
-                v = int(np.argmax(np.einsum("vi,ij,vj->v", candidates, P_sym, candidates)))
-            else:
+            if rule == "random":
                 v = int(rng.integers(n_v))
+            else:
+                values = ((Phi_rows if rule == "norm" else U_rows) @ x).reshape(n_v, n)
+                v = int(np.argmax(np.einsum("vi,i,vi->v", values, weights[rule], values)))
             sequence[k] = v
-            x = candidates[v]
+            x = Phi[v] @ x
             size = float(np.linalg.norm(x))
             if size == 0.0 or not np.isfinite(size):
                 log_norm = -math.inf if size == 0.0 else math.inf

@@ -19,20 +19,24 @@ returns a result whose status is ``'not installed'``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import warnings
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops
+from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 
-__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_VERDICTS", "cvxpy_available", "decay_rate", "lmi_certificate",
-           "verify_lyapunov"]
+__all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
+           "lmi_certificate", "lmi_search", "verify_lyapunov"]
 
 Array = NDArray[np.float64]
 
@@ -153,6 +157,12 @@ class LMICertificate(AnalysisResult):
     n_vertices : int
     floor : float
         The smallest decay rate reported as certified (:func:`decay_floor`), 1/s.
+    active : ndarray of int, shape (V_active,), or None
+        The loops the last LMI was solved on (the cutting planes' active set); a search on
+        loops indexed alike starts its next solve from them.
+    unstable_loop : int or None
+        A closed loop numpy finds unstable (an eigenvalue with a positive real part): the
+        proof of infeasibility when the solver's own certificate fails numpy's check.
     """
 
     status: str
@@ -162,6 +172,8 @@ class LMICertificate(AnalysisResult):
     decay_rate: float
     n_vertices: int
     floor: float = 0.0
+    active: NDArray[np.int64] | None = field(default=None, repr=False, compare=False)
+    unstable_loop: int | None = None
 
     margin = renamed_field("margin", "decay_rate")
 
@@ -189,6 +201,9 @@ class LMICertificate(AnalysisResult):
         if self.verdict == "marginal":
             return (f"marginal, not certified: numpy verifies a decay rate of only {self.decay_rate:.3g} 1/s, "
                     f"below the floor {self.floor:.3g} 1/s ({DECAY_FLOOR_RTOL:g} of the loops' norm)")
+        if self.verdict == "infeasible" and self.unstable_loop is not None:
+            return (f"no common quadratic Lyapunov P exists: closed loop {self.unstable_loop} is unstable "
+                    "(numpy's eigenvalues)")
         if self.verdict == "infeasible":
             return f"no common quadratic Lyapunov P exists ({self.solver} proved the LMI infeasible)"
         if self.status == INFEASIBLE_NOT_VERIFIED:
@@ -324,8 +339,31 @@ def farkas_certificate_holds(closed_loops: ArrayLike, duals: list[ArrayLike | No
 VERIFY_FARKAS_RTOL = 1e-9
 
 
-def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMICertificate:
+#: How a cutting-plane solve of :func:`lmi_certificate` stops, by name: ``'optimum'`` when the P of
+#: the active loops meets every loop's constraint of the whole problem (its optimum, to
+#: :data:`OPTIMUM_RTOL`); ``'verified'`` as soon as numpy verifies it on every loop (a bisection needs
+#: only the verdict).
+LMI_STOPS = ("optimum", "verified")
+
+#: A loop outside the active set whose ``λmax(Āᵀ P + P Ā)`` (in the solver's scaled units, where
+#: the constraint is ``⪯ −I``) exceeds ``−1 + OPTIMUM_RTOL`` joins it, with ``stop='optimum'``.
+OPTIMUM_RTOL = 1e-6
+
+#: Loops added to the active set per round: the most violated ones.
+ACTIVE_BATCH = 8
+
+#: Up to this many closed loops the LMI is solved on all of them at once.
+DIRECT_LOOPS = 16
+
+
+def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL", stop: str = "optimum",
+                    start: ArrayLike | None = None) -> LMICertificate:
     """Search a common quadratic Lyapunov matrix for the polytope ``conv{Ā_v}``.
+
+    The LMI is solved by cutting planes: on a small active set of the loops, grown by the
+    :data:`ACTIVE_BATCH` loops the last P violates most, until P holds on every loop. The
+    answer is checked by numpy on every loop, exactly as a solve on all of them at once; a
+    proof of infeasibility on the active set is one for the whole set.
 
     Parameters
     ----------
@@ -333,6 +371,16 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
         Frozen closed-loop matrices at the vertices, e.g. from
         ``scara_robust.robustness.polytope.box_closed_loops``.
     solver : {'CLARABEL', 'SCS'}
+    stop : {'optimum', 'verified'}
+        ``'optimum'``: grow the active set until P meets every loop's constraint
+        (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
+        loops; ``'verified'``: stop at the first P numpy verifies on every loop (a bisection
+        needs only the verdict; the decay rate may be smaller). Either way the ``'decay'``
+        form of :data:`LMI_FORMS` is solved; where it certifies nothing, the ``'margin'``
+        form is tried (its P is returned when it certifies).
+    start : array_like of int, optional
+        Indices of the loops to start from (:attr:`LMICertificate.active` of the previous
+        solve of a search on loops indexed alike); default: the least stable loop.
 
     Returns
     -------
@@ -353,55 +401,182 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL") -> LMI
     """
     A_v = check_closed_loops("closed_loops", closed_loops)
     check_choice("solver", solver, LMI_SOLVERS)
+    check_choice("stop", stop, LMI_STOPS)
+    first = _start_indices(A_v, start)
     if not cvxpy_available():
         return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])
     # one command asks the same question twice (its table's LMI row, then the design's decay
     # rate): the answer for the same closed loops is kept, read-only
-    key = (hashlib.sha256(np.ascontiguousarray(A_v).tobytes()).hexdigest(), A_v.shape, solver)
+    key = (hashlib.sha256(np.ascontiguousarray(A_v).tobytes()).hexdigest(), A_v.shape, solver, stop)
     if key not in _SOLVED:
         if len(_SOLVED) >= _SOLVED_SIZE:
             _SOLVED.pop(next(iter(_SOLVED)))
-        _SOLVED[key] = _solve_common_p(A_v, solver)
+        found = _cutting_planes(A_v, solver, stop, first, "decay")
+        if not found.certified and found.verdict != "infeasible":
+            # the 'decay' form breaks down where P's condition number grows without bound, near the
+            # end of what a common P can certify: the well-conditioned 'margin' form may still find one
+            retry = _cutting_planes(A_v, solver, "verified", first, "margin")
+            if retry.certified or (found.P is None and retry.P is not None):
+                found = retry
+        _SOLVED[key] = found
     return _SOLVED[key]
 
 
-#: Answers of :func:`lmi_certificate` kept for the same closed loops and solver.
-_SOLVED: dict[tuple[str, tuple[int, ...], str], LMICertificate] = {}
+#: Answers of :func:`lmi_certificate` kept for the same closed loops, solver and stop.
+_SOLVED: dict[tuple[str, tuple[int, ...], str, str], LMICertificate] = {}
 _SOLVED_SIZE = 16
 
 
-def _solve_common_p(A_v: NDArray[np.float64], solver: str) -> LMICertificate:
-    import cvxpy as cp
+def _start_indices(A_v: Array, start: ArrayLike | None) -> NDArray[np.int64]:
+    if start is None:
+        return np.array([int(np.argmax(np.linalg.eigvals(A_v).real.max(axis=1)))])
+    values = check_array("start", start, ndim=1)
+    idx = np.unique(values.astype(np.int64))
+    if idx.size == 0 or idx[0] < 0 or idx[-1] >= A_v.shape[0] or not np.array_equal(values, np.round(values)):
+        raise ArgumentValueError("start", f"must hold indices of `closed_loops` in [0, {A_v.shape[0]}), "
+                                          f"found {idx.tolist()[:8]}")
+    return idx
 
-    n = A_v.shape[1]
 
-    # Scaling the vertices by a positive constant leaves feasibility unchanged and keeps
-    # the -I right-hand side commensurate with the data.
+#: A real part of an eigenvalue above this fraction of the loop's norm is unstable beyond rounding.
+UNSTABLE_RTOL = 1e-9
+
+
+def _unstable_loop(A_v: Array) -> int | None:
+    """The most unstable closed loop, if one has an eigenvalue with a real part clearly above 0."""
+    abscissa = np.linalg.eigvals(A_v).real.max(axis=1) / np.linalg.norm(A_v, 2, axis=(1, 2))
+    worst = int(np.argmax(abscissa))
+    return worst if abscissa[worst] > UNSTABLE_RTOL else None
+
+
+def _cutting_planes(A_v: Array, solver: str, stop: str, first: NDArray[np.int64], form: str) -> LMICertificate:
+    n_loops = A_v.shape[0]
+    # Scaling the loops by a positive constant leaves feasibility unchanged and keeps
+    # the right-hand sides commensurate with the data.
     scale = float(np.abs(A_v).max()) or 1.0
     A_s = A_v / scale
-    P = cp.Variable((n, n), symmetric=True)
-    lam = cp.Variable()
-    eye = np.eye(n)
-    constraints = [P >> eye, P << lam * eye]
-    for A in A_s:
-        lhs = A.T @ P + P @ A
-        constraints.append(0.5 * (lhs + lhs.T) << -eye)
-    problem = cp.Problem(cp.Minimize(lam), constraints)
+    active = np.arange(n_loops) if n_loops <= DIRECT_LOOPS else first
+    floor = decay_floor(A_v)
+    while True:
+        status, P_val = _solve_common_p(A_s[active], solver, form)
+        if P_val is None:
+            # a verified proof of infeasibility on the active loops is one on all of them; where the
+            # solver's proof fails numpy's check, an unstable closed loop is one too
+            unstable = _unstable_loop(A_v) if status == INFEASIBLE_NOT_VERIFIED else None
+            return LMICertificate("infeasible" if unstable is not None else status, solver, None, np.nan, np.nan,
+                                  n_loops, active=active, unstable_loop=unstable)
+        PA = P_val @ A_s
+        worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
+        if stop == "optimum":
+            violated = worst > -1.0 + OPTIMUM_RTOL
+        else:  # numpy's own test: the decay rate of every loop above the floor
+            violated = worst > -2 * floor * np.linalg.eigvalsh(P_val)[-1] / scale
+        violated[active] = False
+        if not violated.any():
+            break
+        new = np.flatnonzero(violated)
+        new = new[np.argsort(-worst[new])[:ACTIVE_BATCH]]
+        active = np.sort(np.concatenate([active, new]))
+    P_val.setflags(write=False)
+    max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
+    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), n_loops, floor, active=active)
+
+
+#: The two forms of the common-P LMI, by the question they answer: ``'decay'`` minimizes λ with
+#: ``I ⪯ P ⪯ λI, Āᵀ P + P Ā ⪯ −I`` (its P gives the reported decay rate); ``'margin'`` maximizes t
+#: with ``tI ⪯ P ⪯ I, Āᵀ P + P Ā ⪯ −tI`` (strictly feasible exactly when t* > 0), which stays well
+#: conditioned where P's condition number grows without bound, at the end of a margin's bisection.
+LMI_FORMS = ("decay", "margin")
+
+#: An optimal t* of the ``'margin'`` form at or below this is no strictly feasible P.
+MARGIN_FEASIBILITY_TOL = 1e-9
+
+
+def _solve_common_p(A_s: Array, solver: str, form: str = "decay") -> tuple[str, Array | None]:
+    """One LMI form on the scaled loops `A_s`: (status, P or None); an infeasibility numpy cannot verify is named so."""
+    import cvxpy as cp
+
+    n_loops, n = A_s.shape[0], A_s.shape[1]
+    problem, P, t, slots = _problem(n, _slot_count(n_loops), form)
+    for k, slot in enumerate(slots):
+        # a slot left over holds -I: the constraint −2P ⪯ −I (or −tI), strictly implied by P ⪰ I (or tI)
+        slot.value = A_s[k] if k < n_loops else -np.eye(n)
     try:
         with warnings.catch_warnings():
             # "Solution may be inaccurate" is reported through the status, not as a warning
             warnings.simplefilter("ignore", UserWarning)
-            # cvxpy's C++ canonicalization: on the SCARA's 1024 corners it builds the problem in 4.7 s
-            # instead of 6.7 s (the default's choice); the problem and the solver are the same
-            problem.solve(solver=solver, canon_backend=cp.CPP_CANON_BACKEND)  # type: ignore[no-untyped-call]
+            problem.solve(solver=solver)
     except cp.SolverError as err:
-        return LMICertificate(f"solver error: {err}", solver, None, np.nan, np.nan, A_v.shape[0])
+        return f"solver error: {err}", None
     status = str(problem.status)
-    if status == cp.INFEASIBLE and not farkas_certificate_holds(A_v, [c.dual_value for c in constraints[2:]]):
+    if form == "margin" and status == cp.OPTIMAL and t.value is not None and t.value <= MARGIN_FEASIBILITY_TOL:
+        status = cp.INFEASIBLE  # P = 0, t = 0 is always feasible: no strictly feasible P
+    if status == cp.INFEASIBLE and not farkas_certificate_holds(
+            np.array([s.value for s in slots]), [c.dual_value for c in problem.constraints[2:]]):
         status = INFEASIBLE_NOT_VERIFIED
     if P.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return LMICertificate(status, solver, None, np.nan, np.nan, A_v.shape[0])
-    P_val = np.array(P.value, dtype=float)
-    P_val.setflags(write=False)
-    max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
-    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), A_v.shape[0], decay_floor(A_v))
+        return status, None
+    return status, np.array(P.value, dtype=float)
+
+
+def _slot_count(n_loops: int) -> int:
+    """Constraint slots of the problem for `n_loops` loops: a power of two, so a search reuses a few problems."""
+    return max(8, 1 << (n_loops - 1).bit_length())
+
+
+@functools.lru_cache(maxsize=8)
+def _problem(n: int, n_slots: int, form: str) -> tuple[Any, Any, Any, list[Any]]:
+    """One of :data:`LMI_FORMS` for `n_slots` parameters A_k, built once (cvxpy DPP): problem, P, λ or t, slots."""
+    import cvxpy as cp
+
+    P = cp.Variable((n, n), symmetric=True)
+    t = cp.Variable()
+    eye = np.eye(n)
+    slots = [cp.Parameter((n, n)) for _ in range(n_slots)]
+    if form == "decay":
+        constraints, bound, objective = [P >> eye, P << t * eye], -eye, cp.Minimize(t)
+    else:
+        constraints, bound, objective = [P << eye, P >> t * eye], -t * eye, cp.Maximize(t)
+    for A in slots:
+        lhs = A.T @ P + P @ A
+        constraints.append(0.5 * (lhs + lhs.T) << bound)
+    return cp.Problem(objective, constraints), P, t, slots
+
+def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[[ArrayLike], LMICertificate]:
+    """The common-P test for a search over loops indexed alike (a bisection on a scale, a mass, a rate).
+
+    Each solve of :func:`lmi_certificate` starts from the active loops of the previous one:
+    the loops that bounded P at one scale are the ones that bound it at the next.
+
+    Parameters
+    ----------
+    solver : {'CLARABEL', 'SCS'}
+    stop : {'verified', 'optimum'}
+        As for :func:`lmi_certificate`; a bisection needs only the verdict.
+
+    Returns
+    -------
+    callable ``test(closed_loops) -> LMICertificate``
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> test = sr.lmi_search()
+    >>> A = np.array([[[-1.0, 0.0], [0.0, -2.0]], [[-1.0, 0.5], [0.0, -2.0]]])
+    >>> [test(s * A).certified for s in (1.0, 2.0)]
+    [True, True]
+    """
+    check_choice("solver", solver, LMI_SOLVERS)
+    check_choice("stop", stop, LMI_STOPS)
+    active: NDArray[np.int64] | None = None
+
+    def test(closed_loops: ArrayLike) -> LMICertificate:
+        nonlocal active
+        n_loops = np.shape(closed_loops)[0]
+        start = active if active is not None and active.size and active[-1] < n_loops else None
+        result = lmi_certificate(closed_loops, solver=solver, stop=stop, start=start)
+        if result.active is not None:
+            active = result.active
+        return result
+
+    return test

@@ -53,7 +53,7 @@ from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
 from .falsifier import falsify
-from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .registry import AnalysisMethod, analysis_methods, checked_result, get_method, register_method
 from .search import bisect
 
@@ -270,9 +270,10 @@ def _lmi_margin(
     if not cvxpy_available():
         return math.nan, (math.nan, math.nan), NOT_INSTALLED
     answers: dict[float, str] = {}
+    test = lmi_search()  # the vertices keep their order across θ: each solve starts from the last active set
 
     def at(theta: float) -> str:
-        answers[theta] = lmi_certificate(_closed_loops(model, design, theta, anchor)).verdict
+        answers[theta] = test(_closed_loops(model, design, theta, anchor)).verdict
         return answers[theta]
 
     if lo > 0 and at(lo) != "certified":

@@ -41,7 +41,7 @@ from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
 from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
-from .lmi import NOT_INSTALLED, cvxpy_available, lmi_certificate, verify_lyapunov
+from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .pdl import RateMargin, max_certified_rate
 from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
 from .registry import AnalysisMethod, analysis_methods, get_method, register_method
@@ -93,9 +93,11 @@ def _vertex(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[
 
 
 def _lmi(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    test = lmi_search()
+
     def ok(s: float) -> bool:
         hull = _hull(plant, s)
-        return bool(lmi_certificate(hull.vertex_closed_loops(K)).certified)  # type: ignore[attr-defined]
+        return bool(test(hull.vertex_closed_loops(K)).certified)  # type: ignore[attr-defined]
 
     return ok
 
@@ -110,11 +112,13 @@ def _physical(plant: UncertainPlant, design: Design | None, K: Array) -> Callabl
 
 
 def _lmi_physical(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    test = lmi_search()
+
     def ok(s: float) -> bool:
-        result = lmi_certificate(plant.samples(plant.coarse_points(), theta=s).closed_loops(K))
-        if not result.certified or result.P is None:
-            return False
-        return bool(verify_lyapunov(plant.samples(theta=s).closed_loops(K), result.P)[1] > 0)
+        # cutting planes on the coarse samples and the samples together: P holds on both
+        loops = np.concatenate([plant.samples(plant.coarse_points(), theta=s).closed_loops(K),
+                                plant.samples(theta=s).closed_loops(K)])
+        return bool(test(loops).certified)
 
     return ok
 
@@ -140,7 +144,7 @@ for _method in (
     AnalysisMethod("physical", "parameter", "lower", _physical, "the design's P on the plant's own samples",
                    frozenset({"P", "parameters"}), cheap=True),
     AnalysisMethod("lmi-physical", "parameter", "lower", _lmi_physical,
-                   "a common P on the coarse samples, verified by numpy on the samples",
+                   "a common P on the coarse samples and the samples (cutting planes), verified by numpy on both",
                    frozenset({"parameters", "lmi"})),
     AnalysisMethod("frozen", "parameter", "upper", _frozen, "every frozen plant of the grid stable",
                    frozenset({"parameters"}), cheap=True),
@@ -195,7 +199,7 @@ def parameter_margin(
         'theorem1' (Z on the interval hull), 'vertex'
         (the design's P at the hull's corners), 'lmi' (a common P at the corners),
         'physical' (the design's P on the plant's own samples), 'lmi-physical' (a common P
-        found on the coarse samples, verified by numpy on the samples), 'frozen' (every
+        found by cutting planes on the coarse samples and the samples, verified by numpy on both), 'frozen' (every
         sample stable: an upper bound). The corner methods need at most
         2^``MAX_BOX_ELEMENTS`` corners.
     tol : float
