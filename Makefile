@@ -13,10 +13,14 @@ STAMP := $(VENV)/.installed
 
 .PHONY: test test-slow compare lint bench notebooks docs docs-figures clean
 
-# --no-compile: a module is byte-compiled when first imported, not all of every package at install (50 s less)
+# pip installs without compiling (one process), then compileall byte-compiles the environment and the
+# package on every core: where PYTHONDONTWRITEBYTECODE is set, no import ever writes a .pyc, and every
+# process (each CLI call, test worker and subprocess test) would compile scipy, pandas and
+# python-control from source again (docs/performance.md: start-up)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[test,docs,lmi,dask,parquet,compiled,robots,mujoco,app]"
+	$(BIN)/python -m compileall -q -j 0 $(VENV)/lib scara_robust > /dev/null
 	touch $(STAMP)
 
 # ruff and mypy run inside the suite (tests/test_lint.py), beside the other tests

@@ -139,43 +139,60 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_arm_run                    -- an arm run: joint errors, torques and payload over time
 """
 
-from .controller import *  # noqa: F403
-from .controller import __all__ as _controller
-from .exceptions import *  # noqa: F403
-from .exceptions import __all__ as _exceptions
-from .export import *  # noqa: F403
-from .export import __all__ as _export
-from .io import *  # noqa: F403
-from .io import __all__ as _io
-from .lyapunov import *  # noqa: F403
-from .lyapunov import __all__ as _lyapunov
-from .model import *  # noqa: F403
-from .model import __all__ as _model
-from .paper import *  # noqa: F403
-from .paper import __all__ as _paper
-from .plotting import *  # noqa: F403
-from .plotting import __all__ as _plotting
-from .results import *  # noqa: F403
-from .results import __all__ as _results
-from .robustness import *  # noqa: F403
-from .robustness import __all__ as _robustness
-from .simulation import *  # noqa: F403
-from .simulation import __all__ as _simulation
-from .studies import *  # noqa: F403
-from .studies import __all__ as _studies
+from __future__ import annotations
 
-__all__ = [
-    *_paper,
-    *_exceptions,
-    *_model,
-    *_controller,
-    *_lyapunov,
-    *_results,
-    *_robustness,
-    *_simulation,
-    *_io,
-    *_export,
-    *_studies,
-    *_plotting,
-]
+import importlib
+from typing import TYPE_CHECKING, Any
+
 __version__ = "0.2.0"
+
+#: The subpackages whose ``__all__`` make the API, in the order of the index above.
+_SUBPACKAGES = ("paper", "exceptions", "model", "controller", "lyapunov", "results", "robustness", "simulation",
+                "io", "export", "studies", "plotting")
+
+if TYPE_CHECKING:  # what the names are, for type checkers; at run time they are imported on first use
+    from .controller import *  # noqa: F403
+    from .exceptions import *  # noqa: F403
+    from .export import *  # noqa: F403
+    from .io import *  # noqa: F403
+    from .lyapunov import *  # noqa: F403
+    from .model import *  # noqa: F403
+    from .paper import *  # noqa: F403
+    from .plotting import *  # noqa: F403
+    from .results import *  # noqa: F403
+    from .robustness import *  # noqa: F403
+    from .simulation import *  # noqa: F403
+    from .studies import *  # noqa: F403
+
+
+def _api() -> list[str]:
+    """Import every subpackage and bind its ``__all__`` here, once; the API's names, in order.
+
+    The numerical stack (scipy, pandas, python-control, matplotlib) takes a second or more to
+    import: ``import scara_robust`` and the command line's ``--help`` do not pay it, the first
+    use of a name does.
+    """
+    if "__all__" not in globals():
+        names: list[str] = []
+        for sub in _SUBPACKAGES:
+            module = importlib.import_module(f".{sub}", __name__)
+            globals().update({name: getattr(module, name) for name in module.__all__})
+            names.extend(module.__all__)
+        globals()["__all__"] = names
+    api: list[str] = globals()["__all__"]
+    return api
+
+
+def __getattr__(name: str) -> Any:
+    if name.startswith("__") and name != "__all__":  # inspect, doctest and pickle ask for dunders: none here
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    api = _api()
+    if name == "__all__":
+        return api
+    if name in globals():
+        return globals()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_api()))

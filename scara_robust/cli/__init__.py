@@ -13,20 +13,16 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
+from types import ModuleType
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
-from . import _app, _campaign, _certify, _compare, _design, _export, _margin, _report, _simulate, _surface, _synthesize
-from ._common import CommandLineError, Parser, check_outputs, emit, error_message
-from ._system import load_system
+from ._parser import COMMANDS, CommandLineError, Parser, error_message
 
 __all__ = ["main", "build_parser", "CommandLineError"]
-
-#: The commands, in the order ``--help`` lists them.
-_COMMANDS = (_design, _surface, _certify, _margin, _synthesize, _simulate, _compare, _campaign, _report, _export,
-             _app)
 
 _EXAMPLES = """examples:
   python -m scara_robust design --rho 3 --eta 90
@@ -43,8 +39,19 @@ _EXAMPLES = """examples:
 Every command takes --help. Bad input: one line on stderr, exit code 2."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _command_module(name: str) -> ModuleType:
+    """The module of command `name` (its options and its ``run``), imported on first use."""
+    return importlib.import_module(f".{COMMANDS[name][0]}", __name__)
+
+
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
     """The argument parser of ``python -m scara_robust``.
+
+    Parameters
+    ----------
+    commands : collection of str, optional
+        The commands whose options are registered (their modules alone are imported); the
+        others are listed with their one-line help. Default: every command's options.
 
     Returns
     -------
@@ -58,8 +65,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"scara_robust {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for command in _COMMANDS:
-        command.add_parser(sub)
+    for name, (_, text) in COMMANDS.items():
+        if commands is None or name in commands:
+            _command_module(name).add_parser(sub)
+        else:
+            sub.add_parser(name, help=text)
     return parser
 
 
@@ -130,18 +140,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         0 on success, 2 on bad input or an I/O error (one line on stderr), 130 when
         interrupted.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")  # figures go to files; no display is needed
-    parser = build_parser()
+    tokens = list(sys.argv[1:] if argv is None else argv)
+    # the command given (the first word that is not an option): only its module is imported
+    command = next((token for token in tokens if token in COMMANDS), None)
     try:
+        parser = build_parser(() if command is None else (command,))
         try:
-            args, extras = parser.parse_known_args(argv)
+            args, extras = parser.parse_known_args(tokens)
         except CommandLineError:
-            _refuse_unknown_options(parser, sys.argv[1:] if argv is None else argv)
+            _refuse_unknown_options(parser, tokens)
             raise
         if extras:
             _refuse_unknown(parser, args.command, extras)
+        # the library, imported now that the arguments are known to parse
+        import matplotlib
+
+        from ._common import check_outputs, emit
+        from ._system import load_system
+
+        matplotlib.use("Agg")  # figures go to files; no display is needed
         system = load_system(args)  # the one place that tells the SCARA, an arm and a plant file apart
         check_outputs(args)
         text = args.func(args, system)

@@ -15,6 +15,7 @@ from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem, load_system, plant_source
 
 __all__ = ["add_parser", "run", "explorer_of"]
@@ -28,7 +29,7 @@ def add_parser(sub: Any) -> None:
     sub : argparse._SubParsersAction
     """
     p = sub.add_parser(
-        "app", help="the graphical design as a local web page: click the (rho, eta) map, read the design's answers",
+        "app", help=COMMAND_HELP["app"],
         description="Serve the design page on this machine (every asset local; open the printed URL). Left: the "
         "(rho, eta) map coloured by max eig Z or the Theorem 1 margin, with its certification contour. Right, for "
         "the selected design: K, the verdicts, the margins, the payload margin, the largest sample time, the "

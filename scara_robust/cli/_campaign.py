@@ -10,6 +10,7 @@ from typing import Any
 from ..studies.campaign.runner import CAMPAIGN_ENGINES, SCHEDULERS, run_campaign
 from ..studies.campaign.spec import SPEC_FIELDS, load_spec
 from ._common import CommandLineError, output_exists
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -24,7 +25,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "campaign",
-        help="Monte-Carlo campaign: draw scenarios from a TOML spec, simulate every controller",
+        help=COMMAND_HELP["campaign"],
         description="Fields of the spec (TOML): controllers, t_final [s], rho, eta, payload_profiles, runs, seed, "
         + ", ".join(f"{n} [{v[0]}]" for n, v in SPEC_FIELDS.items())
         + "; each drawn field is a number or {min = ..., max = ...}. See examples/campaign.toml.",

@@ -11,6 +11,7 @@ import numpy as np
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
 from ._common import CommandLineError, add_setup_options, finite_float, method_names, per_joint_values, resolve_gain
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -23,7 +24,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("certify", help="every certificate of one design: Theorem 1, vertex, LMI, falsifier")
+    p = sub.add_parser("certify", help=COMMAND_HELP["certify"])
     p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
     p.add_argument("--design", metavar="FILE.json",

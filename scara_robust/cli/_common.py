@@ -11,7 +11,7 @@ import argparse
 import os
 import sys
 from collections.abc import Callable
-from typing import Any, NoReturn, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.registry import get_method
+from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message
 
 __all__ = [
     "BOUNDS",
@@ -56,76 +57,6 @@ _Loaded = TypeVar("_Loaded")
 
 #: Interval models selectable with ``--bounds``.
 BOUNDS = SCARA_BOUNDS
-
-#: Library parameter -> the option (or positional) that sets it on the command line.
-OPTION_NAMES: dict[str, str] = {
-    "rho": "--rho",
-    "eta": "--eta",
-    "rhos": "--rho",
-    "etas": "--eta",
-    "elements": "--elements",
-    "t_final": "--t-final",
-    "torque_limit": "--torque-limit",
-    "runs": "--runs",
-    "seed": "--seed",
-    "workers": "--workers",
-    "chunk_size": "--chunk-size",
-    "engine": "--engine",
-    "scheduler": "--scheduler",
-    "address": "--address",
-    "output": "--output",
-    "resume": "--resume",
-    "path": "RESULTS",
-    "falsifier_tries": "--tries",
-    "tol": "--tol",
-    "Ts": "--ts",
-    "N": "--filter-n",
-    "tracking_time": "--tracking-time",
-    "integrator": "--integrator",
-    "derivative": "--derivative",
-    "prefix": "--prefix",
-    "index": "--index",
-    "checkpoint": "--checkpoint",
-    "controller": "--controller",
-    "method": "--method",
-}
-
-
-class CommandLineError(Exception):
-    """Bad command-line input; reported as one line on stderr with exit code 2."""
-
-
-class Parser(argparse.ArgumentParser):
-    """An ``ArgumentParser`` whose errors are :class:`CommandLineError` (one line, exit 2)."""
-
-    def error(self, message: str) -> NoReturn:
-        """Raise :class:`CommandLineError` with the program name and `message`.
-
-        Parameters
-        ----------
-        message : str
-        """
-        command = self.prog.removeprefix("scara_robust").strip()  # main() adds "scara_robust: error:"
-        raise CommandLineError(f"{command}: {message}" if command else message)
-
-
-def error_message(err: BaseException) -> str:
-    """One line for `err`, naming options rather than library parameters.
-
-    Parameters
-    ----------
-    err : BaseException
-
-    Returns
-    -------
-    str
-    """
-    if isinstance(err, ArgumentError) and err.argument in OPTION_NAMES:
-        text = f"`{OPTION_NAMES[err.argument]}` {err.problem}"
-    else:
-        text = str(err)
-    return " ".join(text.split())
-
 
 #: How a range option is written, for ``--help``.
 RANGE_HELP = "START:STOP:NUM, NUM evenly spaced values from START to STOP inclusive (NUM >= 2, or 1 with START = STOP)"

@@ -21,6 +21,7 @@ from ..simulation.metrics import METRIC_NAMES
 from ..studies.comparison import compare_controllers, compare_plant_designs
 from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
+from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
 from ._system import LoadedSystem
 
@@ -34,8 +35,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("compare", help="PID vs sliding-mode control on both scenarios; with --model, the designs for "
-                       "your plant side by side")
+    p = sub.add_parser("compare", help=COMMAND_HELP["compare"])
     add_setup_options(p, model=True)
     p.add_argument("--rho", type=finite_float, default=None,
                    help=f"with --model: the Riccati PID's rho (default {PAPER_DESIGN_POINT[0]:g})")

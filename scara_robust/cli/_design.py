@@ -15,6 +15,7 @@ from ..lyapunov.theorem1 import certify
 from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
 from ._common import add_setup_options, finite_float, screen_table
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "add_model_options", "run"]
@@ -38,7 +39,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("design", help="design K from (rho, eta) and certify it with Theorem 1")
+    p = sub.add_parser("design", help=COMMAND_HELP["design"])
     p.add_argument("--rho", type=finite_float, required=True, help="design parameter rho > 0")
     p.add_argument("--eta", type=finite_float, required=True, help="design parameter eta >= 1")
     add_model_options(p)

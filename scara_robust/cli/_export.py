@@ -25,6 +25,7 @@ from ._common import (
     per_joint_values,
     resolve_gain,
 )
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -39,8 +40,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "export",
-        help="the designed PID (or a state-form plant's static feedback), sampled at --ts, as C99 source (.h, .c) "
-        "or JSON",
+        help=COMMAND_HELP["export"],
         description="Design K at (rho, eta), discretize it (Design.discretize) and write it into the folder "
         "--output: --format c writes PREFIX.h and PREFIX.c (PREFIX_init, PREFIX_step), --format json "
         "PREFIX.json with every gain and limit. Without options, the controller of Design.discretize(Ts). "

@@ -17,6 +17,7 @@ from ..robustness.margins import MARGIN_TOL, margin_table, robustness_margin
 from ..robustness.parameters import parameter_margin, rate_bracket
 from ..robustness.registry import analysis_methods, get_method
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, method_names, resolve_gain
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -31,7 +32,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "margin",
-        help="robustness margins: the largest scaling of the uncertainty set each method certifies, and upper bounds",
+        help=COMMAND_HELP["margin"],
     )
     p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")

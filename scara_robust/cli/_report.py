@@ -20,6 +20,7 @@ from ..studies.campaign.report import (
 from ..studies.campaign.runner import read_results
 from ..studies.campaign.spec import SPEC_FIELDS
 from ._common import CommandLineError, save_figure
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -37,7 +38,7 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser(
         "campaign-report",
-        help="per-controller statistics of a campaign (with 95 %% intervals), its worst runs, and a figure",
+        help=COMMAND_HELP["campaign-report"],
     )
     p.add_argument("results", help="results file of `campaign` (.csv or .parquet)")
     p.add_argument(

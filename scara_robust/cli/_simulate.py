@@ -33,6 +33,7 @@ from ._common import (
     save_figure,
     write_text,
 )
+from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
 from ._system import LoadedSystem
 
@@ -46,7 +47,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("simulate", help="one closed-loop run and its time series")
+    p = sub.add_parser("simulate", help=COMMAND_HELP["simulate"])
     p.add_argument(
         "--controller",
         choices=tuple(CONTROLLERS),

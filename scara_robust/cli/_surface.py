@@ -26,6 +26,7 @@ from ._common import (
     screen_table,
 )
 from ._design import add_model_options
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -38,7 +39,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("surface", help="max eig Z over a (rho, eta) grid (Figure 2)")
+    p = sub.add_parser("surface", help=COMMAND_HELP["surface"])
     p.add_argument("--rho", type=parse_range, required=True, metavar="START:STOP:NUM", help=f"rho grid: {RANGE_HELP}")
     p.add_argument("--eta", type=parse_range, required=True, metavar="START:STOP:NUM", help=f"eta grid: {RANGE_HELP}")
     add_model_options(p)

@@ -16,6 +16,7 @@ from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
+from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
@@ -33,7 +34,7 @@ def add_parser(sub: Any) -> None:
     ----------
     sub : argparse._SubParsersAction
     """
-    p = sub.add_parser("synthesize", help="synthesize a PID gain together with its Lyapunov certificate (LMI)")
+    p = sub.add_parser("synthesize", help=COMMAND_HELP["synthesize"])
     p.add_argument(
         "--set",
         dest="uncertainty_set",

@@ -34,6 +34,7 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
+from ._cutting import grow_active_set
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
            "lmi_certificate", "lmi_search", "verify_lyapunov"]
@@ -349,9 +350,6 @@ LMI_STOPS = ("optimum", "verified")
 #: the constraint is ``⪯ −I``) exceeds ``−1 + OPTIMUM_RTOL`` joins it, with ``stop='optimum'``.
 OPTIMUM_RTOL = 1e-6
 
-#: Loops added to the active set per round: the most violated ones.
-ACTIVE_BATCH = 8
-
 #: Up to this many closed loops the LMI is solved on all of them at once.
 DIRECT_LOOPS = 16
 
@@ -455,28 +453,24 @@ def _cutting_planes(A_v: Array, solver: str, stop: str, first: NDArray[np.int64]
     # the right-hand sides commensurate with the data.
     scale = float(np.abs(A_v).max()) or 1.0
     A_s = A_v / scale
-    active = np.arange(n_loops) if n_loops <= DIRECT_LOOPS else first
     floor = decay_floor(A_v)
-    while True:
-        status, P_val = _solve_common_p(A_s[active], solver, form)
-        if P_val is None:
-            # a verified proof of infeasibility on the active loops is one on all of them; where the
-            # solver's proof fails numpy's check, an unstable closed loop is one too
-            unstable = _unstable_loop(A_v) if status == INFEASIBLE_NOT_VERIFIED else None
-            return LMICertificate("infeasible" if unstable is not None else status, solver, None, np.nan, np.nan,
-                                  n_loops, active=active, unstable_loop=unstable)
-        PA = P_val @ A_s
+
+    def violation(P: Array) -> Array:
+        PA = P @ A_s
         worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
-        if stop == "optimum":
-            violated = worst > -1.0 + OPTIMUM_RTOL
-        else:  # numpy's own test: the decay rate of every loop above the floor
-            violated = worst > -2 * floor * np.linalg.eigvalsh(P_val)[-1] / scale
-        violated[active] = False
-        if not violated.any():
-            break
-        new = np.flatnonzero(violated)
-        new = new[np.argsort(-worst[new])[:ACTIVE_BATCH]]
-        active = np.sort(np.concatenate([active, new]))
+        if stop == "optimum":  # the problem's own constraint, ⪯ −I
+            return np.asarray(worst + 1.0 - OPTIMUM_RTOL)
+        # numpy's own test: the decay rate of every loop above the floor
+        return np.asarray(worst + 2 * floor * np.linalg.eigvalsh(P)[-1] / scale)
+
+    status, P_val, active = grow_active_set(lambda idx: _solve_common_p(A_s[idx], solver, form), violation,
+                                            np.arange(n_loops) if n_loops <= DIRECT_LOOPS else first)
+    if P_val is None:
+        # a verified proof of infeasibility on the active loops is one on all of them; where the
+        # solver's proof fails numpy's check, an unstable closed loop is one too
+        unstable = _unstable_loop(A_v) if status == INFEASIBLE_NOT_VERIFIED else None
+        return LMICertificate("infeasible" if unstable is not None else status, solver, None, np.nan, np.nan,
+                              n_loops, active=active, unstable_loop=unstable)
     P_val.setflags(write=False)
     max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
     return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), n_loops, floor, active=active)
