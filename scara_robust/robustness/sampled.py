@@ -45,17 +45,7 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified
-from ._cutting import grow_active_set
-from .lmi import (
-    DIRECT_LOOPS,
-    LMI_SOLVERS,
-    NOT_INSTALLED,
-    OPTIMUM_RTOL,
-    cvxpy_available,
-    decay_floor,
-    lmi_certificate,
-    lmi_verdict,
-)
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
 from .search import bisect
 
 __all__ = [
@@ -316,33 +306,12 @@ class SampledCertificate(AnalysisResult):
         return f"Ts = {self.Ts:.4g} s not certified: no verified common P ({self.status})"
 
 
-def _scale(Ad: Array, Ts: float) -> float:
-    """The largest entry of ``M_i = (A_i − I)/Ts`` over the loops (1/s): the LMI's unit of time."""
-    return float(np.abs(Ad - np.eye(Ad.shape[1])).max() / Ts) or 1.0
-
-
-def _sampled_lmi(Ad: Array, Ts: float, solver: str) -> tuple[str, Array | None, int]:
-    """The common-P LMI over the loops `Ad` by cutting planes: (status, P or None, loops solved on)."""
-    s = _scale(Ad, Ts)
-    M = (Ad - np.eye(Ad.shape[1])) / Ts
-
-    def violation(P: Array) -> Array:
-        PM = P @ M
-        S = PM + np.swapaxes(PM, -1, -2) + Ts * np.swapaxes(M, -1, -2) @ PM
-        # the problem's own constraint, s·(MᵀP + PM + Ts MᵀPM) ⪯ −I, to OPTIMUM_RTOL
-        return np.asarray(s * np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))[:, -1] + 1.0 - OPTIMUM_RTOL)
-
-    first = np.array([int(np.argmax(np.abs(np.linalg.eigvals(Ad)).max(axis=1)))])
-    status, P, active = grow_active_set(lambda idx: _solve_lmi(Ad[idx], Ts, solver, s), violation,
-                                        np.arange(Ad.shape[0]) if Ad.shape[0] <= DIRECT_LOOPS else first)
-    return status, P, int(active.size)
-
-
-def _solve_lmi(Ad: Array, Ts: float, solver: str, s: float) -> tuple[str, Array | None]:
+def _solve_lmi(Ad: Array, Ts: float, solver: str) -> tuple[str, Array | None]:
     import cvxpy as cp
 
     n = Ad.shape[1]
     M = (Ad - np.eye(n)) / Ts
+    s = float(np.abs(M).max()) or 1.0
     Ms = M / s  # M_iᵀP + PM_i + Ts M_iᵀPM_i ⪯ −I/s ⇔ Ms_iᵀP + PMs_i + (Ts s) Ms_iᵀPMs_i ⪯ −I/s²
     P = cp.Variable((n, n), symmetric=True)
     lam = cp.Variable()
@@ -435,8 +404,7 @@ def sampled_certificate(
         rate = discrete_lyapunov_check(Ad, P, pid.Ts)[1]
         return rate if extra is None else min(rate, discrete_lyapunov_check(extra, P, pid.Ts)[1])
 
-    # cutting planes over the plants and the check together: the P found holds on both
-    status, P, _ = _sampled_lmi(Ad if extra is None else np.concatenate([Ad, extra]), pid.Ts, solver)
+    status, P = _solve_lmi(Ad, pid.Ts, solver)
     rate = verified(P) if P is not None else -np.inf
     mapped = None
     if candidate is not None and isinstance(pid, SampledStateFeedback):
