@@ -55,16 +55,15 @@ def _physical(context: CertificateContext) -> CertificateRow:
 
 
 def _lmi(context: CertificateContext, vertices: np.ndarray, checks: list[np.ndarray]) -> CertificateRow:
-    # cutting planes over the vertices and the checks together: the P returned holds on all of them
-    loops = np.concatenate([vertices, *checks])
-    result = lmi_certificate(loops, solver=context.lmi_solver)
+    # cutting planes on the vertices, grown from the checks' most violated loops: P holds on all of them
+    result = lmi_certificate(vertices, check=checks, solver=context.lmi_solver)
     if result.status == NOT_INSTALLED:
         return CertificateRow.skipped(result.message, NOT_INSTALLED)
     if result.P is None or not checks:
         return CertificateRow(result.certified, result.verdict, result.message, decay_rate=result.decay_rate)
     margins = [verify_lyapunov(c, result.P)[1] for c in (vertices, *checks)]
     margin = float(min(result.decay_rate, *margins))
-    solved_on = len(loops) if result.active is None else len(result.active)
+    solved_on = len(vertices) if result.active is None else len(result.active)
     detail = (f"{result.message}; solved on {solved_on} of them (cutting planes); verified with numpy "
               f"on {len(vertices)}, {', '.join(str(len(c)) for c in checks)} samples")
     ok = margin > 0 and margin >= result.floor

@@ -23,7 +23,7 @@ import functools
 import hashlib
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -354,8 +354,8 @@ OPTIMUM_RTOL = 1e-6
 DIRECT_LOOPS = 16
 
 
-def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL", stop: str = "optimum",
-                    start: ArrayLike | None = None) -> LMICertificate:
+def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (), solver: str = "CLARABEL",
+                    stop: str = "optimum", start: ArrayLike | None = None) -> LMICertificate:
     """Search a common quadratic Lyapunov matrix for the polytope ``conv{Ā_v}``.
 
     The LMI is solved by cutting planes: on a small active set of the loops, grown by the
@@ -368,17 +368,22 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL", stop: 
     closed_loops : array_like, shape (V, n, n)
         Frozen closed-loop matrices at the vertices, e.g. from
         ``scara_robust.robustness.polytope.box_closed_loops``.
+    check : sequence of array_like, shape (V_k, n, n)
+        Further closed loops on which P must also verify (a finer sampling): a check loop
+        joins the active set only where numpy finds P's decay rate on it below the floor.
+        :attr:`LMICertificate.decay_rate` is the smallest over the loops and the checks.
     solver : {'CLARABEL', 'SCS'}
     stop : {'optimum', 'verified'}
         ``'optimum'``: grow the active set until P meets every loop's constraint
         (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
-        loops; ``'verified'``: stop at the first P numpy verifies on every loop (a bisection
-        needs only the verdict; the decay rate may be smaller). Either way the ``'decay'``
-        form of :data:`LMI_FORMS` is solved; where it certifies nothing, the ``'margin'``
-        form is tried (its P is returned when it certifies).
+        of `closed_loops`; ``'verified'``: stop at the first P numpy verifies on every loop (a
+        bisection needs only the verdict; the decay rate may be smaller). Either way the
+        ``'decay'`` form of :data:`LMI_FORMS` is solved; where it certifies nothing, the
+        ``'margin'`` form is tried (its P is returned when it certifies).
     start : array_like of int, optional
-        Indices of the loops to start from (:attr:`LMICertificate.active` of the previous
-        solve of a search on loops indexed alike); default: the least stable loop.
+        Indices of the loops to start from, the checks counted after `closed_loops`
+        (:attr:`LMICertificate.active` of the previous solve of a search on loops indexed
+        alike); default: the least stable loop of `closed_loops`.
 
     Returns
     -------
@@ -397,41 +402,43 @@ def lmi_certificate(closed_loops: ArrayLike, *, solver: str = "CLARABEL", stop: 
     >>> sr.lmi_certificate(A).certified
     True
     """
-    A_v = check_closed_loops("closed_loops", closed_loops)
+    A_main = check_closed_loops("closed_loops", closed_loops)
+    checks = [check_array(f"check[{k}]", c, shape=(None, *A_main.shape[1:])) for k, c in enumerate(check)]
+    A_v = np.concatenate([A_main, *checks]) if checks else A_main
     check_choice("solver", solver, LMI_SOLVERS)
     check_choice("stop", stop, LMI_STOPS)
-    first = _start_indices(A_v, start)
+    first = _start_indices(A_main, A_v.shape[0], start)
     if not cvxpy_available():
         return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])
     # one command asks the same question twice (its table's LMI row, then the design's decay
     # rate): the answer for the same closed loops is kept, read-only
-    key = (hashlib.sha256(np.ascontiguousarray(A_v).tobytes()).hexdigest(), A_v.shape, solver, stop)
+    key = (hashlib.sha256(np.ascontiguousarray(A_v).tobytes()).hexdigest(), A_v.shape, A_main.shape[0], solver, stop)
     if key not in _SOLVED:
         if len(_SOLVED) >= _SOLVED_SIZE:
             _SOLVED.pop(next(iter(_SOLVED)))
-        found = _cutting_planes(A_v, solver, stop, first, "decay")
+        found = _cutting_planes(A_v, A_main.shape[0], solver, stop, first, "decay")
         if not found.certified and found.verdict != "infeasible":
             # the 'decay' form breaks down where P's condition number grows without bound, near the
             # end of what a common P can certify: the well-conditioned 'margin' form may still find one
-            retry = _cutting_planes(A_v, solver, "verified", first, "margin")
+            retry = _cutting_planes(A_v, A_main.shape[0], solver, "verified", first, "margin")
             if retry.certified or (found.P is None and retry.P is not None):
                 found = retry
         _SOLVED[key] = found
     return _SOLVED[key]
 
 
-#: Answers of :func:`lmi_certificate` kept for the same closed loops, solver and stop.
-_SOLVED: dict[tuple[str, tuple[int, ...], str, str], LMICertificate] = {}
+#: Answers of :func:`lmi_certificate` kept for the same closed loops, checks, solver and stop.
+_SOLVED: dict[tuple[str, tuple[int, ...], int, str, str], LMICertificate] = {}
 _SOLVED_SIZE = 16
 
 
-def _start_indices(A_v: Array, start: ArrayLike | None) -> NDArray[np.int64]:
+def _start_indices(A_main: Array, n_loops: int, start: ArrayLike | None) -> NDArray[np.int64]:
     if start is None:
-        return np.array([int(np.argmax(np.linalg.eigvals(A_v).real.max(axis=1)))])
+        return np.array([int(np.argmax(np.linalg.eigvals(A_main).real.max(axis=1)))])
     values = check_array("start", start, ndim=1)
     idx = np.unique(values.astype(np.int64))
-    if idx.size == 0 or idx[0] < 0 or idx[-1] >= A_v.shape[0] or not np.array_equal(values, np.round(values)):
-        raise ArgumentValueError("start", f"must hold indices of `closed_loops` in [0, {A_v.shape[0]}), "
+    if idx.size == 0 or idx[0] < 0 or idx[-1] >= n_loops or not np.array_equal(values, np.round(values)):
+        raise ArgumentValueError("start", f"must hold indices of the loops and checks in [0, {n_loops}), "
                                           f"found {idx.tolist()[:8]}")
     return idx
 
@@ -447,24 +454,26 @@ def _unstable_loop(A_v: Array) -> int | None:
     return worst if abscissa[worst] > UNSTABLE_RTOL else None
 
 
-def _cutting_planes(A_v: Array, solver: str, stop: str, first: NDArray[np.int64], form: str) -> LMICertificate:
+def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDArray[np.int64],
+                    form: str) -> LMICertificate:
     n_loops = A_v.shape[0]
     # Scaling the loops by a positive constant leaves feasibility unchanged and keeps
     # the right-hand sides commensurate with the data.
     scale = float(np.abs(A_v).max()) or 1.0
     A_s = A_v / scale
-    floor = decay_floor(A_v)
+    floor = decay_floor(A_v[:n_main])
 
     def violation(P: Array) -> Array:
         PA = P @ A_s
         worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
-        if stop == "optimum":  # the problem's own constraint, ⪯ −I
-            return np.asarray(worst + 1.0 - OPTIMUM_RTOL)
         # numpy's own test: the decay rate of every loop above the floor
-        return np.asarray(worst + 2 * floor * np.linalg.eigvalsh(P)[-1] / scale)
+        verified = worst + 2 * floor * np.linalg.eigvalsh(P)[-1] / scale
+        if stop == "optimum":  # the problem's own constraint on the loops, ⪯ −I; the checks verified
+            verified[:n_main] = worst[:n_main] + 1.0 - OPTIMUM_RTOL
+        return np.asarray(verified)
 
     status, P_val, active = grow_active_set(lambda idx: _solve_common_p(A_s[idx], solver, form), violation,
-                                            np.arange(n_loops) if n_loops <= DIRECT_LOOPS else first)
+                                            np.arange(n_main) if n_main <= DIRECT_LOOPS else first)
     if P_val is None:
         # a verified proof of infeasibility on the active loops is one on all of them; where the
         # solver's proof fails numpy's check, an unstable closed loop is one too
@@ -536,7 +545,7 @@ def _problem(n: int, n_slots: int, form: str) -> tuple[Any, Any, Any, list[Any]]
         constraints.append(0.5 * (lhs + lhs.T) << bound)
     return cp.Problem(objective, constraints), P, t, slots
 
-def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[[ArrayLike], LMICertificate]:
+def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[..., LMICertificate]:
     """The common-P test for a search over loops indexed alike (a bisection on a scale, a mass, a rate).
 
     Each solve of :func:`lmi_certificate` starts from the active loops of the previous one:
@@ -550,7 +559,8 @@ def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[
 
     Returns
     -------
-    callable ``test(closed_loops) -> LMICertificate``
+    callable ``test(closed_loops, check=()) -> LMICertificate``
+        :func:`lmi_certificate` with this solver and stop, starting from the last active set.
 
     Examples
     --------
@@ -564,11 +574,11 @@ def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[
     check_choice("stop", stop, LMI_STOPS)
     active: NDArray[np.int64] | None = None
 
-    def test(closed_loops: ArrayLike) -> LMICertificate:
+    def test(closed_loops: ArrayLike, check: Sequence[ArrayLike] = ()) -> LMICertificate:
         nonlocal active
-        n_loops = np.shape(closed_loops)[0]
+        n_loops = np.shape(closed_loops)[0] + sum(np.shape(c)[0] for c in check)
         start = active if active is not None and active.size and active[-1] < n_loops else None
-        result = lmi_certificate(closed_loops, solver=solver, stop=stop, start=start)
+        result = lmi_certificate(closed_loops, check=check, solver=solver, stop=stop, start=start)
         if result.active is not None:
             active = result.active
         return result
