@@ -39,9 +39,19 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, as_model, is_model
 from ..results import AnalysisResult
+from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
-from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, decay_rate, lmi_verdict
+from .lmi import (
+    DECAY_FLOOR_RTOL,
+    DIRECT_LOOPS,
+    LMI_SOLVERS,
+    NOT_INSTALLED,
+    cvxpy_available,
+    decay_floor,
+    decay_rate,
+    lmi_verdict,
+)
 from .search import bisect
 
 __all__ = ["Synthesis", "synthesize", "GAIN_BOUND", "OBJECTIVES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES"]
@@ -234,6 +244,10 @@ class Synthesis(AnalysisResult):
         return f"no gain: {self.status}"
 
 
+#: The decay LMI's strictness: ``A_iQ − B_iY + (·)ᵀ + 2αQ ⪯ −10⁻⁶I`` (Q ⪰ I).
+_DECAY_LMI_SLACK = 1e-6
+
+
 def _solve(
     A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None,
     limits: tuple[Array, Array] | None = None,
@@ -267,7 +281,7 @@ def _solve(
     for i, (A_i, B_i) in enumerate(zip(A, B)):
         AQ = A_i @ Q - B_i @ Y
         lhs = AQ + AQ.T + 2 * alpha * Q
-        constraints.append(0.5 * (lhs + lhs.T) << -1e-6 * eye)
+        constraints.append(0.5 * (lhs + lhs.T) << -_DECAY_LMI_SLACK * eye)
         if l2 is not None and gamma is not None:
             Bw, C = l2[0][i], l2[1]
             q, p = Bw.shape[1], C.shape[0]
@@ -291,6 +305,43 @@ def _solve(
         return str(problem.status), None, None, math.nan
     g = math.nan if gamma is None else float(np.asarray(gamma.value))
     return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float), g
+
+
+def _solve_by_cuts(
+    A: Array, B: Array, alpha: float, kappa: float, solver: str, active: list[NDArray[np.int64]],
+    limits: tuple[Array, Array] | None = None,
+) -> tuple[str, Array | None, Array | None, float]:
+    """:func:`_solve` (no L2 term) by cutting planes over the plants: the same answer, on a few of them at a time.
+
+    The LMI is solved on an active set of plants, grown by the plants whose decay constraint
+    ``A_iQ − B_iY + (·)ᵀ + 2αQ ⪯ −10⁻⁶I`` the answer violates most, until none does: (Q, Y)
+    then satisfies every plant's constraint, as a solve on all of them would. `active` holds
+    the last active set, carried from one solve of a search to the next (plants indexed alike).
+    """
+    extra = {} if limits is None else {"limits": limits}  # without limits, _solve is called as before
+
+    def solve(idx: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, float] | None]:
+        status, Q, Y, g = _solve(A[idx], B[idx], alpha, kappa, solver, **extra)
+        return status, None if Q is None or Y is None else (Q, Y, g)
+
+    def violation(answer: tuple[Array, Array, float]) -> Array:
+        Q, Y, _ = answer
+        AQ = A @ Q - B @ Y
+        lhs = AQ + np.swapaxes(AQ, -1, -2) + 2 * alpha * Q
+        return np.asarray(np.linalg.eigvalsh(lhs)[:, -1] + _DECAY_LMI_SLACK)
+
+    n_plants = A.shape[0]
+    if n_plants <= DIRECT_LOOPS:
+        first = np.arange(n_plants)
+    elif active and active[0][-1] < n_plants:
+        first = active[0]
+    else:  # the plant of largest norm: the fastest dynamics the gain must hold
+        first = np.array([int(np.argmax(np.linalg.norm(A, 2, axis=(1, 2))))])
+    status, answer, found = grow_active_set(solve, violation, first)
+    active[:] = [found]
+    if answer is None:
+        return status, None, None, math.nan
+    return status, answer[0], answer[1], answer[2]
 
 
 def _largest(
@@ -552,6 +603,7 @@ def synthesize(
     theta = math.nan
     gamma = math.nan
     searched = ""
+    active: list[NDArray[np.int64]] = []  # the cutting planes' last active set, carried through the search
     if objective == "l2":
         alpha = L2_DECAY if alpha is None else alpha
         # in x / s0 the disturbance enters through B_w / s0 and the output is s0·C (same L2 gain)
@@ -567,7 +619,7 @@ def synthesize(
 
         def feasible(th: float) -> str:
             A_t, B_t = uncertain.scaled(th).vertex_matrices()
-            found[th] = _solve(A_t, B_t, floor, kappa, solver, **extra)
+            found[th] = _solve_by_cuts(A_t, B_t, floor, kappa, solver, active, **extra)
             return _verdict(A_t, B_t, found[th], floor, accept)
 
         first = feasible(0.0)
@@ -579,12 +631,12 @@ def synthesize(
             status, Q, Y, _ = found[theta]
             A, B = uncertain.scaled(theta).vertex_matrices()
     elif alpha is not None:
-        status, Q, Y, _ = _solve(A, B, alpha, kappa, solver, **extra)
+        status, Q, Y, _ = _solve_by_cuts(A, B, alpha, kappa, solver, active, **extra)
     else:
         by_alpha: dict[float, tuple[str, Array | None, Array | None, float]] = {}
 
         def decays(a: float) -> str:
-            by_alpha[a] = _solve(A, B, a, kappa, solver, **extra)
+            by_alpha[a] = _solve_by_cuts(A, B, a, kappa, solver, active, **extra)
             return _verdict(A, B, by_alpha[a], a, accept)
 
         first = decays(0.0)
