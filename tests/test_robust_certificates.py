@@ -236,11 +236,14 @@ def test_certify_json_rows(capsys):
     code = cli.main(["certify", "--rho", "3", "--eta", "90", "--format", "json", "--tries", "3"])
     rows = json.loads(capsys.readouterr().out)
     assert code == 0
-    assert [r["method"] for r in rows] == list(sr.CERTIFICATE_METHODS)
-    for r in rows:
+    n = len(sr.CERTIFICATE_METHODS)
+    # the certificates, then the design's decay rate and each input's loop margins
+    assert [r["method"] for r in rows[:n]] == list(sr.CERTIFICATE_METHODS)
+    assert [r["method"] for r in rows[n:]] == ["decay-rate", "loop-margins", "loop-margins"]
+    for r in rows[:n]:
         assert {"method", "certified", "max_eig", "decay_rate [1/s]", "growth_rate [1/s]", "seconds"} <= set(r)
         assert r["seconds"] >= 0
-    by = {r["method"]: r for r in rows}
+    by = {r["method"]: r for r in rows[:n]}
     assert by["theorem1-all"]["certified"] is False and by["theorem1-A"]["certified"] is True
     assert by["theorem1-all"]["max_eig"] == pytest.approx(713.90, abs=0.01)
     assert by["vertex-box"]["verdict"] == "no certificate can exist"
