@@ -13,6 +13,15 @@ solver's answer is never taken on its word: the returned P is checked with numpy
 (symmetric, positive definite, every vertex's ``λmax(Ā_vᵀP + PĀ_v) < 0``), and the reported
 margin comes from that check.
 
+The problem has one constraint per vertex, and the SCARA's box has 1024 of them. It is solved
+by cutting planes (:mod:`scara_robust.robustness._cutting`): on a few vertices at a time, the
+vertices numpy finds violated joining them, until P holds at every vertex; one cvxpy problem
+per size (its matrices as parameters) serves every solve of a search, and a search
+(:func:`lmi_search`) starts each solve from the vertices that bounded the last one. Near the
+end of what a common P certifies, P's condition number grows without bound and the solver
+may fail on this form; the equivalent ``maximize t: tI ⪯ P ⪯ I, Ā_vᵀP + PĀ_v ⪯ −tI`` stays
+well conditioned there and is tried before an answer is given up (:data:`LMI_FORMS`).
+
 cvxpy is optional (``pip install ".[lmi]"``); without it every function here
 returns a result whose status is ``'not installed'``.
 """
