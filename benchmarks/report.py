@@ -65,12 +65,28 @@ def main(argv: list[str]) -> int:
         if name in mean:
             ratio = f"{mean[name] / plain:.1f}x the plain surface" if plain and "map" in name else ""
             lines.append(f"| {label} | {mean[name]:.4g} | | {ratio} |")
+    if "test_scara_margin_command" in mean:
+        lo, hi = extra["test_scara_margin_command"].get("bracket", [float("nan")] * 2)
+        lines.append(f"| `margin --rho 3 --eta 90` after start-up, every row (bracket [{lo:.6g}, {hi:.6g}]) | "
+                     f"{mean['test_scara_margin_command']:.3g} | | |")
+    api = mean.get("test_startup[api]")
+    for what, label in (("import", "`import scara_robust`"), ("help", "`python -m scara_robust --help`")):
+        name = f"test_startup[{what}]"
+        if name in mean and api:
+            lines.append(f"| start-up, a new process: {label} (vs the whole API imported) | {mean[name]:.3g} | "
+                         f"{api:.3g} | {api / mean[name]:.0f}x |")
     arm = "test_arm6_run_20s"
     if arm in mean:
         info = extra[arm]
         share = info["pinocchio_seconds"] / info["timed_seconds"]
         lines.append(f"| 6-joint arm, 20-s run ({info['pinocchio_calls']} Pinocchio calls; {share:.0%} of the time "
                      f"in Pinocchio, the rest in Python and scipy) | {mean[arm]:.4g} | | |")
+    arm_lsoda = mean.get("test_arm6_compiled_vs_lsoda_20s[lsoda]")
+    arm_compiled = mean.get("test_arm6_compiled_vs_lsoda_20s[compiled]")
+    if arm_lsoda and arm_compiled:
+        diff = extra["test_arm6_compiled_vs_lsoda_20s[compiled]"].get("max_abs_error_difference [rad]", float("nan"))
+        lines.append(f"| 6-joint arm, 20-s run, compiled (BDF) vs lsoda (max \\|e\\| after 6 s differs by "
+                     f"{diff:.1g} rad) | {arm_compiled:.4g} | {arm_lsoda:.4g} | {arm_lsoda / arm_compiled:.0f}x |")
     click, riccati = mean.get("test_app_click_to_gain"), mean.get("test_app_click_to_gain_reference")
     if click and riccati:
         lines.append(f"| design page: a click's K and Theorem 1 (vs the Riccati design alone) | {click:.4g} | "

@@ -127,6 +127,57 @@ def test_margin_map_vertex(benchmark, model):
     assert surface.margin.shape == (rhos.size, etas.size)
 
 
+STARTUP = {
+    # what every process pays before it computes: the bare package, the whole API (what --help paid
+    # before the command line imported only the command given), and the command line's --help
+    "import": "import scara_robust",
+    "api": "import scara_robust as sr; sr.design",
+    "help": "import runpy, sys; sys.argv = ['scara_robust', '--help']; runpy.run_module('scara_robust', "
+            "run_name='__main__')",
+}
+
+
+@pytest.mark.parametrize("what", list(STARTUP))
+def test_startup(benchmark, what):
+    """A fresh interpreter importing the package, as a CLI call, a test worker or a subprocess test does."""
+    import subprocess
+    import sys
+
+    benchmark.group = "start-up: a new Python process"
+
+    def run():
+        done = subprocess.run([sys.executable, "-c", STARTUP[what]], capture_output=True, text=True, check=False)
+        assert done.returncode == (0 if what != "help" else 0), done.stderr
+
+    benchmark.pedantic(run, rounds=3 if not benchmark.disabled else 1)
+
+
+def test_scara_margin_command(benchmark, capsys):
+    """``margin --rho 3 --eta 90`` after start-up: every row (θ and payload, the LMI bisections included).
+
+    Target: under 5 s on 2 cores. Before the cutting planes, its LMI rows solved each step on all
+    1024 corners (and 185 samples): 39 s and 15 s of the 63 s (docs/performance.md).
+    """
+    pytest.importorskip("cvxpy")
+    from scara_robust.cli import main
+    from scara_robust.robustness import lmi
+
+    benchmark.group = "margin --rho 3 --eta 90, SCARA, after start-up"
+    argv = ["margin", "--rho", "3", "--eta", "90"] + (["--tol", "0.2"] if benchmark.disabled else [])
+
+    def margin():
+        lmi._SOLVED.clear()  # no answer kept from a previous round
+        return main(argv)
+
+    assert benchmark.pedantic(margin, rounds=1 if benchmark.disabled else 3) == 0
+    out = capsys.readouterr().out
+    bracket = re.search(r"^\s+bracket\s+both\s+lower\s+(\S+)\s+(\S+)\s+(\S+)", out, re.M)
+    assert bracket is not None, out
+    lo, hi = float(bracket.group(2)), float(bracket.group(3))
+    benchmark.extra_info["bracket"] = [lo, hi]
+    assert 0.5 < lo < hi < 0.7
+
+
 class _TimedPinocchio:
     """Pinocchio with every call timed: the seconds a run spends inside its functions."""
 
@@ -265,3 +316,41 @@ def test_app_page_in_chromium(benchmark, tmp_path):
         assert len(values) == rounds
         benchmark.extra_info[key] = {"median": float(np.median(values)), "p90": float(np.percentile(values, 90)),
                                      "max": float(np.max(values)), "all": [round(v, 1) for v in values]}
+
+
+_ARM6_ERRORS: dict[float, dict[str, float]] = {}
+
+
+@pytest.fixture(scope="module")
+def arm6_file_setup():
+    """examples/robot-arm6.toml as `simulate --robot ... --rho 1000 --eta 3 --profile sinusoid` uses it."""
+    pytest.importorskip("pinocchio")
+    import os
+
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "robot-arm6.toml")
+    setup = sr.load_arm(path)
+    return setup, sr.design(setup.plant, 1000, 3).K
+
+
+@pytest.mark.parametrize("method", ["lsoda", "compiled"], ids=["lsoda", "compiled"])
+def test_arm6_compiled_vs_lsoda_20s(benchmark, arm6_file_setup, method):
+    """The 6-joint arm's 20-s run (sinusoidal payload): Pinocchio's ABA on LSODA against the compiled engine (BDF)."""
+    if method == "compiled":
+        pytest.importorskip("numba")
+    setup, K = arm6_file_setup
+    benchmark.group = "arm: 6 joints, 20 s, compiled vs lsoda"
+    t_final = 20.0 if not benchmark.disabled else 2.0
+    options = {"t_final": t_final, "t_transient": sr.PAPER_TRANSIENT if not benchmark.disabled else 1.0}
+    payload = sr.parameter_profile(setup.plant, "m_p", "sinusoid", t_final=t_final)
+    if t_final not in _ARM6_ERRORS:  # both runs once, untimed: their max |e| (and the compiled kernels loaded)
+        errors = {m: sr.simulate_arm(setup, K, payload, method=m, **options).metrics().max_abs_error
+                  for m in ("lsoda", "compiled")}
+        _ARM6_ERRORS[t_final] = {f"max_abs_error_{m} [rad]": e for m, e in errors.items()}
+        _ARM6_ERRORS[t_final]["max_abs_error_difference [rad]"] = abs(errors["compiled"] - errors["lsoda"])
+    if method == "compiled":
+        run = benchmark(sr.simulate_arm, setup, K, payload, method=method, **options)
+    else:
+        run = benchmark.pedantic(sr.simulate_arm, (setup, K, payload), {"method": method, **options}, rounds=3)
+    benchmark.extra_info.update(_ARM6_ERRORS[t_final], integrator="bdf" if method == "compiled" else "")
+    assert run.success and run.t[-1] == pytest.approx(t_final)
+    assert _ARM6_ERRORS[t_final]["max_abs_error_difference [rad]"] <= 1e-6

@@ -225,6 +225,59 @@ def _check_inertials(path: str) -> None:
                                              f"principal moments {np.round(moments, 12).tolist()} must be >= 0")
 
 
+@dataclass(frozen=True, eq=False)
+class RigidBodies:
+    """A fixed-base tree of rigid bodies joined by revolute joints: what the recursive algorithms read.
+
+    Body ``i`` moves with joint ``i`` (the model's order, parents first). Joint ``i``'s
+    frame sits at ``(rotations[i], translations[i])`` in its parent's frame when its angle
+    is 0, and turns about ``axes[i]`` (a unit vector of its own frame). The conventions are
+    Pinocchio's (spatial vectors linear part first; gravity ``g`` acts as a base
+    acceleration ``−g``).
+
+    Attributes
+    ----------
+    parents : ndarray of int, shape (n,)
+        The parent body of each body, −1 for the fixed base.
+    rotations : ndarray, shape (n, 3, 3)
+    translations : ndarray, shape (n, 3)
+        Joint placements in the parent's frame, m.
+    axes : ndarray, shape (n, 3)
+    masses : ndarray, shape (n,)
+        kg.
+    coms : ndarray, shape (n, 3)
+        Centres of mass in each joint's frame, m.
+    inertias : ndarray, shape (n, 3, 3)
+        Rotational inertias about the centres of mass, kg·m².
+    payload_body : int
+        The body the payload is fixed to (its inertia above is without the payload).
+    payload_com : ndarray, shape (3,)
+        The payload's centre of mass in that body's frame, m.
+    payload_inertia : ndarray, shape (3, 3)
+        The payload's rotational inertia about its centre of mass per kg of payload, m².
+    armature : ndarray, shape (n,)
+        Added to the mass matrix's diagonal, kg·m².
+    gravity : ndarray, shape (3,)
+        m/s², in the base frame.
+    joint_index : ndarray of int, shape (n,)
+        The body of each controlled joint, in the arm's joint order (:attr:`RobotArm.joints`).
+    """
+
+    parents: NDArray[np.int64]
+    rotations: Array
+    translations: Array
+    axes: Array
+    masses: Array
+    coms: Array
+    inertias: Array
+    payload_body: int
+    payload_com: Array
+    payload_inertia: Array
+    armature: Array
+    gravity: Array
+    joint_index: NDArray[np.int64]
+
+
 class RobotArm:
     """A serial arm from its URDF with a payload of variable mass fixed to one frame.
 
@@ -521,6 +574,43 @@ class RobotArm:
             return self.gravity_torque(r, m_p)
         return self.inverse_dynamics(r, rd, rdd, m_p)
 
+
+    def rigid_bodies(self) -> RigidBodies:
+        """The arm's bodies as plain arrays, for code that runs the recursive algorithms itself.
+
+        Read once from the reduced Pinocchio model (locked joints folded into fixed
+        transforms and into their parents' inertias), in the model's joint order, which
+        lists every parent before its children. The payload is not in the inertias; it is
+        given per kg (:class:`RigidBodies`).
+
+        Returns
+        -------
+        RigidBodies
+        """
+        pin, model = self._pin, self._model
+        n = self.n_joints
+        data = model.createData()
+        pin.computeJointJacobians(model, data, self._q0)
+        parents = np.empty(n, dtype=np.int64)
+        rotations, translations, axes = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
+        masses, coms, inertias = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3))
+        for joint in range(1, model.njoints):
+            i = int(model.joints[joint].idx_v)
+            parent = int(model.parents[joint])
+            parents[i] = -1 if parent == 0 else int(model.joints[parent].idx_v)
+            placement = model.jointPlacements[joint]
+            rotations[i], translations[i] = placement.rotation, placement.translation
+            motion = np.asarray(data.joints[joint].S, dtype=float).ravel()  # (linear, angular): a revolute's axis
+            axes[i] = motion[3:]
+            body = self._base_inertia if joint == self._parent else model.inertias[joint]
+            masses[i], coms[i], inertias[i] = body.mass, body.lever, body.inertia
+        return RigidBodies(parents=parents, rotations=rotations, translations=translations, axes=axes,
+                           masses=masses, coms=coms, inertias=inertias,
+                           payload_body=int(model.joints[self._parent].idx_v),
+                           payload_com=self._unit_lever.copy(), payload_inertia=self._unit_rot.copy(),
+                           armature=np.array(model.armature, dtype=float),
+                           gravity=np.array(model.gravity.linear, dtype=float),
+                           joint_index=np.array(self._iv, dtype=np.int64))
 
 @contextmanager
 def _quiet_stderr() -> Iterator[None]:

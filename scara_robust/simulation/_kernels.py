@@ -1,20 +1,34 @@
-"""Machine-code kernels of the compiled engine (numba); imported only when that engine runs.
+"""Machine-code kernels of the compiled engines (numba); imported only when such an engine runs.
 
-See :mod:`scara_robust.simulation.compiled` for what they integrate and how. The layout
-of the packed parameter vector θ is defined there and repeated here as constants.
+Two models, one set of integrators. The SCARA's closed loop (see
+:mod:`scara_robust.simulation.compiled`) is a packed parameter vector θ, whose layout is
+defined there and repeated here as constants; a URDF arm's (see
+:mod:`scara_robust.simulation.compiled_arm`) is a tuple of arrays read from its rigid bodies,
+run by the recursive algorithms below (RNEA, CRBA and a Cholesky solve). The integrators
+(Dormand–Prince 5(4), scipy's BDF, RK4 of a sampled law) see a model only through the
+hooks ``model_*``: numba picks each hook's implementation from the model's type (an array:
+the SCARA; a tuple: an arm) when it compiles an integrator for that type, so each model's
+integrators are compiled, cached on disk and inlined as if written for it alone.
+
+All kernels sit in this one file on purpose: numba's disk cache notices a change of the
+file that defines a function, not of the files its callees come from.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
+from numba import types
+from numba.extending import overload
 from numpy.typing import NDArray
 
 from .loop import STATE_LIMIT
 
-__all__ = ["run", "refine", "batch", "torque", "rhs", "segment"]
+__all__ = ["run", "refine", "batch", "torque", "rhs", "segment", "arm_mass_matrix", "arm_inverse_dynamics",
+           "arm_forward_dynamics", "arm_torque", "arm_rhs"]
 
 Array = NDArray[np.float64]
 
@@ -134,10 +148,10 @@ def closed_rhs(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -
     torque_sc(th, sw, cw, c2, s2, x, tc)
     rhs_sc(th, t, sw, cw, c2, s2, x, tc, td, dx)
 
-@jit
-def closed_rhs_call(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
-    """:func:`closed_rhs` as a called function, where a call costs little: it bounds the compile time."""
-    closed_rhs(th, t, x, td, tc, dx)
+@inline
+def disturbance(th: Array, t: float) -> float:
+    """The square wave's torque before the joint signs at `t`, N·m."""
+    return float(th[_DIST] * disturbance_level(th, t))
 
 
 @inline
@@ -151,6 +165,600 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
     ER[1, j] = a * cw - x[1]
     ER[2, j] = a * w * cw - x[2]
     ER[3, j] = -a * w * sw - x[3]
+
+# --- a URDF arm: the recursive algorithms over its rigid bodies ---------------------------------
+# An arm's model is a tuple of arrays (built by compiled_arm.pack_arm_loop), bodies in the model's
+# order (parents first), vectors of the arm's joints in its own (file) order:
+#   0 P     float (14,): gravity (3, m/s²); payload kind and 4 numbers; disturbance amplitude
+#           (N·m), period (s), phase (rad); feedforward kind (0 none, 1 gravity, 2 computed
+#           torque); the nominal payload (kg); the sample time (s, 0: continuous)
+#   1 IX    int (2 + 2n,): n; the payload's body; each body's parent (-1: the base); each
+#           joint's body
+#   2 TREE  float (n, 16): joint placement rotation (9, row-major) and translation (3, m) in
+#           the parent's frame, axis (3), armature (kg·m²)
+#   3 BODY  float (n + 1, 13): mass (kg), first moment m·c (3, kg·m) and inertia about the
+#           joint frame's origin (9, kg·m²); the last row is the payload per kg
+#   4 REF   float (5, n): the reference's centre, amplitude (rad), ω (rad/s), phase (rad);
+#           the disturbance's sign per joint
+#   5 GAIN  float (n, 3n): the PID gain on [∫e, e, ė]
+#   6 TAB   float (2, k): times (s) and masses (kg) of a tabulated payload
+#   7 WB    float (n, 40) scratch per body: rotation to the parent's frame (9), velocity (6),
+#           acceleration (6), force (6), inertia (13); spatial vectors linear part first
+#   8 WM    float (n, n) scratch: the mass matrix, then its Cholesky factor
+#   9 WS    float (9, n) scratch: q, q̇, q̈, RNEA's τ, the applied τ (body order);
+#           the feedforward, r, ṙ, r̈ (joint order)
+#  10 WC    float (2,): the time the reference rows of WS hold, and its payload mass
+_P, _IX, _TREE, _BODY, _REFS, _GAIN, _TAB, _WB, _WM, _WS, _WC = range(11)
+_A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS = 0, 3, 8, 11, 12, 13
+_W_ROT, _W_V, _W_A, _W_F, _W_I = 0, 9, 15, 21, 27
+_S_Q, _S_QD, _S_QDD, _S_TAU, _S_APPLIED, _S_FF, _S_R, _S_RD, _S_RDD = range(9)
+
+
+@inline
+def cross(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@inline
+def vec3(A: Array, i: int, o: int) -> tuple[float, float, float]:
+    return (A[i, o], A[i, o + 1], A[i, o + 2])
+
+
+@inline
+def rotate(W: Array, i: int, v: tuple[float, float, float]) -> tuple[float, float, float]:
+    """R v with R the row-major rotation W[i, 0:9]."""
+    return (W[i, 0] * v[0] + W[i, 1] * v[1] + W[i, 2] * v[2], W[i, 3] * v[0] + W[i, 4] * v[1] + W[i, 5] * v[2],
+            W[i, 6] * v[0] + W[i, 7] * v[1] + W[i, 8] * v[2])
+
+
+@inline
+def rotate_back(W: Array, i: int, v: tuple[float, float, float]) -> tuple[float, float, float]:
+    """Rᵀ v with R the row-major rotation W[i, 0:9]."""
+    return (W[i, 0] * v[0] + W[i, 3] * v[1] + W[i, 6] * v[2], W[i, 1] * v[0] + W[i, 4] * v[1] + W[i, 7] * v[2],
+            W[i, 2] * v[0] + W[i, 5] * v[1] + W[i, 8] * v[2])
+
+
+@inline
+def inertia_times(W: Array, i: int, v: tuple[float, float, float],
+                  w: tuple[float, float, float]) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The momentum (linear, angular about the origin) of body i's inertia W[i, 27:40] moving at (v, ω)."""
+    o = _W_I
+    m = W[i, o]
+    h = (W[i, o + 1], W[i, o + 2], W[i, o + 3])
+    hw = cross(h, w)
+    hv = cross(h, v)
+    lin = (m * v[0] - hw[0], m * v[1] - hw[1], m * v[2] - hw[2])
+    ang = (W[i, o + 4] * w[0] + W[i, o + 5] * w[1] + W[i, o + 6] * w[2] + hv[0],
+           W[i, o + 7] * w[0] + W[i, o + 8] * w[1] + W[i, o + 9] * w[2] + hv[1],
+           W[i, o + 10] * w[0] + W[i, o + 11] * w[1] + W[i, o + 12] * w[2] + hv[2])
+    return lin, ang
+
+
+@inline
+def arm_payload(P: Array, TAB: Array, t: float) -> float:
+    """m_p(t), kg: constant a; a + b sin(c t + d); a − b cos(2π t / c); min(b, a + c max(t, 0)); the table."""
+    kind = P[_A_PAYLOAD]
+    a, b, c, d = P[_A_PAYLOAD + 1], P[_A_PAYLOAD + 2], P[_A_PAYLOAD + 3], P[_A_PAYLOAD + 4]
+    if kind == 0:
+        return float(a)
+    if kind == 1:
+        return float(a + b * math.sin(c * t + d))
+    if kind == 2:
+        return float(a - b * math.cos(2 * math.pi * t / c))
+    if kind == 3:
+        return float(min(b, a + c * max(t, 0.0)))
+    return float(np.interp(t, TAB[0], TAB[1]))
+
+
+@inline
+def arm_positions(m: Any, q: Array) -> None:
+    """Each body's rotation to its parent's frame at joint angles q (body order, rad), into WB[:, 0:9]."""
+    IX, TREE, WB = m[_IX], m[_TREE], m[_WB]
+    for i in range(IX[0]):
+        c, s = math.cos(q[i]), math.sin(q[i])
+        ax, ay, az = TREE[i, 12], TREE[i, 13], TREE[i, 14]
+        k = 1.0 - c  # Rodrigues: c I + s [a]x + (1 - c) a aᵀ
+        j00, j01, j02 = c + k * ax * ax, k * ax * ay - s * az, k * ax * az + s * ay
+        j10, j11, j12 = k * ay * ax + s * az, c + k * ay * ay, k * ay * az - s * ax
+        j20, j21, j22 = k * az * ax - s * ay, k * az * ay + s * ax, c + k * az * az
+        for r in range(3):
+            p0, p1, p2 = TREE[i, 3 * r], TREE[i, 3 * r + 1], TREE[i, 3 * r + 2]
+            WB[i, 3 * r] = p0 * j00 + p1 * j10 + p2 * j20
+            WB[i, 3 * r + 1] = p0 * j01 + p1 * j11 + p2 * j21
+            WB[i, 3 * r + 2] = p0 * j02 + p1 * j12 + p2 * j22
+
+
+@inline
+def arm_inertias(m: Any, mp: float) -> None:
+    """Each body's inertia into WB[:, 27:40], the payload of mp kg on its body."""
+    IX, BODY, WB = m[_IX], m[_BODY], m[_WB]
+    n, carrier = IX[0], IX[1]
+    for i in range(n):
+        for k in range(13):
+            WB[i, _W_I + k] = BODY[i, k]
+    for k in range(13):
+        WB[carrier, _W_I + k] += mp * BODY[n, k]
+
+
+@inline
+def arm_rnea(m: Any) -> None:
+    """RNEA: the torques τ = M(q) q̈ + C(q, q̇) q̇ + G(q) (WS row 3) of q, q̇, q̈ (WS rows 0-2), body order.
+
+    The positions (:func:`arm_positions`) and inertias (:func:`arm_inertias`) must be set.
+    """
+    P, IX, TREE, WB, WS = m[_P], m[_IX], m[_TREE], m[_WB], m[_WS]
+    n = IX[0]
+    for i in range(n):
+        par = IX[2 + i]
+        if par < 0:
+            vp, wp = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+            alp, awp = (-P[_A_GRAVITY], -P[_A_GRAVITY + 1], -P[_A_GRAVITY + 2]), (0.0, 0.0, 0.0)
+        else:
+            vp, wp = vec3(WB, par, _W_V), vec3(WB, par, _W_V + 3)
+            alp, awp = vec3(WB, par, _W_A), vec3(WB, par, _W_A + 3)
+        p = vec3(TREE, i, 9)
+        qd, qdd = WS[_S_QD, i], WS[_S_QDD, i]
+        sq = (TREE[i, 12] * qd, TREE[i, 13] * qd, TREE[i, 14] * qd)
+        pw = cross(p, wp)
+        v = rotate_back(WB, i, (vp[0] - pw[0], vp[1] - pw[1], vp[2] - pw[2]))
+        w0 = rotate_back(WB, i, wp)
+        w = (w0[0] + sq[0], w0[1] + sq[1], w0[2] + sq[2])
+        pa = cross(p, awp)
+        al0 = rotate_back(WB, i, (alp[0] - pa[0], alp[1] - pa[1], alp[2] - pa[2]))
+        aw0 = rotate_back(WB, i, awp)
+        vs, ws = cross(v, sq), cross(w, sq)
+        al = (al0[0] + vs[0], al0[1] + vs[1], al0[2] + vs[2])
+        aw = (aw0[0] + TREE[i, 12] * qdd + ws[0], aw0[1] + TREE[i, 13] * qdd + ws[1],
+              aw0[2] + TREE[i, 14] * qdd + ws[2])
+        il, ia = inertia_times(WB, i, v, w)
+        fl, fa = inertia_times(WB, i, al, aw)
+        c1, c2, c3 = cross(w, il), cross(w, ia), cross(v, il)
+        for k in range(3):
+            WB[i, _W_V + k], WB[i, _W_V + 3 + k] = v[k], w[k]
+            WB[i, _W_A + k], WB[i, _W_A + 3 + k] = al[k], aw[k]
+            WB[i, _W_F + k] = fl[k] + c1[k]
+            WB[i, _W_F + 3 + k] = fa[k] + c2[k] + c3[k]
+    for i in range(n - 1, -1, -1):
+        WS[_S_TAU, i] = (TREE[i, 12] * WB[i, _W_F + 3] + TREE[i, 13] * WB[i, _W_F + 4] + TREE[i, 14] * WB[i, _W_F + 5]
+                         + TREE[i, 15] * WS[_S_QDD, i])
+        par = IX[2 + i]
+        if par >= 0:
+            fl = rotate(WB, i, vec3(WB, i, _W_F))
+            fa = rotate(WB, i, vec3(WB, i, _W_F + 3))
+            pf = cross(vec3(TREE, i, 9), fl)
+            for k in range(3):
+                WB[par, _W_F + k] += fl[k]
+                WB[par, _W_F + 3 + k] += fa[k] + pf[k]
+
+
+@inline
+def arm_crba(m: Any) -> None:
+    """CRBA: the mass matrix M(q) with the armature, body order, into WM (all of it).
+
+    The positions and inertias must be set; the inertias are left as the composite ones.
+    """
+    IX, TREE, WB, WM = m[_IX], m[_TREE], m[_WB], m[_WM]
+    n = IX[0]
+    for i in range(n):
+        for j in range(n):
+            WM[i, j] = 0.0
+    o = _W_I
+    for i in range(n - 1, -1, -1):
+        ax = vec3(TREE, i, 12)
+        fl = cross(ax, vec3(WB, i, o + 1))  # the composite inertia times the joint's unit motion (0, a)
+        fa = (WB[i, o + 4] * ax[0] + WB[i, o + 5] * ax[1] + WB[i, o + 6] * ax[2],
+              WB[i, o + 7] * ax[0] + WB[i, o + 8] * ax[1] + WB[i, o + 9] * ax[2],
+              WB[i, o + 10] * ax[0] + WB[i, o + 11] * ax[1] + WB[i, o + 12] * ax[2])
+        WM[i, i] = ax[0] * fa[0] + ax[1] * fa[1] + ax[2] * fa[2] + TREE[i, 15]
+        j = i
+        while IX[2 + j] >= 0:
+            fl = rotate(WB, j, fl)
+            fa0 = rotate(WB, j, fa)
+            pf = cross(vec3(TREE, j, 9), fl)
+            fa = (fa0[0] + pf[0], fa0[1] + pf[1], fa0[2] + pf[2])
+            j = IX[2 + j]
+            value = TREE[j, 12] * fa[0] + TREE[j, 13] * fa[1] + TREE[j, 14] * fa[2]
+            WM[j, i] = value
+            WM[i, j] = value
+        par = IX[2 + i]
+        if par >= 0:
+            # the inertia (m, h, I_o) seen from the parent's frame: h' = R h + m p,
+            # I' = R I Rᵀ − (p yᵀ + y pᵀ) + 2 (y·p) 1 − m (p pᵀ − |p|² 1), y = R h
+            mass = WB[i, o]
+            p = vec3(TREE, i, 9)
+            y = rotate(WB, i, vec3(WB, i, o + 1))
+            yp = y[0] * p[0] + y[1] * p[1] + y[2] * p[2]
+            pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+            WB[par, o] += mass
+            for r in range(3):
+                WB[par, o + 1 + r] += y[r] + mass * p[r]
+            for s in range(3):
+                # column s of I Rᵀ, then R times it
+                t0 = WB[i, o + 4] * WB[i, 3 * s] + WB[i, o + 5] * WB[i, 3 * s + 1] + WB[i, o + 6] * WB[i, 3 * s + 2]
+                t1 = WB[i, o + 7] * WB[i, 3 * s] + WB[i, o + 8] * WB[i, 3 * s + 1] + WB[i, o + 9] * WB[i, 3 * s + 2]
+                t2 = WB[i, o + 10] * WB[i, 3 * s] + WB[i, o + 11] * WB[i, 3 * s + 1] + WB[i, o + 12] * WB[i, 3 * s + 2]
+                for r in range(3):
+                    acc = WB[i, 3 * r] * t0 + WB[i, 3 * r + 1] * t1 + WB[i, 3 * r + 2] * t2
+                    acc -= p[r] * y[s] + y[r] * p[s] + mass * p[r] * p[s]
+                    if r == s:
+                        acc += 2.0 * yp + mass * pp
+                    WB[par, o + 4 + 3 * r + s] += acc
+
+
+@jit
+def arm_forward(m: Any, mp: float) -> None:
+    """q̈ = M⁻¹(τ − b) (WS row 2) of q, q̇ (rows 0, 1) and the applied τ (row 4), body order, payload mp kg.
+
+    b is RNEA's with q̈ = 0 (Coriolis, centrifugal and gravity); M is CRBA's, solved by
+    Cholesky.
+    """
+    IX, WM, WS = m[_IX], m[_WM], m[_WS]
+    n = IX[0]
+    arm_positions(m, WS[_S_Q])
+    arm_inertias(m, mp)
+    for i in range(n):
+        WS[_S_QDD, i] = 0.0
+    arm_rnea(m)
+    arm_crba(m)
+    for j in range(n):  # Cholesky: M = L Lᵀ, L in the lower triangle of WM
+        acc = WM[j, j]
+        for k in range(j):
+            acc -= WM[j, k] * WM[j, k]
+        d = math.sqrt(acc)
+        WM[j, j] = d
+        for i in range(j + 1, n):
+            acc = WM[i, j]
+            for k in range(j):
+                acc -= WM[i, k] * WM[j, k]
+            WM[i, j] = acc / d
+    for i in range(n):
+        acc = WS[_S_APPLIED, i] - WS[_S_TAU, i]
+        for k in range(i):
+            acc -= WM[i, k] * WS[_S_QDD, k]
+        WS[_S_QDD, i] = acc / WM[i, i]
+    for i in range(n - 1, -1, -1):
+        acc = WS[_S_QDD, i]
+        for k in range(i + 1, n):
+            acc -= WM[k, i] * WS[_S_QDD, k]
+        WS[_S_QDD, i] = acc / WM[i, i]
+
+
+@jit
+def arm_mass_matrix(m: Any, q: Array, mp: float, out: Array) -> None:
+    """M(q, m_p) (kg·m², with the armature) into out (n, n); q (rad) and out in the arm's joint order."""
+    IX, WM, WS = m[_IX], m[_WM], m[_WS]
+    n = IX[0]
+    for k in range(n):
+        WS[_S_Q, IX[2 + n + k]] = q[k]
+    arm_positions(m, WS[_S_Q])
+    arm_inertias(m, mp)
+    arm_crba(m)
+    for k in range(n):
+        for j in range(n):
+            out[k, j] = WM[IX[2 + n + k], IX[2 + n + j]]
+
+
+@jit
+def arm_inverse_dynamics(m: Any, q: Array, v: Array, a: Array, mp: float, out: Array) -> None:
+    """RNEA's τ = M q̈ + C q̇ + G (N·m) into out (n,); q, q̇, q̈ (rad, rad/s, rad/s²) in the joint order."""
+    IX, WS = m[_IX], m[_WS]
+    n = IX[0]
+    for k in range(n):
+        i = IX[2 + n + k]
+        WS[_S_Q, i], WS[_S_QD, i], WS[_S_QDD, i] = q[k], v[k], a[k]
+    arm_positions(m, WS[_S_Q])
+    arm_inertias(m, mp)
+    arm_rnea(m)
+    for k in range(n):
+        out[k] = WS[_S_TAU, IX[2 + n + k]]
+
+
+@jit
+def arm_forward_dynamics(m: Any, q: Array, v: Array, tau: Array, mp: float, out: Array) -> None:
+    """q̈ (rad/s²) into out (n,) at q, q̇ and the joint torques τ (N·m), all in the joint order."""
+    IX, WS = m[_IX], m[_WS]
+    n = IX[0]
+    for k in range(n):
+        i = IX[2 + n + k]
+        WS[_S_Q, i], WS[_S_QD, i], WS[_S_APPLIED, i] = q[k], v[k], tau[k]
+    arm_forward(m, mp)
+    for k in range(n):
+        out[k] = WS[_S_QDD, IX[2 + n + k]]
+
+
+@jit
+def arm_reference(m: Any, t: float) -> None:
+    """r, ṙ, r̈ and the feedforward at t into WS rows 5-8 (joint order), m_p(t) into WC[1].
+
+    They are kept for the next call at the same t (the integrators call the right-hand
+    side at one time many times: Newton iterations, Jacobian columns).
+    """
+    P, IX, REF, WS, WC = m[_P], m[_IX], m[_REFS], m[_WS], m[_WC]
+    if WC[0] == t:
+        return
+    n = IX[0]
+    for k in range(n):
+        a, w = REF[1, k], REF[2, k]
+        angle = w * t + REF[3, k]
+        s = math.sin(angle)
+        WS[_S_R, k] = REF[0, k] + a * s
+        WS[_S_RD, k] = a * w * math.cos(angle)
+        WS[_S_RDD, k] = -a * w * w * s
+    kind = P[_A_FF]
+    if kind == 0:
+        for k in range(n):
+            WS[_S_FF, k] = 0.0
+    else:  # gravity G(r, m₀), or computed torque RNEA(r, ṙ, r̈, m₀)
+        full = kind == 2
+        for k in range(n):
+            i = IX[2 + n + k]
+            WS[_S_Q, i] = WS[_S_R, k]
+            WS[_S_QD, i] = WS[_S_RD, k] if full else 0.0
+            WS[_S_QDD, i] = WS[_S_RDD, k] if full else 0.0
+        arm_positions(m, WS[_S_Q])
+        arm_inertias(m, P[_A_NOMINAL])
+        arm_rnea(m)
+        for k in range(n):
+            WS[_S_FF, k] = WS[_S_TAU, IX[2 + n + k]]
+    WC[1] = arm_payload(P, m[_TAB], t)
+    WC[0] = t
+
+
+@inline
+def arm_law(th: Any, t: float, x: Array, tc: Array) -> None:
+    """The PID's torque τ_ff(t) − K [∫e, e, ė] (N·m) into tc (n,) at state x = [q, q̇, ∫e] (3n,)."""
+    IX, K, WS = th[_IX], th[_GAIN], th[_WS]
+    n = IX[0]
+    arm_reference(th, t)
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            acc += K[i, k] * x[2 * n + k]
+        for k in range(n):
+            acc += K[i, n + k] * (WS[_S_R, k] - x[k])
+        for k in range(n):
+            acc += K[i, 2 * n + k] * (WS[_S_RD, k] - x[n + k])
+        tc[i] = WS[_S_FF, i] - acc
+
+
+@inline
+def arm_dynamics(th: Any, t: float, x: Array, tc: Array, td: float, dx: Array, fresh: bool) -> None:
+    """ẋ of the arm under the torque tc (n,) and the disturbance td (N·m, before the signs).
+
+    A state beyond :data:`STATE_LIMIT` is frozen (ẋ = 0), as the Python loop does. With
+    `fresh`, the reference and payload of t are already in the scratch (:func:`arm_law`
+    has just run at t).
+    """
+    IX, REF, WS, WC = th[_IX], th[_REFS], th[_WS], th[_WC]
+    n = IX[0]
+    for i in range(2 * n):
+        if not abs(x[i]) <= STATE_LIMIT:
+            for k in range(x.shape[0]):
+                dx[k] = 0.0
+            return
+    if not fresh:
+        arm_reference(th, t)
+    for k in range(n):
+        i = IX[2 + n + k]
+        WS[_S_Q, i], WS[_S_QD, i] = x[k], x[n + k]
+        WS[_S_APPLIED, i] = tc[k] + td * REF[4, k]
+    arm_forward(th, WC[1])
+    for k in range(n):
+        dx[k] = x[n + k]
+        dx[n + k] = WS[_S_QDD, IX[2 + n + k]]
+        dx[2 * n + k] = WS[_S_R, k] - x[k]
+
+
+# The hooks call these compiled functions, with the law and the motion inlined; the reference
+# (with the feedforward's RNEA) and the forward dynamics are one compiled function each, called
+# (inlining them too saves about a tenth of a run and doubles the compile time).
+@jit
+def arm_torque(th: Any, t: float, x: Array, tc: Array) -> None:
+    """:func:`arm_law` as a called function."""
+    arm_law(th, t, x, tc)
+
+
+@jit
+def arm_rhs(th: Any, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
+    """:func:`arm_dynamics` as a called function."""
+    arm_dynamics(th, t, x, tc, td, dx, False)
+
+
+@jit
+def arm_closed_rhs(th: Any, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
+    """The closed loop's ẋ (dx) at (t, x): the PID's torque into tc, then the arm's dynamics."""
+    arm_law(th, t, x, tc)
+    arm_dynamics(th, t, x, tc, td, dx, True)
+
+
+@jit
+def arm_output(th: Any, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
+    """Sample j at state x: the torque TC[:, j] (N·m); its feedforward part ER[:n, j] (N·m) and m_p ER[n, j] (kg)."""
+    arm_law(th, t, x, tc)
+    WS = th[_WS]
+    n = tc.shape[0]
+    for i in range(n):
+        TC[i, j] = tc[i]
+        ER[i, j] = WS[_S_FF, i]
+    ER[n, j] = th[_WC][1]
+
+
+@jit
+def arm_diverged(th: Any, t: float, x: Array, limit: float) -> bool:
+    n = th[_IX][0]
+    for i in range(2 * n):
+        if not abs(x[i]) <= STATE_LIMIT:
+            return True
+    arm_reference(th, t)
+    WS = th[_WS]
+    for k in range(n):
+        if not abs(WS[_S_R, k] - x[k]) <= limit:
+            return True
+    return False
+
+
+@inline
+def arm_disturbance(th: Array, t: float) -> float:
+    P = th[_P]
+    frac = t / P[_A_DIST + 1] + P[_A_DIST + 2] / (2 * math.pi)
+    frac = frac - math.floor(frac)
+    return float(P[_A_DIST] * (1.0 if frac < 0.5 else -1.0))
+
+
+# --- what the integrators see of a model: hooks, implemented per model type ---------------------
+# Each hook is a Python stub that numba replaces, when it compiles an integrator for a model's
+# type, by that model's implementation, inlined: the SCARA's (θ, an array) or an arm's (a tuple).
+
+
+def model_closed_rhs(th: Any, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
+    """ẋ (dx) of the closed loop at (t, x) with the disturbance td (N·m, before the joint signs); the torque in tc."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_torque(th: Any, t: float, x: Array, tc: Array) -> None:
+    """The control law's torque at (t, x) into tc, N·m."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_rhs(th: Any, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
+    """ẋ (dx) at (t, x) under the torque tc held and the disturbance td."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_output(th: Any, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
+    """The model's outputs of sample j at state x, into column j of TC and ER."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_diverged(th: Any, t: float, x: Array, limit: float) -> bool:
+    """Whether the run left the limits at (t, x): a state beyond STATE_LIMIT or |e| > limit (rad)."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_disturbance(th: Any, t: float) -> float:
+    """The disturbance's torque before the joint signs at t, N·m."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_sample_time(th: Any) -> float:
+    """The law's sample time, s (0: continuous)."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+def model_inputs(th: Any) -> int:
+    """The number of control torques."""
+    raise NotImplementedError("compiled by numba only")  # pragma: no cover
+
+
+_HOOK_OPTIONS: Any = {"nogil": True, "error_model": "numpy"}
+
+
+def _scara(th: Any) -> bool:
+    return isinstance(th, types.Array)
+
+
+def _arm(th: Any) -> bool:
+    return isinstance(th, types.BaseTuple)
+
+
+# numba asks a hook's typing function and each implementation for the same signature, annotations
+# included: they all repeat the SCARA kernel's (an arm's model is a tuple, not an Array).
+@overload(model_closed_rhs, inline="always", jit_options=_HOOK_OPTIONS)
+def _closed_rhs_hook(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -> Any:
+    if _scara(th):
+        return closed_rhs.py_func
+    if _arm(th):
+        def impl(th: Array, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
+            arm_closed_rhs(th, t, x, td, tc, dx)
+        return impl
+    return None
+
+
+@overload(model_torque, inline="always", jit_options=_HOOK_OPTIONS)
+def _torque_hook(th: Array, t: float, x: Array, out: Array) -> Any:
+    if _scara(th):
+        return torque.py_func
+    if _arm(th):
+        def impl(th: Array, t: float, x: Array, out: Array) -> None:
+            arm_torque(th, t, x, out)
+        return impl
+    return None
+
+
+@overload(model_rhs, inline="always", jit_options=_HOOK_OPTIONS)
+def _rhs_hook(th: Array, t: float, x: Array, tc: Array, td: float, dx: Array) -> Any:
+    if _scara(th):
+        return rhs.py_func
+    if _arm(th):
+        def impl(th: Array, t: float, x: Array, tc: Array, td: float, dx: Array) -> None:
+            arm_rhs(th, t, x, tc, td, dx)
+        return impl
+    return None
+
+
+@overload(model_output, inline="always", jit_options=_HOOK_OPTIONS)
+def _output_hook(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> Any:
+    if _scara(th):
+        return output.py_func
+    if _arm(th):
+        def impl(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
+            arm_output(th, t, x, tc, TC, ER, j)
+        return impl
+    return None
+
+
+@overload(model_diverged, inline="always", jit_options=_HOOK_OPTIONS)
+def _diverged_hook(th: Array, t: float, x: Array, limit: float) -> Any:
+    if _scara(th):
+        def impl(th: Array, t: float, x: Array, limit: float) -> bool:
+            return bool(diverged(th, t, x, limit))
+        return impl
+    if _arm(th):
+        def impl_arm(th: Array, t: float, x: Array, limit: float) -> bool:
+            return bool(arm_diverged(th, t, x, limit))
+        return impl_arm
+    return None
+
+
+@overload(model_disturbance, inline="always", jit_options=_HOOK_OPTIONS)
+def _disturbance_hook(th: Array, t: float) -> Any:
+    if _scara(th):
+        return disturbance.py_func
+    if _arm(th):
+        return arm_disturbance.py_func
+    return None
+
+
+@overload(model_sample_time, inline="always", jit_options=_HOOK_OPTIONS)
+def _sample_time_hook(th: Array) -> Any:
+    if _scara(th):
+        def impl(th: Array) -> float:
+            return float(th[_TS])
+        return impl
+    if _arm(th):
+        def impl_arm(th: Array) -> float:
+            return float(th[_P][_A_TS])
+        return impl_arm
+    return None
+
+
+@overload(model_inputs, inline="always", jit_options=_HOOK_OPTIONS)
+def _inputs_hook(th: Array) -> Any:
+    if _scara(th):
+        def impl(th: Array) -> int:
+            return 2
+        return impl
+    if _arm(th):
+        def impl_arm(th: Array) -> int:
+            return int(th[_IX][0])
+        return impl_arm
+    return None
+
+
+@jit
+def closed_rhs_call(th: Any, t: float, x: Array, td: float, tc: Array, dx: Array) -> None:
+    """:func:`model_closed_rhs` as a called function, where a call costs little: it bounds the compile time."""
+    model_closed_rhs(th, t, x, td, tc, dx)
 
 # Dormand–Prince 5(4) tableau
 c = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
@@ -234,7 +842,7 @@ def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rt
     n = x.shape[0]
     t = a
     calls = 1
-    closed_rhs(th, t, x, td, tc, K[0])
+    model_closed_rhs(th, t, x, td, tc, K[0])
     while t < b:
         hh = h
         if t + hh >= b or b - (t + hh) < 1e-12 * max(1.0, abs(b)):
@@ -245,7 +853,7 @@ def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rt
                 for q in range(s):
                     acc += hh * A[s, q] * K[q, i]
                 y[i] = acc
-            closed_rhs(th, t + c[s] * hh, y, td, tc, K[s])
+            model_closed_rhs(th, t + c[s] * hh, y, td, tc, K[s])
             calls += 1
         err = 0.0
         for i in range(n):
@@ -274,7 +882,7 @@ def dopri_dense(th: Array, x: Array, a: float, b: float, td: float, h: float, rt
                         for q in range(7):
                             acc += K[q, i] * (P[q, 0] * th1 + P[q, 1] * th2 + P[q, 2] * th3 + P[q, 3] * th4)
                         X[i, j] = x[i] + hh * acc
-                output(th, t_out[j], X[:, j], tc, TC, ER, j)
+                model_output(th, t_out[j], X[:, j], tc, TC, ER, j)
                 j += 1
             for i in range(n):
                 x[i] = y[i]
@@ -505,7 +1113,7 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
                 converged = False
                 for k in range(_NEWTON_MAXITER):
                     n_iter = k + 1
-                    closed_rhs(th, t_new, y, td, tc, fw)
+                    model_closed_rhs(th, t_new, y, td, tc, fw)
                     calls += 1
                     finite = True
                     for i in range(n):
@@ -601,7 +1209,7 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
                     p *= (t_out[j] - (t - h_abs * k)) / (h_abs * (1 + k))
                     for i in range(n):
                         X[i, j] += D[k + 1, i] * p
-            output(th, t_out[j], X[:, j], tc, TC, ER, j)
+            model_output(th, t_out[j], X[:, j], tc, TC, ER, j)
             j += 1
         if t_old == t:
             return j, t, False, calls
@@ -611,17 +1219,17 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
 def rk4_step(th: Array, x: Array, a: float, b: float, td: float, tc: Array, K: Array, y: Array) -> None:
     n = x.shape[0]
     h = b - a
-    torque(th, a, x, tc)
-    rhs(th, a, x, tc, td, K[0])
+    model_torque(th, a, x, tc)
+    model_rhs(th, a, x, tc, td, K[0])
     for i in range(n):
         y[i] = x[i] + h / 2 * K[0, i]
-    rhs(th, a + h / 2, y, tc, td, K[1])
+    model_rhs(th, a + h / 2, y, tc, td, K[1])
     for i in range(n):
         y[i] = x[i] + h / 2 * K[1, i]
-    rhs(th, a + h / 2, y, tc, td, K[2])
+    model_rhs(th, a + h / 2, y, tc, td, K[2])
     for i in range(n):
         y[i] = x[i] + h * K[2, i]
-    rhs(th, b, y, tc, td, K[3])
+    model_rhs(th, b, y, tc, td, K[3])
     for i in range(n):
         x[i] = x[i] + h / 6 * (K[0, i] + 2 * K[1, i] + 2 * K[2, i] + K[3, i])
 
@@ -636,32 +1244,35 @@ def diverged(th: Array, t: float, x: Array, limit: float) -> bool:
 @jit
 def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: float, limit: float,
         X: Array, TC: Array, ER: Array, stiff: bool) -> tuple[int, int, float, int]:
-    """One run: states X (n, k), torques TC (2, k) and errors ER (4, k) on t_out; (samples, code, t_stop, calls).
+    """One run of model `th`: states X (n, k) and the model's outputs TC, ER on t_out; (samples, code, t_stop, calls).
 
-    A continuous law is integrated by BDF when `stiff`, else by Dormand–Prince 5(4).
+    The SCARA's outputs are its torques TC (2, k) and errors ER (4, k); an arm's its
+    torques TC (n, k), their feedforward part ER[:n] and its payload mass ER[n] (kg). A continuous law is integrated
+    by BDF when `stiff`, else by Dormand–Prince 5(4), restarted at every edge (the
+    disturbance's switching instants); a sampled one by an RK4 step per edge.
     """
     n = x0.shape[0]
     x = x0.copy()
     K = np.zeros((7, n))
     y = np.zeros(n)
-    tc = np.zeros(2)
+    tc = np.zeros(model_inputs(th))
     calls = 0
     for i in range(n):
         X[i, 0] = x[i]
-    output(th, t_out[0], x, tc, TC, ER, 0)
+    model_output(th, t_out[0], x, tc, TC, ER, 0)
     j = 1  # next output sample
     h = 1e-4
-    sampled = th[_TS] > 0
+    sampled = model_sample_time(th) > 0
     for k in range(edges.shape[0] - 1):
         a, b = edges[k], edges[k + 1]
-        td = th[_DIST] * disturbance_level(th, 0.5 * (a + b))
+        td = model_disturbance(th, 0.5 * (a + b))
         if sampled:
             rk4_step(th, x, a, b, td, tc, K, y)
             calls += 4
             while j < t_out.shape[0] and t_out[j] <= b + 1e-12:
                 for i in range(n):
                     X[i, j] = x[i]
-                output(th, t_out[j], x, tc, TC, ER, j)
+                model_output(th, t_out[j], x, tc, TC, ER, j)
                 j += 1
         elif stiff:
             j, t, ok, m = bdf_dense(th, x, a, b, td, rtol, atol, tc, t_out, j, X, TC, ER)
@@ -673,7 +1284,7 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
             calls += m
             if not ok:
                 return j, _FAILED, t, calls
-        if diverged(th, b, x, limit):
+        if model_diverged(th, b, x, limit):
             return j, _DIVERGED, b, calls
     return j, _COMPLETED, edges[-1], calls
 
@@ -688,20 +1299,21 @@ def refine(th: Array, x: Array, t0: float, fine: Array, counted: Array, rtol: fl
     z = x.copy()
     K = np.zeros((7, n))
     y = np.zeros(n)
-    tc = np.zeros(2)
+    tc = np.zeros(model_inputs(th))
     peak = 0.0
     t = t0
     h = 1e-5
     for m in range(fine.shape[0]):
         b = fine[m]
-        td = th[_DIST] * disturbance_level(th, 0.5 * (t + b))
+        td = model_disturbance(th, 0.5 * (t + b))
         h, ok, _ = dopri_interval(th, z, t, b, td, h, rtol, atol, K, y, tc)
         if not ok:
             return np.nan
         t = b
         if counted[m]:
-            torque(th, t, z, tc)
-            peak = max(peak, abs(tc[0]), abs(tc[1]))
+            model_torque(th, t, z, tc)
+            for i in range(tc.shape[0]):
+                peak = max(peak, abs(tc[i]))
     return peak
 
 @jit
@@ -721,12 +1333,13 @@ def segment(th: Array, x0: Array, a: float, t_eval: Array, td: float, rtol: floa
     x = x0.copy()
     K = np.zeros((7, n))
     y = np.zeros(n)
-    tc = np.zeros(2)
+    tc = np.zeros(model_inputs(th))
     t = a
     h = 1e-4
+    sampled = model_sample_time(th) > 0
     for m in range(t_eval.shape[0]):
         b = t_eval[m]
-        if th[_TS] > 0:
+        if sampled:
             rk4_step(th, x, t, b, td, tc, K, y)
         else:
             h, ok, _ = dopri_interval(th, x, t, b, td, h, rtol, atol, K, y, tc)

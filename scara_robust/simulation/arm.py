@@ -3,8 +3,10 @@
 The loop is ``τ = τ_ff(t) − K [∫e, e, ė] + τ_d(t)`` with ``e = r − q`` on the arm's
 forward dynamics ``q̈ = ABA(q, q̇, τ, m_p(t))``; its state is ``[q, q̇, ∫e]`` (3n). It runs
 through the same segment loop and engines as the SCARA (:mod:`scara_robust.simulation.engines`:
-LSODA by default, fixed-step RK4, RK4 with a sampled and held controller), and is judged by
-the same metrics and statuses (:func:`scara_robust.tracking_metrics`, :data:`scara_robust.STATUSES`).
+LSODA by default, fixed-step RK4, RK4 with a sampled and held controller), or whole in
+machine code on the SCARA's compiled integrators (``method='compiled'``, the extra
+``compiled``: :mod:`scara_robust.simulation.compiled_arm`), and is judged by the same
+metrics and statuses (:func:`scara_robust.tracking_metrics`, :data:`scara_robust.STATUSES`).
 
 Angles in rad, rates in rad/s, torques in N·m, masses in kg, times in s.
 """
@@ -26,6 +28,8 @@ from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
 from ..model.signals import SquareWave
 from ..paper import PAPER_TRANSIENT
+from .compiled import COMPILED_INTEGRATORS, NUMBA_MISSING, numba_available
+from .compiled_arm import compiled_arm_run
 from .engines import ENGINES, integrate
 from .loop import DIVERGENCE_LIMIT, STATE_LIMIT
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
@@ -34,7 +38,7 @@ __all__ = ["simulate_arm", "ArmRun", "ARM_ENGINES"]
 
 Array = NDArray[np.float64]
 #: Engines an arm runs on (names of :data:`scara_robust.ENGINES`).
-ARM_ENGINES = ("lsoda", "rk4")
+ARM_ENGINES = ("lsoda", "rk4", "compiled")
 
 
 class _NoDisturbance:
@@ -207,6 +211,7 @@ def simulate_arm(
     rtol: float = 1e-8,
     atol: float = 1e-10,
     method: str = "lsoda",
+    integrator: str = "bdf",
     Ts: float | None = None,
     sample_time: float | None = None,
     divergence_limit: float = DIVERGENCE_LIMIT,
@@ -234,12 +239,19 @@ def simulate_arm(
     dt : float
         Output spacing, s (and the RK4 step of a continuous PID).
     rtol, atol : float
-        Tolerances of LSODA.
-    method : {'lsoda', 'rk4'}
-        The engine.
+        Tolerances of LSODA (and of the compiled engine's adaptive steps).
+    method : {'lsoda', 'rk4', 'compiled'}
+        The engine. ``'compiled'`` (the extra ``compiled``, numba) runs the same loop in
+        machine code: the arm's dynamics by RNEA and CRBA on its rigid bodies, checked
+        against Pinocchio once per arm, on the SCARA's compiled integrators; it takes a
+        :class:`~scara_robust.ConstantPayload`, a :class:`~scara_robust.SinusoidalPayload`
+        or a profile of :func:`~scara_robust.parameter_profile` as `payload`.
+    integrator : {'bdf', 'dopri5'}
+        The compiled engine's integrator of a continuous PID: scipy's BDF step for step
+        (stiff loops) or Dormand–Prince 5(4); other engines ignore it.
     Ts : float, optional
         Run the PID sampled with this period and held (zero-order hold), integrated by
-        RK4 with that step.
+        RK4 with that step (on the ``rk4`` engine, or compiled with ``method='compiled'``).
     divergence_limit : float
         ``max |e|`` (rad) beyond which the run stops as diverged.
     t_transient, tracking_tolerance : float
@@ -263,37 +275,48 @@ def simulate_arm(
     t_final = check_real("t_final", t_final, positive=True)
     dt = check_real("dt", dt, positive=True)
     check_choice("method", method, ARM_ENGINES)
+    check_choice("integrator", integrator, COMPILED_INTEGRATORS)
+    if method == "compiled" and not numba_available():
+        raise ArgumentValueError("method", NUMBA_MISSING)
     Ts = renamed_argument("simulate_arm", "sample_time", "Ts", sample_time, Ts, None)
     if Ts is not None:
         Ts = check_real("Ts", Ts, positive=True)
-        method = "rk4"
+        if method != "compiled":
+            method = "rk4"
     e0 = setup.e0 if e0 is None else e0
     edot0 = setup.edot0 if edot0 is None else edot0
     disturbance = setup.disturbance if disturbance is None else disturbance
     if disturbance is not None and len(disturbance.signs) != n:
         raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
-    loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)
     r0, rd0, _ = setup.reference.at(0.0)
     e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
     ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))
     x0 = np.concatenate([r0 - e_init, rd0 - ed_init, np.zeros(n)])
-    traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
-                     divergence_limit=divergence_limit)
-    t, X = traj.t, traj.x
+    if method == "compiled":
+        fast = compiled_arm_run(setup, gain, payload, x0, t_final, disturbance=disturbance, dt=dt, rtol=rtol,
+                                atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator)
+        t, X, ff, masses = fast.t, fast.x, fast.feedforward, fast.payload
+        success, diverged, message = fast.success, fast.diverged, fast.message
+    else:
+        loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)
+        traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
+                         divergence_limit=divergence_limit)
+        t, X = traj.t, traj.x
+        success, diverged, message = traj.success, traj.diverged, traj.message
+        ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
+            np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
+        masses = np.array([float(load(float(tk))) for tk in t])
     r, rd, _ = setup.reference.sample(t)
     q, qd = X[:n], X[n:2 * n]
     e, edot = r.T - q, rd.T - qd
-    ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
-        np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
     # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
     tau = ff - gain @ np.vstack([X[2 * n:], e, edot])
-    masses = np.array([float(load(float(tk))) for tk in t])
     metrics = None
-    if int((t >= t_transient).sum()) >= 2 and not traj.diverged:
+    if int((t >= t_transient).sum()) >= 2 and not diverged:
         metrics = tracking_metrics(t, e, tau, t_transient=t_transient)
-    status, reason = run_status(metrics, success=traj.success, diverged=traj.diverged, message=traj.message,
+    status, reason = run_status(metrics, success=success, diverged=diverged, message=message,
                                 tolerance=tracking_tolerance, t_transient=t_transient)
     return ArmRun(t=t, q=q, e=e, edot=edot, torque=tau, feedforward=ff, payload=masses,
-                  joints=setup.arm.joints, success=traj.success and not traj.diverged, diverged=traj.diverged,
-                  message=traj.message, method=method, status=status, status_reason=reason,
+                  joints=setup.arm.joints, success=success and not diverged, diverged=diverged,
+                  message=message, method=method, status=status, status_reason=reason,
                   t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)

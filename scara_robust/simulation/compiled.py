@@ -27,6 +27,10 @@ disturbance taken at the step's midpoint: the ``rk4`` engine's scheme, step for 
 run leaving the limits is frozen at the end of the disturbance segment where it left
 them, as the shared segment loop does.
 
+The integrators are not the SCARA's own: they reach the model only through hooks of
+:mod:`scara_robust.simulation._kernels`, and a URDF arm runs on them too
+(:mod:`scara_robust.simulation.compiled_arm`).
+
 Compilation is cached on disk (numba ``cache=True``); :func:`compile_seconds` reports the
 first call's cost separately.
 """
@@ -35,6 +39,9 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -72,6 +79,8 @@ _KINDS = {"pid": 0, "smc-boundary": 1, "smc-sign": 2}
 
 #: Exit codes of the compiled loop.
 _COMPLETED, _DIVERGED, _FAILED = 0, 1, 2
+#: Why ``method='compiled'`` cannot run without numba (the argument is ``method``).
+NUMBA_MISSING = "'compiled' needs numba: pip install '.[compiled]', or use 'lsoda' (continuous) or 'rk4' (sampled)"
 
 
 def numba_available() -> bool:
@@ -164,26 +173,47 @@ def _build() -> dict[str, Any]:
     if _KERNELS:
         return _KERNELS
     start = time.perf_counter()
-    from ._kernels import batch, refine, rhs, run, segment, torque
+    with quiet_compile():
+        from ._kernels import batch, refine, rhs, run, segment, torque
 
-    # compile (or load) now, on a tiny problem, so the first real run is not charged for it
-    th = np.zeros(N_THETA)
-    th[_ROBOT:_ROBOT + 9] = 1.0
-    th[_DIST + 1] = 1.0
-    th[_REF:_REF + 2] = 1.0
-    th[_LIMIT:_LIMIT + 2] = np.inf
-    x0 = np.zeros(6)
-    t_out = np.array([0.0, 0.01])
-    X, TC, ER = np.zeros((6, 2)), np.zeros((2, 2)), np.zeros((4, 2))
-    for stiff in (True, False):
-        run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC, ER, stiff)
-    refine(th, x0, 0.0, t_out[1:], np.ones(1, np.bool_), 1e-6, 1e-9)
-    batch(th[None], x0[None], t_out, t_out[None], np.array([2]), 1e-6, 1e-9, 50.0, X[None], TC[None],
-          ER[None], np.zeros((1, 4)), True)
-    _COMPILE_SECONDS.append(time.perf_counter() - start)
-    segment(th, x0, 0.0, t_out[1:], 1.0, 1e-6, 1e-9, X[:, :1])
+        # compile (or load) now, on a tiny problem, so the first real run is not charged for it
+        th = np.zeros(N_THETA)
+        th[_ROBOT:_ROBOT + 9] = 1.0
+        th[_DIST + 1] = 1.0
+        th[_REF:_REF + 2] = 1.0
+        th[_LIMIT:_LIMIT + 2] = np.inf
+        x0 = np.zeros(6)
+        t_out = np.array([0.0, 0.01])
+        X, TC, ER = np.zeros((6, 2)), np.zeros((2, 2)), np.zeros((4, 2))
+        for stiff in (True, False):
+            run(th, x0, t_out, t_out, 1e-6, 1e-9, 50.0, X, TC, ER, stiff)
+        refine(th, x0, 0.0, t_out[1:], np.ones(1, np.bool_), 1e-6, 1e-9)
+        batch(th[None], x0[None], t_out, t_out[None], np.array([2]), 1e-6, 1e-9, 50.0, X[None], TC[None],
+              ER[None], np.zeros((1, 4)), True)
+        _COMPILE_SECONDS.append(time.perf_counter() - start)
+        segment(th, x0, 0.0, t_out[1:], 1.0, 1e-6, 1e-9, X[:, :1])
     _KERNELS.update({"run": run, "refine": refine, "batch": batch, "torque": torque, "rhs": rhs, "segment": segment})
     return _KERNELS
+
+
+@contextmanager
+def quiet_compile() -> Iterator[None]:
+    """Silence numba's pedantic ``NumbaIRAssumptionWarning`` while kernels compile.
+
+    numba warns "variable ... is not in scope" when it inlines a model's hook whose body
+    inlines further kernels (:mod:`scara_robust.simulation._kernels`): a check of its own
+    bookkeeping of variable names, not of the code it compiles, which computes the same
+    numbers as the kernels written for the SCARA alone.
+
+    Yields
+    ------
+    None
+    """
+    from numba.core.errors import NumbaIRAssumptionWarning
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"variable .* is not in scope", category=NumbaIRAssumptionWarning)
+        yield
 
 
 def compile_seconds() -> float:

@@ -85,7 +85,7 @@ def parameter_profile(
     Returns
     -------
     callable
-        ``p(t) -> float``.
+        ``p(t) -> float`` (a ``ParameterProfile``, which names its kind and numbers).
 
     Raises
     ------
@@ -102,7 +102,7 @@ def parameter_profile(
         v = float(param.nominal) if value is None else check_real("value", value)  # type: ignore[arg-type]
         if not lo <= v <= hi:
             raise ArgumentValueError("value", f"must lie in {name}'s range [{lo:g}, {hi:g}] {param.unit}, found {v:g}")
-        return lambda t: v
+        return ParameterProfile("constant", (v,))
     if not param.varies:
         raise ArgumentValueError("name", f"{name!r} is fixed at {lo:g} {param.unit}; a {kind} profile needs a range")
     if kind == "sinusoid":
@@ -110,10 +110,10 @@ def parameter_profile(
             period = math.pi * (hi - lo) / param.rate if param.rate else 10.0
         period = check_real("period", period, positive=True)
         mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        return lambda t: mid - amp * math.cos(2 * math.pi * t / period)
+        return ParameterProfile("sinusoid", (mid, amp, period))
     if kind == "ramp":
         rate = param.rate if param.rate else (hi - lo) / t_final
-        return lambda t: min(hi, lo + rate * max(t, 0.0))
+        return ParameterProfile("ramp", (lo, hi, rate))
     if kind == "random-walk":
         if not param.rate:
             raise ArgumentValueError("kind", f"'random-walk' moves within {name}'s rate bound; {name} has none")
@@ -126,7 +126,7 @@ def parameter_profile(
             nxt = knots[k] + slopes[k] * dwell
             knots[k + 1] = 2 * hi - nxt if nxt > hi else (2 * lo - nxt if nxt < lo else nxt)
         times = dwell * np.arange(n + 1)
-        return lambda t: float(np.interp(t, times, knots))
+        return ParameterProfile("random-walk", times=np.asarray(times, dtype=float), values=knots)
     if path is None or column is None:
         raise ArgumentValueError("path", "and `column` are needed by a 'csv' profile")
     text_path = os.fspath(path)
@@ -145,7 +145,45 @@ def parameter_profile(
     if v_col.min() < lo or v_col.max() > hi:
         raise InputFileError(f"{text_path!r}: column `{column}` leaves {name}'s range [{lo:g}, {hi:g}] {param.unit} "
                              f"(found [{v_col.min():g}, {v_col.max():g}])")
-    return lambda t: float(np.interp(t, t_col, v_col))
+    return ParameterProfile("csv", times=t_col, values=v_col)
+
+
+@dataclass(frozen=True, eq=False)
+class ParameterProfile:
+    """A profile ``p(t)`` of :func:`parameter_profile`: callable, and it says what it is.
+
+    So a compiled engine can evaluate the same profile in machine code.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`PROFILES`.
+    numbers : tuple of float
+        ``constant``: ``(value,)``; ``sinusoid``: ``(mid, amplitude, period)`` for
+        ``mid − amplitude cos(2π t / period)``; ``ramp``: ``(low, high, rate)`` for
+        ``min(high, low + rate max(t, 0))``; empty for a table.
+    times, values : ndarray, shape (k,), or None
+        ``random-walk`` and ``csv``: the table interpolated linearly (``np.interp``, held
+        beyond its ends), times in s.
+    """
+
+    kind: str
+    numbers: tuple[float, ...] = ()
+    times: Array | None = None
+    values: Array | None = None
+
+    def __call__(self, t: float) -> float:
+        """``p(t)`` in the parameter's unit, t in s."""
+        if self.kind == "constant":
+            return self.numbers[0]
+        if self.kind == "sinusoid":
+            mid, amp, period = self.numbers
+            return mid - amp * math.cos(2 * math.pi * t / period)
+        if self.kind == "ramp":
+            lo, hi, rate = self.numbers
+            return min(hi, lo + rate * max(t, 0.0))
+        assert self.times is not None and self.values is not None
+        return float(np.interp(t, self.times, self.values))
 
 
 @dataclass(frozen=True)

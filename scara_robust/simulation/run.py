@@ -29,7 +29,7 @@ from ..model.initial import SCENARIOS, Scenario
 from ..model.robot import ConstantPayload, PayloadProfile, ScaraParams, paper_payload
 from ..model.signals import Reference, SquareWave, paper_disturbance, paper_reference
 from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
-from .compiled import CompiledEngine, CompiledRun, compiled_batch, compiled_run, numba_available
+from .compiled import NUMBA_MISSING, CompiledEngine, CompiledRun, compiled_batch, compiled_run, numba_available
 from .controllers import CONTROLLERS, make_controller
 from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
@@ -260,8 +260,7 @@ def _engine_name(method: str | None, Ts: float | None) -> str:
         sampled = ", ".join(repr(n) for n, e in ENGINES.items() if e.sampled)
         raise ArgumentValueError("method", f"must be {sampled} for a sampled controller, found {name!r}")
     if name == CompiledEngine.name and not numba_available():
-        raise ArgumentValueError("method", "'compiled' needs numba: pip install '.[compiled]', "
-                                           "or use 'lsoda' (continuous) or 'rk4' (sampled)")
+        raise ArgumentValueError("method", NUMBA_MISSING)
     return name
 
 
