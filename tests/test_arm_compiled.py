@@ -277,3 +277,32 @@ def test_mujoco_reproduces_the_compiled_six_joint_run(arm_setup, arm_gain):
     after = mj["t"] >= 6.0
     assert run.metrics().max_abs_error == pytest.approx(float(np.abs(mj["e"][:, after]).max()), abs=1e-4)
     assert np.abs(run.e[:, run.t >= 6.0] - mj["e"][:, after]).max() <= 1e-4
+
+
+# ---------------------------------------------------------------- the command line
+
+
+def test_simulate_runs_an_arm_on_the_engine_asked(capsys):
+    from scara_robust.cli import main
+
+    printed = {}
+    for method in ("lsoda", "compiled"):
+        argv = ["simulate", "--rho", "1000", "--eta", "3", "--robot", "examples/robot-arm6.toml", "--profile",
+                "sinusoid", "--t-final", "8", "--method", method]
+        assert main(argv) == 0
+        out = capsys.readouterr().out
+        assert f"s simulated ({method})" in out
+        printed[method] = re.findall(r"max \|e\| after (?:6 s )?= \S+ rad, peak \|τ\| = \S+ N·m|max \|e\| after 6 s = "
+                                     r"\S+ rad; peak \|τ\| = \S+ N·m", out)
+    # the two runs agree within 3e-9 rad: every joint's printed max |e| and peak torque alike
+    assert len(printed["lsoda"]) == 7 and printed["compiled"] == printed["lsoda"]
+
+
+def test_simulate_refuses_an_engine_arms_do_not_run_on(capsys):
+    from scara_robust.cli import main
+
+    argv = ["simulate", "--rho", "1000", "--eta", "3", "--robot", "examples/robot-arm6.toml", "--method",
+            "interconnect"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "`--method` of an arm's run is one of lsoda, rk4, compiled" in err

@@ -19,7 +19,7 @@ from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
 from ..robustness.synthesis import synthesize
-from ..simulation.arm import ArmRun, simulate_arm
+from ..simulation.arm import ARM_ENGINES, ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ._common import CommandLineError, per_joint_values, resolve_design, save_figure
 from ._plant_run import option_floats, plant_gain, plant_profiles, series_output
@@ -28,7 +28,7 @@ from ._system import LoadedSystem
 __all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options"]
 
 #: Options of the SCARA's or a plant file's runs that mean nothing for an arm.
-_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
+_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "torque_limit")
 #: Options of an arm's run only: its initial error.
 _ARM_ONLY = ("e0", "edot0")
 
@@ -118,6 +118,8 @@ def _refuse(args: argparse.Namespace, system: LoadedSystem) -> None:
                                f"reference and payload range are in {system.file!r}; --profile drives the payload)")
     if getattr(args, "parameter", None) not in (None, "m_p"):
         raise CommandLineError(f"`--parameter` of an arm's run is its payload m_p, found {args.parameter!r}")
+    if getattr(args, "method", None) not in (None, *ARM_ENGINES):
+        raise CommandLineError(f"`--method` of an arm's run is one of {', '.join(ARM_ENGINES)}, found {args.method!r}")
 
 
 def _payload(args: argparse.Namespace, setup: ArmSetup, t_final: float) -> Any:
@@ -161,8 +163,10 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     t_final = 20.0 if args.t_final is None else args.t_final
     inputs = _run_inputs(args, setup)
     start = time.perf_counter()
+    engine = {} if args.method is None else {"method": args.method}
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
-                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance, **inputs)
+                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
+                       **engine, **inputs)
     elapsed = time.perf_counter() - start
     files = []
     if args.plot is not None:
