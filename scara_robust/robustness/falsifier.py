@@ -231,7 +231,7 @@ def falsify(
                 v = int(rng.integers(n_v))
             else:
                 values = ((Phi_rows if rule == "norm" else U_rows) @ x).reshape(n_v, n)
-                v = int(np.argmax(np.einsum("vi,i,vi->v", values, weights[rule], values)))
+                v = int(np.argmax((values * values) @ weights[rule]))
             sequence[k] = v
             x = Phi[v] @ x
             size = float(np.linalg.norm(x))
