@@ -387,8 +387,9 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
         of `closed_loops`; ``'verified'``: stop at the first P numpy verifies on every loop (a
         bisection needs only the verdict; the decay rate may be smaller). Either way the
-        ``'decay'`` form of :data:`LMI_FORMS` is solved; where it certifies nothing, the
-        ``'margin'`` form is tried (its P is returned when it certifies).
+        ``'decay'`` form of :data:`LMI_FORMS` is solved; where it fails numerically (not where
+        the solver says infeasible), the ``'margin'`` form is tried (its P is returned when it
+        certifies).
     start : array_like of int, optional
         Indices of the loops to start from, the checks counted after `closed_loops`
         (:attr:`LMICertificate.active` of the previous solve of a search on loops indexed
@@ -426,9 +427,11 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         if len(_SOLVED) >= _SOLVED_SIZE:
             _SOLVED.pop(next(iter(_SOLVED)))
         found = _cutting_planes(A_v, A_main.shape[0], solver, stop, first, "decay")
-        if not found.certified and found.verdict != "infeasible":
+        if not found.certified and found.verdict != "infeasible" and found.status != INFEASIBLE_NOT_VERIFIED:
             # the 'decay' form breaks down where P's condition number grows without bound, near the
-            # end of what a common P can certify: the well-conditioned 'margin' form may still find one
+            # end of what a common P can certify: where it failed numerically (a solver error, an
+            # inaccurate or marginal P), not where the solver said infeasible, the well-conditioned
+            # 'margin' form may still find one
             retry = _cutting_planes(A_v, A_main.shape[0], solver, "verified", first, "margin")
             if retry.certified or (found.P is None and retry.P is not None):
                 found = retry
