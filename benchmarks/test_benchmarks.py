@@ -156,7 +156,7 @@ def test_scara_margin_command(benchmark, capsys):
     """``margin --rho 3 --eta 90`` after start-up: every row (θ and payload, the LMI bisections included).
 
     Target: under 5 s on 2 cores. Before the cutting planes, its LMI rows solved each step on all
-    1024 corners (and 185 samples): 39 s and 15 s of the 63 s (docs/performance.md).
+    1024 corners (and 185 samples): 39 s and 15 s of the 63 s on a loaded machine (docs/performance.md).
     """
     pytest.importorskip("cvxpy")
     from scara_robust.cli import main
