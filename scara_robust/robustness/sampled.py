@@ -28,8 +28,10 @@ among them at the samples); give a dense sampling, and a second one to verify on
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -339,7 +341,7 @@ def sampled_certificate(
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     solver: str = "CLARABEL",
-    candidate: ArrayLike | None = None,
+    candidate: ArrayLike | Callable[[], ArrayLike | None] | None = None,
 ) -> SampledCertificate:
     """The frozen and common-P sampled-data tests of `pid` on the plants of `model`.
 
@@ -355,7 +357,7 @@ def sampled_certificate(
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
     solver : {'CLARABEL', 'SCS'}
-    candidate : array_like, shape (3p, 3p) or (n, n), optional
+    candidate : array_like, shape (3p, 3p) or (n, n), or callable, optional
         A common Lyapunov matrix of the continuous-time loops in the PID form
         ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``; for static
         feedback, in the plant's own state, used as it is). Where the
@@ -363,7 +365,9 @@ def sampled_certificate(
         the sampled loop's state ``[e, ė, w]`` (``w = K_I ∫e``, the measured-derivative
         PID's accumulator), is tried: for a small Ts the sampled loop is close to the
         continuous one and the continuous P often proves it where the LMI's numerics do
-        not. Either way only what numpy verifies at this Ts counts.
+        not. Either way only what numpy verifies at this Ts counts. A function of no
+        argument returning such a P (or None) is called only then, so a search computes it
+        only if some Ts needs it.
 
     Returns
     -------
@@ -406,12 +410,15 @@ def sampled_certificate(
 
     status, P = _solve_lmi(Ad, pid.Ts, solver)
     rate = verified(P) if P is not None else -np.inf
+    given = None
+    if candidate is not None and not (rate > 0 and rate >= floor):  # asked for only where the LMI's P falls short
+        given = candidate() if callable(candidate) else candidate
     mapped = None
-    if candidate is not None and isinstance(pid, SampledStateFeedback):
-        mapped = np.asarray(candidate, dtype=float) if np.shape(candidate) == Ad.shape[1:] else None
-    elif candidate is not None and isinstance(pid, DiscretePID):
-        mapped = _to_sampled_coordinates(candidate, pid, Ad.shape[1])
-    if mapped is not None and not (rate > 0 and rate >= floor):
+    if given is not None and isinstance(pid, SampledStateFeedback):
+        mapped = np.asarray(given, dtype=float) if np.shape(given) == Ad.shape[1:] else None
+    elif given is not None and isinstance(pid, DiscretePID):
+        mapped = _to_sampled_coordinates(given, pid, Ad.shape[1])
+    if mapped is not None:
         mapped_rate = verified(mapped)
         if mapped_rate > rate:
             status, P, rate = "continuous-time P, verified at this Ts", mapped, mapped_rate
@@ -602,9 +609,14 @@ def max_sample_time(
                                + "; cvxpy not installed, no certificate" + left_out)
     certs: dict[float, SampledCertificate] = {}
     candidate = None
-    if isinstance(design, (Design, SampledStateFeedback)):  # the continuous loops' common P: a second candidate
-        continuous = lmi_certificate(A - B @ design.K, solver=solver)
-        candidate = continuous.P if continuous.certified else None
+    if isinstance(design, (Design, SampledStateFeedback)):
+        gain = design.K
+
+        @functools.cache
+        def candidate() -> Array | None:
+            # the continuous loops' common P, a second candidate: solved the first time a sampled LMI falls short
+            continuous = lmi_certificate(A - B @ gain, solver=solver)
+            return continuous.P if continuous.certified else None
 
     def certified(ts: float) -> bool:
         certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver, candidate=candidate)
