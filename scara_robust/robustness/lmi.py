@@ -425,7 +425,7 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
     A_v = np.concatenate([A_main, *checks]) if checks else A_main
     check_choice("solver", solver, LMI_SOLVERS)
     check_choice("stop", stop, LMI_STOPS)
-    first = _start_indices(A_main, A_v.shape[0], start)
+    given = None if start is None else _start_indices(start, A_v.shape[0])
     if not cvxpy_available():
         return LMICertificate(NOT_INSTALLED, solver, None, np.nan, np.nan, A_v.shape[0])
     # one command asks the same question twice (its table's LMI row, then the design's decay
@@ -434,6 +434,8 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
     if key not in _SOLVED:
         if len(_SOLVED) >= _SOLVED_SIZE:
             _SOLVED.pop(next(iter(_SOLVED)))
+        # default start: the least stable loop of `closed_loops`
+        first = np.array([int(np.argmax(np.linalg.eigvals(A_main).real.max(axis=1)))]) if given is None else given
         found = _cutting_planes(A_v, A_main.shape[0], solver, stop, first, "decay")
         if not found.certified and found.verdict != "infeasible" and found.status != INFEASIBLE_NOT_VERIFIED:
             # the 'decay' form breaks down where P's condition number grows without bound, near the
@@ -452,9 +454,8 @@ _SOLVED: dict[tuple[str, tuple[int, ...], int, str, str], LMICertificate] = {}
 _SOLVED_SIZE = 16
 
 
-def _start_indices(A_main: Array, n_loops: int, start: ArrayLike | None) -> NDArray[np.int64]:
-    if start is None:
-        return np.array([int(np.argmax(np.linalg.eigvals(A_main).real.max(axis=1)))])
+def _start_indices(start: ArrayLike, n_loops: int) -> NDArray[np.int64]:
+    """`start` as sorted unique indices of the loops and checks, or raise naming it."""
     values = check_array("start", start, ndim=1)
     idx = np.unique(values.astype(np.int64))
     if idx.size == 0 or idx[0] < 0 or idx[-1] >= n_loops or not np.array_equal(values, np.round(values)):
