@@ -573,13 +573,16 @@ def arm_closed_rhs(th: Any, t: float, x: Array, td: float, tc: Array, dx: Array)
 
 @jit
 def arm_output(th: Any, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: int) -> None:
-    """Sample j at state x: the torque TC[:, j] (N·m); its feedforward part ER[:n, j] (N·m) and m_p ER[n, j] (kg)."""
+    """Sample j at state x: the torque TC[:, j] (N·m); its feedforward part ER[:n, j] (N·m), m_p ER[n, j] (kg),
+    the errors e = r − q ER[n + 1:2n + 1, j] (rad) and ė = ṙ − q̇ ER[2n + 1:, j] (rad/s)."""
     arm_law(th, t, x, tc)
     WS = th[_WS]
     n = tc.shape[0]
     for i in range(n):
         TC[i, j] = tc[i]
         ER[i, j] = WS[_S_FF, i]
+        ER[n + 1 + i, j] = WS[_S_R, i] - x[i]
+        ER[2 * n + 1 + i, j] = WS[_S_RD, i] - x[n + i]
     ER[n, j] = th[_WC][1]
 
 
@@ -1247,7 +1250,8 @@ def run(th: Array, x0: Array, t_out: Array, edges: Array, rtol: float, atol: flo
     """One run of model `th`: states X (n, k) and the model's outputs TC, ER on t_out; (samples, code, t_stop, calls).
 
     The SCARA's outputs are its torques TC (2, k) and errors ER (4, k); an arm's its
-    torques TC (n, k), their feedforward part ER[:n] and its payload mass ER[n] (kg). A continuous law is integrated
+    torques TC (n, k), their feedforward part ER[:n], its payload mass ER[n] (kg) and
+    its errors e ER[n + 1:2n + 1] (rad) and ė ER[2n + 1:] (rad/s). A continuous law is integrated
     by BDF when `stiff`, else by Dormand–Prince 5(4), restarted at every edge (the
     disturbance's switching instants); a sampled one by an RK4 step per edge.
     """

@@ -297,6 +297,8 @@ def simulate_arm(
                                 atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator)
         t, X, ff, masses = fast.t, fast.x, fast.feedforward, fast.payload
         success, diverged, message = fast.success, fast.diverged, fast.message
+        # the kernel's own errors and torque at the samples (the reference it evaluated)
+        e, edot, tau = fast.e, fast.edot, fast.torque
     else:
         loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)
         traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
@@ -306,11 +308,11 @@ def simulate_arm(
         ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
             np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
         masses = np.array([float(load(float(tk))) for tk in t])
-    r, rd, _ = setup.reference.sample(t)
-    q, qd = X[:n], X[n:2 * n]
-    e, edot = r.T - q, rd.T - qd
-    # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
-    tau = ff - gain @ np.vstack([X[2 * n:], e, edot])
+        r, rd, _ = setup.reference.sample(t)
+        e, edot = r.T - X[:n], rd.T - X[n:2 * n]
+        # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
+        tau = ff - gain @ np.vstack([X[2 * n:], e, edot])
+    q = X[:n]
     metrics = None
     if int((t >= t_transient).sum()) >= 2 and not diverged:
         metrics = tracking_metrics(t, e, tau, t_transient=t_transient)

@@ -310,6 +310,10 @@ class CompiledArmRun:
         ``τ_ff(t)``, N·m.
     payload : ndarray, shape (k,)
         ``m_p(t)``, kg.
+    torque : ndarray, shape (n, k)
+        The PID's torque ``τ_ff − K [∫e, e, ė]`` (N·m), as the kernel applied it.
+    e, edot : ndarray, shape (n, k)
+        ``r − q`` (rad) and ``ṙ − q̇`` (rad/s), from the reference the kernel evaluated.
     success, diverged : bool
     message : str
     rhs_calls : int
@@ -319,6 +323,9 @@ class CompiledArmRun:
     x: Array
     feedforward: Array
     payload: Array
+    torque: Array
+    e: Array
+    edot: Array
     success: bool
     diverged: bool
     message: str
@@ -367,7 +374,7 @@ def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_f
         switches = np.zeros(0) if disturbance is None else disturbance.switching_times(0.0, t_final)
         edges = np.concatenate([[0.0], switches, [t_final]])
     X = np.zeros((3 * n, t_out.size))
-    TC, FF = np.zeros((n, t_out.size)), np.zeros((n + 1, t_out.size))
+    TC, FF = np.zeros((n, t_out.size)), np.zeros((3 * n + 1, t_out.size))
     x_start = np.ascontiguousarray(x0, dtype=float)
     k, code, t_stop, calls = _kernels().run(model, x_start, t_out, edges, rtol, atol, divergence_limit, X, TC, FF,
                                             stiff)
@@ -377,6 +384,7 @@ def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_f
         message = f"integrator failed at t = {t_stop:.3f} s: step size too small"
     else:
         message = "completed"
-    return CompiledArmRun(t=t_out[:k], x=X[:, :k], feedforward=FF[:n, :k], payload=FF[n, :k],
+    return CompiledArmRun(t=t_out[:k], x=X[:, :k], feedforward=FF[:n, :k], payload=FF[n, :k], torque=TC[:, :k],
+                          e=FF[n + 1:2 * n + 1, :k], edot=FF[2 * n + 1:, :k],
                           success=code == _COMPLETED, diverged=code == _DIVERGED, message=message,
                           rhs_calls=int(calls))
