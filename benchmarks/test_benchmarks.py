@@ -90,6 +90,24 @@ def test_campaign_throughput(benchmark, engine, tmp_path):
     assert len(table) == 2 * runs and (table["status"] == "tracking").all()
 
 
+def test_arm6_campaign_throughput(benchmark, tmp_path):
+    """examples/campaign-arm6.toml on examples/robot-arm6.toml (10 s each, noise and torque limits), 2 workers."""
+    pytest.importorskip("numba")
+    pytest.importorskip("pinocchio")
+    benchmark.group = "campaign: examples/campaign-arm6.toml, 2 workers"
+    spec = sr.arm_campaign_spec(sr.load_spec("examples/campaign-arm6.toml"), "examples/robot-arm6.toml")
+    runs = 1000 if not benchmark.disabled else 2
+    benchmark.extra_info["scenarios"] = runs
+    counter = iter(range(1000))
+
+    def campaign():
+        return sr.run_campaign(spec, tmp_path / f"r{next(counter)}.parquet", runs=runs, workers=2, engine="compiled")
+
+    table = benchmark.pedantic(campaign, rounds=1)
+    benchmark.extra_info["tracking"] = int((table["status"] == "tracking").sum())
+    assert len(table) == runs and table["success"].all()
+
+
 def test_compare(benchmark):
     benchmark.group = "compare: 4 controllers x 2 scenarios, 20 s"
     table = benchmark.pedantic(sr.compare_controllers, kwargs={"t_final": 20.0 if not benchmark.disabled else 6.5},

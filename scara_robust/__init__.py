@@ -30,6 +30,7 @@ Model (:mod:`scara_robust.model`)
     scara_plant                     -- the robot as a control.NonlinearIOSystem
     Reference, paper_reference, sinusoidal_reference -- joint references with derivatives
     SquareWave, paper_disturbance   -- square-wave disturbance torques
+    MeasurementNoise                -- band-limited noise on the measured joint angles
     Scenario, SCENARIOS             -- initial tracking errors ('large', 'small')
     UncertainElement, UncertainLTVModel, ELEMENT_SETS -- ẋ = (A + ΔA)x + (B + ΔB)u with interval elements
     ANCHORS                         -- what a margin θ scales the set about: the lower corner or the centre
@@ -128,6 +129,7 @@ Studies (:mod:`scara_robust.studies`)
     load_spec, spec_from_dict, CampaignSpec, Range, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, read_results      -- run (local or Dask), resume
     replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)
+    arm_campaign_spec, draw_arm_scenario, run_arm_draws, ARM_SPEC_FIELDS -- campaigns on a URDF arm
     campaign_report                 -- per-controller statistics with confidence intervals
     worst_scenarios                 -- the worst runs of each controller with their drawn inputs
     anti_windup_study, AntiWindupStudy -- the sampled PID under a torque limit, anti-windup on/off

@@ -309,9 +309,12 @@ def test_urdf_robot_refuses_the_scara_options(tmp_path, capsys):
     path = small_arm_file(tmp_path)
     assert main(["design", "--rho", "1", "--eta", "10", "--robot", path, "--bounds", "paper"]) == 2
     assert "--bounds" in capsys.readouterr().err
-    assert main(["campaign", os.path.join(EXAMPLES, "campaign.toml"), "--robot", path]) == 2
+    # the SCARA's campaign spec on an arm: its SCARA fields are named and refused
+    assert main(["campaign", os.path.join(EXAMPLES, "campaign.toml"), "--robot", path, "--output",
+                 str(tmp_path / "r.csv")]) == 2
     err = capsys.readouterr().err
-    assert "URDF" in err and "campaign" in err
+    assert len(err.strip().splitlines()) == 1 and "field `cp`: describes the SCARA" in err
+    assert not (tmp_path / "r.csv").exists()
 
 
 def test_copied_robot_file_finds_its_urdf_next_to_it(tmp_path):

@@ -7,6 +7,7 @@ import sys
 from dataclasses import replace
 from typing import Any
 
+from ..studies.campaign.arm import arm_campaign_spec
 from ..studies.campaign.runner import CAMPAIGN_ENGINES, SCHEDULERS, run_campaign
 from ..studies.campaign.spec import SPEC_FIELDS, load_spec
 from ._common import CommandLineError, output_exists
@@ -31,7 +32,10 @@ def add_parser(sub: Any) -> None:
         + "; each drawn field is a number or {min = ..., max = ...}. See examples/campaign.toml.",
     )
     p.add_argument("spec", help="campaign spec, TOML")
-    p.add_argument("--robot", metavar="FILE", help="robot file (default: the paper's robot); cp is drawn by the spec")
+    p.add_argument("--robot", metavar="FILE",
+                   help="robot file (default: the paper's robot; cp is drawn by the spec), or one naming a URDF: the "
+                        "campaign runs that arm's PID K(rho, eta) (fields reference_scale, measurement_noise [rad], "
+                        "noise_bandwidth [Hz]; see examples/campaign-arm6.toml)")
     p.add_argument("--runs", type=int, help="number of scenarios (default: the spec's)")
     p.add_argument("--seed", type=int, help="seed (default: the spec's)")
     p.add_argument("--workers", type=int, default=1, help="processes or dask workers (default 1)")
@@ -57,14 +61,19 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     ----------
     args : argparse.Namespace
     system : LoadedSystem
-        The SCARA of ``--robot``, whose parameters replace the spec's.
+        The SCARA of ``--robot``, whose parameters replace the spec's, or the arm of a
+        robot file naming a URDF.
 
     Returns
     -------
     str
     """
     spec = load_spec(args.spec)
-    spec = replace(spec, robot=system.robot_params(spec.robot))
+    if system.capabilities.run == "arm":
+        assert system.robot is not None
+        spec = arm_campaign_spec(spec, system.robot)
+    else:
+        spec = replace(spec, robot=system.robot_params(spec.robot))
     output = args.results_output or "results.csv"
     if output_exists(output) and not args.resume:
         raise CommandLineError(f"`--output` {output!r} exists; pass --resume to continue it, or choose another file")

@@ -56,7 +56,8 @@ __all__ = [
 ]
 
 #: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
-ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface")
+ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface",
+                "campaign")
 
 #: Sampling of the robot's physical set for the certificate, and the finer one it is checked on.
 CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID = (37, 5), (73, 9)

@@ -15,7 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_array, check_callable, check_real
 from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD
 
-__all__ = ["Reference", "paper_reference", "sinusoidal_reference", "SquareWave", "paper_disturbance"]
+__all__ = ["Reference", "paper_reference", "sinusoidal_reference", "SquareWave", "paper_disturbance",
+           "MeasurementNoise"]
 
 Array = NDArray[np.float64]
 Signal = Callable[[Any], Any]
@@ -214,3 +215,96 @@ def paper_disturbance() -> SquareWave:
     SquareWave
     """
     return SquareWave()
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementNoise:
+    """Band-limited noise on the measured joint angles: a sum of sinusoids per joint, rad.
+
+    ``n_k(t) = Σ_m a_km cos(ω_km t + φ_km)``; the controller sees ``q̂ = q + n(t)`` and
+    ``q̇̂ = q̇ + ṅ(t)`` (a differentiated encoder). A smooth signal, so the adaptive
+    integrators meet no jumps, and the same function of time on every engine.
+    :meth:`draw` picks random frequencies and phases with a given RMS and band.
+
+    Parameters
+    ----------
+    amplitude : array_like, shape (n, M)
+        Each component's amplitude, rad (>= 0).
+    omega : array_like, shape (n, M)
+        Each component's angular frequency, rad/s (>= 0).
+    phase : array_like, shape (n, M)
+        Each component's phase, rad.
+
+    Examples
+    --------
+    >>> import numpy as np, scara_robust as sr
+    >>> noise = sr.MeasurementNoise.draw(1e-3, 5.0, 2, np.random.default_rng(0))
+    >>> noise(0.0).shape
+    (2,)
+    """
+
+    amplitude: Array
+    omega: Array
+    phase: Array
+
+    def __post_init__(self) -> None:
+        amplitude = check_array("amplitude [rad]", self.amplitude, ndim=2)
+        shape = amplitude.shape
+        omega = check_array("omega [rad/s]", self.omega, shape=shape)
+        phase = check_array("phase [rad]", self.phase, shape=shape)
+        if np.any(amplitude < 0) or np.any(omega < 0):
+            raise ValueError("`amplitude` [rad] and `omega` [rad/s] of MeasurementNoise must be >= 0, found a "
+                             "negative entry")
+        for name, value in (("amplitude", amplitude), ("omega", omega), ("phase", phase)):
+            object.__setattr__(self, name, np.ascontiguousarray(value, dtype=float))
+
+    @classmethod
+    def draw(cls, rms: float, bandwidth: float, n: int, rng: np.random.Generator,
+             components: int = 8) -> MeasurementNoise:
+        """Noise of RMS `rms` on each of `n` joints, frequencies uniform on (0, `bandwidth`].
+
+        Each joint gets `components` sinusoids of equal amplitude ``rms √(2/M)`` (so the
+        RMS over a long time is `rms`), frequencies drawn uniformly on ``(0, bandwidth]``
+        Hz and phases on ``[0, 2π)``.
+
+        Parameters
+        ----------
+        rms : float
+            RMS of each joint's noise, rad (>= 0).
+        bandwidth : float
+            Highest frequency, Hz (> 0).
+        n : int
+            Joints.
+        rng : numpy.random.Generator
+        components : int
+            Sinusoids per joint M (>= 1).
+
+        Returns
+        -------
+        MeasurementNoise
+        """
+        rms = check_real("rms [rad]", rms, nonnegative=True)
+        bandwidth = check_real("bandwidth [Hz]", bandwidth, positive=True)
+        shape = (int(n), int(components))
+        omega = 2 * np.pi * bandwidth * (1.0 - rng.random(shape))
+        phase = 2 * np.pi * rng.random(shape)
+        return cls(np.full(shape, rms * np.sqrt(2.0 / components)), omega, phase)
+
+    @property
+    def n(self) -> int:
+        """Joints n."""
+        return int(self.amplitude.shape[0])
+
+    def __call__(self, t: ArrayLike) -> Array:
+        """``n(t)``, rad: shape (n,) for scalar t, (n, k) for t of shape (k,)."""
+        angle = np.multiply.outer(self.omega, np.asarray(t, dtype=float)) + self.phase.reshape(*self.phase.shape,
+                                                                                               *(1,) * np.ndim(t))
+        amp = self.amplitude.reshape(*self.amplitude.shape, *(1,) * np.ndim(t))
+        return np.asarray((amp * np.cos(angle)).sum(axis=1), dtype=float)
+
+    def rate(self, t: ArrayLike) -> Array:
+        """``ṅ(t)``, rad/s: shape (n,) for scalar t, (n, k) for t of shape (k,)."""
+        angle = np.multiply.outer(self.omega, np.asarray(t, dtype=float)) + self.phase.reshape(*self.phase.shape,
+                                                                                               *(1,) * np.ndim(t))
+        amp = (self.amplitude * self.omega).reshape(*self.amplitude.shape, *(1,) * np.ndim(t))
+        return np.asarray((-amp * np.sin(angle)).sum(axis=1), dtype=float)

@@ -169,9 +169,10 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
 # --- a URDF arm: the recursive algorithms over its rigid bodies ---------------------------------
 # An arm's model is a tuple of arrays (built by compiled_arm.pack_arm_loop), bodies in the model's
 # order (parents first), vectors of the arm's joints in its own (file) order:
-#   0 P     float (14,): gravity (3, m/s²); payload kind and 4 numbers; disturbance amplitude
+#   0 P     float (16,): gravity (3, m/s²); payload kind and 4 numbers; disturbance amplitude
 #           (N·m), period (s), phase (rad); feedforward kind (0 none, 1 gravity, 2 computed
-#           torque); the nominal payload (kg); the sample time (s, 0: continuous)
+#           torque); the nominal payload (kg); the sample time (s, 0: continuous); the
+#           torque limit (N·m, inf: none); 1 when the angles are measured with noise
 #   1 IX    int (2 + 2n,): n; the payload's body; each body's parent (-1: the base); each
 #           joint's body
 #   2 TREE  float (n, 16): joint placement rotation (9, row-major) and translation (3, m) in
@@ -185,13 +186,15 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
 #   7 WB    float (n, 40) scratch per body: rotation to the parent's frame (9), velocity (6),
 #           acceleration (6), force (6), inertia (13); spatial vectors linear part first
 #   8 WM    float (n, n) scratch: the mass matrix, then its Cholesky factor
-#   9 WS    float (9, n) scratch: q, q̇, q̈, RNEA's τ, the applied τ (body order);
-#           the feedforward, r, ṙ, r̈ (joint order)
+#   9 WS    float (11, n) scratch: q, q̇, q̈, RNEA's τ, the applied τ (body order);
+#           the feedforward, r, ṙ, r̈, the angle noise n and its rate ṅ (joint order)
 #  10 WC    float (2,): the time the reference rows of WS hold, and its payload mass
-_P, _IX, _TREE, _BODY, _REFS, _GAIN, _TAB, _WB, _WM, _WS, _WC = range(11)
-_A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS = 0, 3, 8, 11, 12, 13
+#  11 NOISE float (n, 3M): the measurement noise's M amplitudes (rad), ω (rad/s) and
+#           phases (rad) per joint, n_k(t) = Σ a cos(ω t + φ)
+_P, _IX, _TREE, _BODY, _REFS, _GAIN, _TAB, _WB, _WM, _WS, _WC, _NOISE = range(12)
+_A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS, _A_LIMIT, _A_NOISY = 0, 3, 8, 11, 12, 13, 14, 15
 _W_ROT, _W_V, _W_A, _W_F, _W_I = 0, 9, 15, 21, 27
-_S_Q, _S_QD, _S_QDD, _S_TAU, _S_APPLIED, _S_FF, _S_R, _S_RD, _S_RDD = range(9)
+_S_Q, _S_QD, _S_QDD, _S_TAU, _S_APPLIED, _S_FF, _S_R, _S_RD, _S_RDD, _S_N, _S_ND = range(11)
 
 
 @inline
@@ -468,7 +471,7 @@ def arm_forward_dynamics(m: Any, q: Array, v: Array, tau: Array, mp: float, out:
 
 @jit
 def arm_reference(m: Any, t: float) -> None:
-    """r, ṙ, r̈ and the feedforward at t into WS rows 5-8 (joint order), m_p(t) into WC[1].
+    """r, ṙ, r̈, the feedforward and the noise at t into WS rows 5-10 (joint order), m_p(t) into WC[1].
 
     They are kept for the next call at the same t (the integrators call the right-hand
     side at one time many times: Newton iterations, Jacobian columns).
@@ -500,25 +503,41 @@ def arm_reference(m: Any, t: float) -> None:
         arm_rnea(m)
         for k in range(n):
             WS[_S_FF, k] = WS[_S_TAU, IX[2 + n + k]]
+    if P[_A_NOISY] > 0:
+        NZ = m[_NOISE]
+        terms = NZ.shape[1] // 3
+        for k in range(n):
+            v, dv = 0.0, 0.0
+            for c in range(terms):
+                a, w = NZ[k, c], NZ[k, terms + c]
+                angle = w * t + NZ[k, 2 * terms + c]
+                v += a * math.cos(angle)
+                dv -= a * w * math.sin(angle)
+            WS[_S_N, k], WS[_S_ND, k] = v, dv
     WC[1] = arm_payload(P, m[_TAB], t)
     WC[0] = t
 
 
 @inline
 def arm_law(th: Any, t: float, x: Array, tc: Array) -> None:
-    """The PID's torque τ_ff(t) − K [∫e, e, ė] (N·m) into tc (n,) at state x = [q, q̇, ∫e] (3n,)."""
-    IX, K, WS = th[_IX], th[_GAIN], th[_WS]
+    """The PID's torque τ_ff(t) − K [∫e, e, ė] (N·m) into tc (n,) at state x = [q, q̇, ∫e] (3n,).
+
+    The errors are the measured ones (``q + n(t)``, ``q̇ + ṅ(t)``); the torque is clipped
+    to ± the torque limit.
+    """
+    P, IX, K, WS = th[_P], th[_IX], th[_GAIN], th[_WS]
     n = IX[0]
     arm_reference(th, t)
+    limit = P[_A_LIMIT]
     for i in range(n):
         acc = 0.0
         for k in range(n):
             acc += K[i, k] * x[2 * n + k]
         for k in range(n):
-            acc += K[i, n + k] * (WS[_S_R, k] - x[k])
+            acc += K[i, n + k] * (WS[_S_R, k] - x[k] - WS[_S_N, k])
         for k in range(n):
-            acc += K[i, 2 * n + k] * (WS[_S_RD, k] - x[n + k])
-        tc[i] = WS[_S_FF, i] - acc
+            acc += K[i, 2 * n + k] * (WS[_S_RD, k] - x[n + k] - WS[_S_ND, k])
+        tc[i] = min(max(WS[_S_FF, i] - acc, -limit), limit)
 
 
 @inline
@@ -546,7 +565,7 @@ def arm_dynamics(th: Any, t: float, x: Array, tc: Array, td: float, dx: Array, f
     for k in range(n):
         dx[k] = x[n + k]
         dx[n + k] = WS[_S_QDD, IX[2 + n + k]]
-        dx[2 * n + k] = WS[_S_R, k] - x[k]
+        dx[2 * n + k] = WS[_S_R, k] - x[k] - WS[_S_N, k]
 
 
 # The hooks call these compiled functions, with the law and the motion inlined; the reference

@@ -23,10 +23,10 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_argument, renamed_field
-from .._validation import check_array, check_callable, check_choice, check_real
+from .._validation import check_array, check_callable, check_choice, check_instance, check_real
 from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
-from ..model.signals import SquareWave
+from ..model.signals import MeasurementNoise, SquareWave
 from ..paper import PAPER_TRANSIENT
 from .compiled import COMPILED_INTEGRATORS, NUMBA_MISSING, numba_available
 from .compiled_arm import compiled_arm_run
@@ -70,6 +70,11 @@ class ArmLoop:
         Disturbance torque (one sign per joint), or none.
     Ts : float or None
         Period (s) of a sampled PID, held between samples; None if continuous.
+    torque_limit : float or None
+        Each joint's torque is clipped to ± this, N·m; None: no limit.
+    noise : MeasurementNoise or None
+        Noise on the measured angles (its rate on the measured rates); the PID and its
+        integrator see ``q + n(t)``.
     """
 
     setup: ArmSetup
@@ -77,6 +82,8 @@ class ArmLoop:
     payload: Callable[[float], Any]
     disturbance: Any
     Ts: float | None = None
+    torque_limit: float | None = None
+    noise: MeasurementNoise | None = None
 
     sample_time = renamed_field("sample_time", "Ts")
 
@@ -95,22 +102,25 @@ class ArmLoop:
     @cached_property
     def torque(self) -> Callable[[float, Array], Array]:
         """``torque(t, x) -> τ_ff(t) − K [∫e, e, ė]``, shape (n,), N·m."""
-        n, K, ref, setup = self.n, self.K, self.setup.reference, self.setup
+        n, K, ref, setup, noise = self.n, self.K, self.setup.reference, self.setup, self.noise
         constant_ff = setup.feedforward == "none"
         zero = np.zeros(n)
+        limit = self.torque_limit
 
         def torque(t: float, x: Array) -> Array:
             r, rd, _ = ref.at(t)
+            if noise is not None:
+                r, rd = r - noise(t), rd - noise.rate(t)
             err = np.concatenate([x[2 * n:], r - x[:n], rd - x[n:2 * n]])
             out: Array = (zero if constant_ff else setup.tau_ff(t)) - K @ err
-            return out
+            return out if limit is None else np.clip(out, -limit, limit)
 
         return torque
 
     @cached_property
     def rhs(self) -> Callable[[float, Array, Array, Array], Array]:
         """``rhs(t, x, tc, td) -> ẋ``: ABA with the payload of time t; a state beyond the limits is frozen."""
-        n, arm, ref, payload = self.n, self.setup.arm, self.setup.reference, self.payload
+        n, arm, ref, payload, noise = self.n, self.setup.arm, self.setup.reference, self.payload, self.noise
 
         def rhs(t: float, x: Array, tc: Array, td: Array) -> Array:
             if not np.abs(x[:2 * n]).max() <= STATE_LIMIT:
@@ -118,7 +128,7 @@ class ArmLoop:
             dx = np.empty_like(x)
             dx[:n] = x[n:2 * n]
             dx[n:2 * n] = arm.forward_dynamics(x[:n], x[n:2 * n], tc + td, float(payload(t)))
-            dx[2 * n:] = ref.at(t)[0] - x[:n]
+            dx[2 * n:] = ref.at(t)[0] - x[:n] if noise is None else ref.at(t)[0] - noise(t) - x[:n]
             return dx
 
         return rhs
@@ -217,6 +227,8 @@ def simulate_arm(
     divergence_limit: float = DIVERGENCE_LIMIT,
     t_transient: float = PAPER_TRANSIENT,
     tracking_tolerance: float = TRACKING_TOLERANCE,
+    torque_limit: float | None = None,
+    noise: MeasurementNoise | None = None,
 ) -> ArmRun:
     """Simulate the arm under the PID ``τ = τ_ff − K [∫e, e, ė]`` with a varying payload.
 
@@ -259,6 +271,12 @@ def simulate_arm(
         `tracking_tolerance` (rad) there.
     sample_time : float, optional
         Deprecated name of `Ts`.
+    torque_limit : float, optional
+        Actuator limit: each joint's torque is clipped to ± this, N·m (> 0; default none).
+    noise : MeasurementNoise, optional
+        Noise on the measured joint angles (one row per joint); the PID, its integrator
+        and the derivative term see ``q + n(t)`` and ``q̇ + ṅ(t)``, the metrics the true
+        error ``r − q``.
 
     Returns
     -------
@@ -292,15 +310,23 @@ def simulate_arm(
     e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
     ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))
     x0 = np.concatenate([r0 - e_init, rd0 - ed_init, np.zeros(n)])
+    if torque_limit is not None:
+        torque_limit = check_real("torque_limit [N·m]", torque_limit, positive=True)
+    if noise is not None:
+        check_instance("noise", noise, MeasurementNoise, "a MeasurementNoise")
+        if noise.n != n:
+            raise ArgumentValueError("noise", f"must have one row per joint ({n}), found {noise.n}")
     if method == "compiled":
         fast = compiled_arm_run(setup, gain, payload, x0, t_final, disturbance=disturbance, dt=dt, rtol=rtol,
-                                atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator)
+                                atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator,
+                                torque_limit=torque_limit, noise=noise)
         t, X, ff, masses = fast.t, fast.x, fast.feedforward, fast.payload
         success, diverged, message = fast.success, fast.diverged, fast.message
         # the kernel's own errors and torque at the samples (the reference it evaluated)
         e, edot, tau = fast.e, fast.edot, fast.torque
     else:
-        loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts)
+        loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts,
+                       torque_limit, noise)
         traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
                          divergence_limit=divergence_limit)
         t, X = traj.t, traj.x
@@ -311,7 +337,10 @@ def simulate_arm(
         r, rd, _ = setup.reference.sample(t)
         e, edot = r.T - X[:n], rd.T - X[n:2 * n]
         # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
-        tau = ff - gain @ np.vstack([X[2 * n:], e, edot])
+        measured = (e, edot) if noise is None else (e - noise(t), edot - noise.rate(t))
+        tau = ff - gain @ np.vstack([X[2 * n:], *measured])
+        if torque_limit is not None:
+            tau = np.clip(tau, -torque_limit, torque_limit)
     q = X[:n]
     metrics = None
     if int((t >= t_transient).sum()) >= 2 and not diverged:

@@ -41,7 +41,7 @@ from .._validation import check_choice
 from ..exceptions import ArgumentValueError
 from ..model.arm import FEEDFORWARDS, ArmSetup, RigidBodies, RobotArm
 from ..model.robot import ConstantPayload, SinusoidalPayload
-from ..model.signals import SquareWave
+from ..model.signals import MeasurementNoise, SquareWave
 from .compiled import COMPILED_INTEGRATORS
 from .engines import output_grid
 from .loop import STATE_LIMIT
@@ -57,8 +57,8 @@ DYNAMICS_RTOL = 1e-12
 CHECK_STATES = 24
 
 # Layout of the model tuple: see _kernels.py ("a URDF arm").
-_N_P = 14
-_A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS = 0, 3, 8, 11, 12, 13
+_N_P = 16
+_A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS, _A_LIMIT, _A_NOISY = 0, 3, 8, 11, 12, 13, 14, 15
 _COMPLETED, _DIVERGED, _FAILED = 0, 1, 2
 _PAYLOAD_KINDS = {"constant": 0, "sine": 1, "sinusoid": 2, "ramp": 3, "table": 4}
 
@@ -135,7 +135,8 @@ def pack_bodies(bodies: RigidBodies) -> tuple[NDArray[np.int64], Array, Array, A
 def _model(ix: NDArray[np.int64], tree: Array, body: Array, gravity: Array, *, reference: Array | None = None,
            gain: Array | None = None, payload: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0),
            table: Array | None = None, disturbance: tuple[float, float, float] = (0.0, 1.0, 0.0),
-           feedforward: int = 0, nominal: float = 0.0, Ts: float = 0.0) -> tuple[Any, ...]:
+           feedforward: int = 0, nominal: float = 0.0, Ts: float = 0.0, limit: float = math.inf,
+           noise: Array | None = None) -> tuple[Any, ...]:
     """The model tuple the kernels take (see _kernels.py), with its own scratch arrays."""
     n = int(ix[0])
     P = np.zeros(_N_P)
@@ -143,11 +144,13 @@ def _model(ix: NDArray[np.int64], tree: Array, body: Array, gravity: Array, *, r
     P[_A_PAYLOAD:_A_PAYLOAD + 5] = payload
     P[_A_DIST:_A_DIST + 3] = disturbance
     P[_A_FF], P[_A_NOMINAL], P[_A_TS] = feedforward, nominal, Ts
+    P[_A_LIMIT], P[_A_NOISY] = limit, 0.0 if noise is None else 1.0
     refs = np.zeros((5, n)) if reference is None else np.ascontiguousarray(reference, dtype=float)
     K = np.zeros((n, 3 * n)) if gain is None else np.ascontiguousarray(gain, dtype=float)
     tab = np.zeros((2, 2)) if table is None else np.ascontiguousarray(table, dtype=float)
-    return (P, ix, tree, body, refs, K, tab, np.zeros((n, 40)), np.zeros((n, n)), np.zeros((9, n)),
-            np.full(2, np.nan))
+    noise_table = np.zeros((n, 3)) if noise is None else np.ascontiguousarray(noise, dtype=float)
+    return (P, ix, tree, body, refs, K, tab, np.zeros((n, 40)), np.zeros((n, n)), np.zeros((11, n)),
+            np.full(2, np.nan), noise_table)
 
 
 def check_compiled_dynamics(arm: RobotArm, bodies: tuple[NDArray[np.int64], Array, Array, Array] | None = None, *,
@@ -260,7 +263,8 @@ def _payload_spec(payload: Any, nominal: float) -> tuple[tuple[float, ...], Arra
 
 
 def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWave | None,
-                  Ts: float | None) -> tuple[Any, ...]:
+                  Ts: float | None, torque_limit: float | None = None,
+                  noise: MeasurementNoise | None = None) -> tuple[Any, ...]:
     """The model tuple of one arm loop (checking the arm's compiled dynamics the first time).
 
     Parameters
@@ -272,6 +276,10 @@ def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWa
     disturbance : SquareWave or None
     Ts : float or None
         Sample time of a sampled PID, s.
+    torque_limit : float, optional
+        Each joint's torque is clipped to ± this, N·m (None: no limit).
+    noise : MeasurementNoise, optional
+        Noise on the measured angles (and its rate on the measured rates).
 
     Returns
     -------
@@ -293,7 +301,9 @@ def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWa
     reference = np.vstack([ref.center, ref.amplitude, ref.omega, ref.phase, signs])
     return _model(bodies.ix, bodies.tree, bodies.body, bodies.gravity, reference=reference, gain=K, payload=spec,
                   table=table, disturbance=wave, feedforward=FEEDFORWARDS.index(setup.feedforward),
-                  nominal=float(setup.payload_nominal), Ts=0.0 if Ts is None else float(Ts))
+                  nominal=float(setup.payload_nominal), Ts=0.0 if Ts is None else float(Ts),
+                  limit=math.inf if torque_limit is None else float(torque_limit),
+                  noise=None if noise is None else np.hstack([noise.amplitude, noise.omega, noise.phase]))
 
 
 @dataclass(frozen=True)
@@ -335,7 +345,8 @@ class CompiledArmRun:
 def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_final: float, *,
                      disturbance: SquareWave | None = None, dt: float = 1e-3, rtol: float = 1e-8,
                      atol: float = 1e-10, divergence_limit: float = 50.0, Ts: float | None = None,
-                     integrator: str = "bdf") -> CompiledArmRun:
+                     integrator: str = "bdf", torque_limit: float | None = None,
+                     noise: MeasurementNoise | None = None) -> CompiledArmRun:
     """Integrate one arm loop with the compiled engine.
 
     Parameters
@@ -357,13 +368,17 @@ def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_f
         Sample time of a sampled PID, s: one RK4 step per sample with the torque held.
     integrator : {'bdf', 'dopri5'}
         For a continuous PID (:data:`~scara_robust.simulation.compiled.COMPILED_INTEGRATORS`).
+    torque_limit : float, optional
+        N·m, on every joint (None: no limit).
+    noise : MeasurementNoise, optional
+        Noise on the measured angles.
 
     Returns
     -------
     CompiledArmRun
     """
     stiff = check_choice("integrator", integrator, COMPILED_INTEGRATORS) == "bdf"
-    model = pack_arm_loop(setup, np.asarray(K, dtype=float), payload, disturbance, Ts)
+    model = pack_arm_loop(setup, np.asarray(K, dtype=float), payload, disturbance, Ts, torque_limit, noise)
     n = setup.arm.n_joints
     if Ts is not None:
         steps = int(np.floor(t_final / Ts + 1e-9))

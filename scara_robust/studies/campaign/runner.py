@@ -26,11 +26,13 @@ from tqdm import tqdm
 
 from ..._resources import check_memory, simulation_bytes, table_bytes
 from ..._validation import check_choice, check_instance, check_int, check_real
-from ...exceptions import ArgumentValueError
+from ...exceptions import ArgumentValueError, CampaignSpecError
 from ...io import table_format, write_atomic
+from ...simulation.arm import simulate_arm
 from ...simulation.compiled import compile_seconds, numba_available
 from ...simulation.metrics import METRIC_NAMES
 from ...simulation.run import run_scenarios
+from .arm import ARM_FIXED_COLUMNS, arm_context, arm_drawn_columns, draw_arm_scenario, run_arm_draws
 from .inputs import DRAWN_COLUMNS, FIXED_COLUMNS, fixed_inputs, run_arguments
 from .spec import CampaignSpec, draw_scenario
 
@@ -118,6 +120,9 @@ def run_draws(spec: CampaignSpec, draws: Sequence[Mapping[str, Any]], engine: st
 
 
 def _run_chunk(spec: CampaignSpec, seed: int, indices: Sequence[int], engine: str = "scipy") -> list[dict[str, Any]]:
+    if spec.robot_file is not None:
+        n = arm_context(spec)[0].arm.n_joints
+        return run_arm_draws(spec, [draw_arm_scenario(spec, seed, i, n) for i in indices], seed, engine)
     return run_draws(spec, [draw_scenario(spec, seed, i) for i in indices], engine)
 
 
@@ -140,7 +145,7 @@ def resolve_engine(engine: str) -> str:
     return engine
 
 
-#: Columns of a results table, in order.
+#: Columns of a SCARA campaign's results table, in order (an arm's: :func:`result_columns`).
 RESULT_COLUMNS = (
     "scenario",
     "controller",
@@ -156,6 +161,26 @@ RESULT_COLUMNS = (
     "seed",
     "spec",
 )
+
+
+def result_columns(spec: CampaignSpec) -> list[str]:
+    """The columns of `spec`'s results table, in order.
+
+    Parameters
+    ----------
+    spec : CampaignSpec
+
+    Returns
+    -------
+    list of str
+        :data:`RESULT_COLUMNS` for the SCARA; for an arm, its drawn inputs (one initial
+        error per joint) and fixed ones (:data:`~scara_robust.studies.campaign.arm.ARM_FIXED_COLUMNS`).
+    """
+    if spec.robot_file is None:
+        return list(RESULT_COLUMNS)
+    n = arm_context(spec)[0].arm.n_joints
+    head = ["scenario", "controller", "status", "success", "diverged", "error", *METRIC_NAMES]
+    return [*head, *arm_drawn_columns(n), *ARM_FIXED_COLUMNS, "method", "status_reason", "seed", "spec"]
 
 
 def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
@@ -232,6 +257,7 @@ def run_campaign(
     Parameters
     ----------
     spec : CampaignSpec
+        A SCARA campaign, or an arm's (:func:`~scara_robust.studies.campaign.arm.arm_campaign_spec`).
     output : path
         ``.csv`` or ``.parquet`` file, sorted by scenario and controller, rewritten
         atomically after the first chunk, then at checkpoints (see `checkpoint`), and at
@@ -270,6 +296,10 @@ def run_campaign(
     """
     check_instance("spec", spec, CampaignSpec, "a CampaignSpec (see load_spec)")
     check_choice("scheduler", scheduler, SCHEDULERS)
+    if spec.robot_file is None and spec.arm_ranges:
+        name = next(iter(spec.arm_ranges))
+        raise CampaignSpecError(f"campaign spec field `{name}`: applies to an arm campaign (a robot file naming a "
+                                "URDF); the SCARA's campaign does not draw it")
     runs = spec.runs if runs is None else runs
     seed = spec.seed if seed is None else seed
     checks = (("runs", runs, 1), ("seed", seed, 0), ("workers", workers, 1), ("chunk_size", chunk_size, 1))
@@ -277,13 +307,14 @@ def run_campaign(
         check_int(name, value, low)
     n_rows = runs * len(spec.controllers)
     check_memory("runs", table_bytes(n_rows, len(RESULT_COLUMNS)), f"a table of {n_rows:,} runs")
-    check_memory("spec", workers * simulation_bytes(spec.t_final, 1e-3, 8),
+    states = 8 if spec.robot_file is None else 3 * arm_context(spec)[0].arm.n_joints
+    check_memory("spec", workers * simulation_bytes(spec.t_final, 1e-3, states),
                  f"{workers} run(s) at once of t_final = {spec.t_final:g} s each")
     checkpoint = check_real("checkpoint", checkpoint, nonnegative=True)
     engine = resolve_engine(engine)
     path = os.fspath(output)
     table_format("output", path)
-    columns = list(RESULT_COLUMNS)
+    columns = result_columns(spec)
     digest = spec.digest()
     done: set[int] = set()
     stored = pd.DataFrame(columns=columns)
@@ -328,7 +359,7 @@ def run_campaign(
     if engine == "compiled" and todo and scheduler == "local":
         # the kernels load (or compile: about 30 s on a machine without numba's cache) before the first chunk
         bar.set_description("campaign (compiling the simulation kernels, once)")
-        compile_seconds()
+        _load_kernels(spec)
         bar.set_description("campaign")
     try:
         for rows in _execute(spec, int(seed), todo, int(workers), scheduler, address, int(chunk_size), engine):
@@ -360,7 +391,7 @@ def _execute(
             yield _run_chunk(spec, seed, chunk, engine)
     else:
         if engine == "compiled":
-            compile_seconds()  # load the kernels once here; forked workers inherit them
+            _load_kernels(spec)  # load the kernels once here; forked workers inherit them
         with ProcessPoolExecutor(max_workers=workers, initializer=_exit_with_parent, initargs=(os.getpid(),)) as pool:
             futures = [pool.submit(_run_chunk, spec, seed, chunk, engine) for chunk in chunks]
             try:
@@ -369,6 +400,15 @@ def _execute(
             finally:
                 for future in futures:
                     future.cancel()
+
+
+def _load_kernels(spec: CampaignSpec) -> None:
+    """Load (or compile) the compiled kernels `spec`'s runs use, in this process."""
+    if spec.robot_file is None:
+        compile_seconds()
+        return
+    setup, K = arm_context(spec)  # a short run loads the arm's kernels and checks its dynamics against Pinocchio
+    simulate_arm(setup, K, method="compiled", t_final=0.01, t_transient=0.0)
 
 
 def _exit_with_parent(parent: int, period: float = 0.5) -> None:

@@ -34,7 +34,8 @@ from ...paper import (
 )
 from ...simulation.controllers import CONTROLLERS
 
-__all__ = ["Range", "CampaignSpec", "PAYLOAD_PROFILES", "load_spec", "spec_from_dict", "draw_scenario"]
+__all__ = ["Range", "CampaignSpec", "PAYLOAD_PROFILES", "ARM_SPEC_FIELDS", "load_spec", "spec_from_dict",
+           "draw_scenario"]
 
 _WHERE = "campaign spec"
 
@@ -71,6 +72,20 @@ SPEC_FIELDS: dict[str, tuple[str, float, bool, float]] = {
 }
 
 
+#: Drawn fields of an arm campaign only (``campaign --robot`` with a URDF robot file):
+#: name -> (unit, lower limit, strict, default). ``reference_scale`` multiplies the robot
+#: file's reference amplitudes; ``measurement_noise`` is the RMS of the noise on each
+#: measured angle, ``noise_bandwidth`` its highest frequency (see
+#: :class:`scara_robust.MeasurementNoise`).
+ARM_SPEC_FIELDS: dict[str, tuple[str, float, bool, float]] = {
+    "reference_scale": ("-", 0.0, False, 1.0),
+    "measurement_noise": ("rad", 0.0, False, 0.0),
+    "noise_bandwidth": ("Hz", 0.0, True, 5.0),
+}
+#: Fields that describe the SCARA alone: an arm's payload inertia and reference come from its robot file.
+SCARA_ONLY_FIELDS = ("cp", "reference_amplitude", "reference_omega")
+
+
 def _default_ranges() -> dict[str, Range]:
     return {name: Range(v[3], v[3]) for name, v in SPEC_FIELDS.items()}
 
@@ -100,6 +115,15 @@ class CampaignSpec:
         Default seed.
     robot : ScaraParams
         The robot (default: the paper's); its ``cp`` is replaced by the drawn one.
+    arm_ranges : dict of str to Range
+        The fields of :data:`ARM_SPEC_FIELDS` the spec gives (an arm campaign draws the
+        others at their defaults; a SCARA campaign refuses them).
+    robot_file : str or None
+        A robot file naming a URDF: the campaign runs that arm (see
+        :mod:`scara_robust.studies.campaign.arm`); None: the SCARA.
+    robot_digest : str
+        Hash of the robot file and its URDF (part of :meth:`digest`, so a table is
+        continued only on the same arm).
     """
 
     controllers: tuple[str, ...] = ("pid", "smc")
@@ -111,11 +135,18 @@ class CampaignSpec:
     runs: int = 100
     seed: int = 0
     robot: ScaraParams = field(default_factory=ScaraParams)
+    arm_ranges: Mapping[str, Range] = field(default_factory=dict)
+    robot_file: str | None = None
+    robot_digest: str = ""
 
     def digest(self) -> str:
         """Short hash of everything that determines the drawn scenarios and runs."""
         data = asdict(self)
         data.pop("runs")
+        data.pop("robot_file")  # the arm is identified by its content, not where it is
+        if self.robot_file is None and not self.arm_ranges:  # a SCARA campaign: the hash it always had
+            data.pop("arm_ranges")
+            data.pop("robot_digest")
         text = json.dumps(data, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
@@ -129,7 +160,7 @@ def _number(name: str, value: Any, unit: str, *, allow_inf: bool = False) -> flo
 
 
 def _range(name: str, value: Any) -> Range:
-    unit, limit, strict, _ = SPEC_FIELDS[name]
+    unit, limit, strict, _ = SPEC_FIELDS[name] if name in SPEC_FIELDS else ARM_SPEC_FIELDS[name]
     if isinstance(value, Mapping):
         unknown = set(value) - {"min", "max"}
         if unknown or set(value) != {"min", "max"}:
@@ -171,7 +202,8 @@ def spec_from_dict(data: Mapping[str, Any]) -> CampaignSpec:
     """
     if not isinstance(data, Mapping):
         raise CampaignSpecError(f"campaign spec must be a table of fields, found {type(data).__name__}")
-    known = {"controllers", "t_final", "rho", "eta", "payload_profiles", "runs", "seed", *SPEC_FIELDS}
+    known = {"controllers", "t_final", "rho", "eta", "payload_profiles", "runs", "seed", *SPEC_FIELDS,
+             *ARM_SPEC_FIELDS}
     for name in data:
         if name not in known:
             raise _error(name, f"unknown field; valid fields are {', '.join(sorted(known))}")
@@ -216,7 +248,8 @@ def spec_from_dict(data: Mapping[str, Any]) -> CampaignSpec:
     for name in SPEC_FIELDS:
         if name in data:
             ranges[name] = _range(name, data[name])
-    return CampaignSpec(ranges=ranges, **kwargs)
+    arm_ranges = {name: _range(name, data[name]) for name in ARM_SPEC_FIELDS if name in data}
+    return CampaignSpec(ranges=ranges, arm_ranges=arm_ranges, **kwargs)
 
 
 def load_spec(path: str | os.PathLike[str]) -> CampaignSpec:
