@@ -129,7 +129,7 @@ Studies (:mod:`scara_robust.studies`)
     load_spec, spec_from_dict, CampaignSpec, Range, PAYLOAD_PROFILES, draw_scenario -- campaign specs
     run_campaign, read_results      -- run (local or Dask), resume
     replay_scenario                 -- run one row of a campaign table again (``simulate --from-campaign``)
-    arm_campaign_spec, draw_arm_scenario, run_arm_draws, ARM_SPEC_FIELDS -- campaigns on a URDF arm
+    arm_campaign_spec, draw_arm_scenario, run_arm_draws, replay_arm_scenario, ARM_SPEC_FIELDS -- arm campaigns
     campaign_report                 -- per-controller statistics with confidence intervals
     worst_scenarios                 -- the worst runs of each controller with their drawn inputs
     anti_windup_study, AntiWindupStudy -- the sampled PID under a torque limit, anti-windup on/off

@@ -110,6 +110,16 @@ def test_a_run_is_simulate_arm_of_its_row(straight):
     assert run.metrics().max_abs_error == pytest.approx(row["max_abs_error_after_6s"], rel=1e-5, abs=1e-9)
 
 
+def test_replay_gives_the_row(straight):
+    _, table = straight
+    run = cp.replay_arm_scenario(table, 3)
+    row = table[table["scenario"] == 3].iloc[0]
+    assert run.method == "compiled" and run.status == row["status"]
+    assert run.metrics().max_abs_error == row["max_abs_error_after_6s"]
+    with pytest.raises(ValueError, match="replay its rows with scara_robust.replay_arm_scenario"):
+        sr.replay_scenario(table, 3)
+
+
 def test_same_table_with_a_process_pool(straight, tmp_path):
     spec, table = straight
     cp.run_campaign(spec, tmp_path / "pool.csv", workers=2, chunk_size=1, engine="compiled")

@@ -26,18 +26,20 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
-from ...exceptions import CampaignSpecError
+from ..._validation import check_int
+from ...exceptions import ArgumentValueError, CampaignSpecError
 from ...io import load_arm
 from ...lyapunov.gain import design
 from ...model.arm import ArmSetup, JointSinusoids
 from ...model.robot import ConstantPayload, SinusoidalPayload
 from ...model.signals import MeasurementNoise, SquareWave
-from ...simulation.arm import simulate_arm
+from ...simulation.arm import ArmRun, simulate_arm
 from ...simulation.metrics import METRIC_NAMES
 from .spec import ARM_SPEC_FIELDS, SCARA_ONLY_FIELDS, SPEC_FIELDS, CampaignSpec, Range, _default_ranges
 
-__all__ = ["arm_campaign_spec", "draw_arm_scenario", "run_arm_draws"]
+__all__ = ["arm_campaign_spec", "draw_arm_scenario", "run_arm_draws", "replay_arm_scenario"]
 
 #: Controllers an arm campaign runs: the PID K(ρ, η) designed on the arm's plant.
 ARM_CONTROLLERS = ("pid",)
@@ -260,3 +262,43 @@ def run_arm_draws(spec: CampaignSpec, draws: Sequence[Mapping[str, Any]], seed: 
         row.update(metrics)
         rows.append(row)
     return rows
+
+
+def replay_arm_scenario(results: pd.DataFrame, index: int, *, method: str | None = None,
+                        t_final: float | None = None) -> ArmRun:
+    """Run scenario `index` of an arm campaign's table again, from the inputs in its row.
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        An arm campaign's table (:func:`~scara_robust.read_results`).
+    index : int
+        The scenario index, >= 0.
+    method : {'compiled', 'lsoda'}, optional
+        Default: the engine the row used.
+    t_final : float, optional
+        Horizon, s (default: the campaign's).
+
+    Returns
+    -------
+    ArmRun
+        With the row's engine and horizon, its metrics and status are the row's.
+
+    Raises
+    ------
+    ArgumentValueError
+        If the table is not an arm campaign's (`results`) or lacks scenario `index`.
+    """
+    index = check_int("index", index, 0)
+    if not isinstance(results, pd.DataFrame) or "robot_file" not in results.columns:
+        raise ArgumentValueError("results", "must be an arm campaign's table (with a robot_file column)")
+    rows = results[results["scenario"] == index]
+    if not len(rows):
+        raise ArgumentValueError("index", f"must be a scenario of the table, found {index}")
+    row = rows.iloc[0].to_dict()
+    spec = CampaignSpec(controllers=ARM_CONTROLLERS, t_final=float(row["t_final"]), rho=float(row["rho"]),
+                        eta=float(row["eta"]), robot_file=str(row["robot_file"]))
+    arguments = arm_run_arguments(spec, row, int(row["seed"]))
+    if t_final is not None:
+        arguments["t_final"] = t_final
+    return simulate_arm(method=method or str(row["method"]), **arguments)

@@ -164,6 +164,9 @@ def replay_scenario(
     index = check_int("index", index, 0)
     if not isinstance(results, pd.DataFrame) or "scenario" not in results or "controller" not in results:
         raise ArgumentValueError("results", "must be a campaign table with scenario and controller columns")
+    if "robot_file" in results.columns:
+        raise ArgumentValueError("results", "holds an arm campaign (a URDF robot): replay its rows with "
+                                            "scara_robust.replay_arm_scenario")
     missing = [c for c in (*DRAWN_COLUMNS, *FIXED_COLUMNS) if c not in results.columns]
     if missing:
         raise ArgumentValueError("results", f"lacks the inputs needed to replay a run: missing columns {missing}")
