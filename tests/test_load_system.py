@@ -132,14 +132,11 @@ def test_loading_leaves_the_arguments_alone_and_reads_files_when_asked():
         (["certify", *GAIN, "--robot", ARM, "--scenario", "examples/scenario-paper.toml"],
          f"`--scenario` describes the built-in SCARA; a URDF robot's reference, payload and linearization are in its "
          f"file {ARM!r}"),
-        (["campaign", "examples/campaign.toml", "--robot", ARM],
-         f"`--robot` {ARM!r} names a URDF; `campaign` runs on the built-in SCARA only (a URDF robot goes with design, "
-         "certify, margin, synthesize, simulate, compare, export, surface)"),
         (["app", "--robot", ARM],
          f"`--robot` {ARM!r} names a URDF; `app` runs on the built-in SCARA only (a URDF robot goes with design, "
-         "certify, margin, synthesize, simulate, compare, export, surface)"),
+         "certify, margin, synthesize, simulate, compare, export, surface, campaign)"),
     ],
-    ids=["robot-and-model", "bounds", "scenario", "campaign", "app"],
+    ids=["robot-and-model", "bounds", "scenario", "app"],
 )
 def test_options_that_do_not_go_with_a_urdf_robot(argv, message, capsys):
     with pytest.raises(CommandLineError) as err:

@@ -1,10 +1,10 @@
 """Campaigns on a URDF arm: the PID K(ρ, η) of the arm's plant on drawn scenarios.
 
 ``campaign --robot F`` with a robot file naming a URDF runs here. A spec for an arm
-(:func:`arm_campaign_spec`) draws, per scenario, the payload profile and its numbers, the
+(:func:`~scara_robust.arm_campaign_spec`) draws, per scenario, the payload profile and its numbers, the
 square-wave disturbance, one initial error per joint, the torque limit, a scale of the
 robot file's reference amplitudes and the measurement noise
-(:data:`~scara_robust.studies.campaign.spec.ARM_SPEC_FIELDS`); the SCARA's own fields
+(:data:`~scara_robust.ARM_SPEC_FIELDS`); the SCARA's own fields
 (``cp``, ``reference_amplitude``, ``reference_omega``) are refused, the arm's payload
 inertia and reference being its robot file's. Scenario ``i`` of seed ``s`` is drawn from
 ``default_rng([s, i])``, its noise's frequencies and phases from ``default_rng([s, i, 1])``,
@@ -119,7 +119,7 @@ def draw_arm_scenario(spec: CampaignSpec, seed: int, index: int, n: int) -> dict
     Parameters
     ----------
     spec : CampaignSpec
-        Of :func:`arm_campaign_spec`.
+        Of :func:`~scara_robust.arm_campaign_spec`.
     seed, index : int
     n : int
         The arm's joints.
@@ -154,7 +154,7 @@ def arm_context(spec: CampaignSpec) -> tuple[ArmSetup, np.ndarray]:
     Parameters
     ----------
     spec : CampaignSpec
-        Of :func:`arm_campaign_spec`.
+        Of :func:`~scara_robust.arm_campaign_spec`.
 
     Returns
     -------
@@ -171,9 +171,9 @@ def arm_run_arguments(spec: CampaignSpec, inputs: Mapping[str, Any], seed: int) 
     Parameters
     ----------
     spec : CampaignSpec
-        Of :func:`arm_campaign_spec`.
+        Of :func:`~scara_robust.arm_campaign_spec`.
     inputs : mapping
-        A draw of :func:`draw_arm_scenario` (or a row of the table).
+        A draw of :func:`~scara_robust.draw_arm_scenario` (or a row of the table).
     seed : int
         The campaign's seed (the noise is drawn from ``default_rng([seed, scenario, 1])``).
 
@@ -226,9 +226,9 @@ def run_arm_draws(spec: CampaignSpec, draws: Sequence[Mapping[str, Any]], seed: 
     Parameters
     ----------
     spec : CampaignSpec
-        Of :func:`arm_campaign_spec`.
+        Of :func:`~scara_robust.arm_campaign_spec`.
     draws : sequence of mapping
-        From :func:`draw_arm_scenario`.
+        From :func:`~scara_robust.draw_arm_scenario`.
     seed : int
         The campaign's seed.
     engine : {'scipy', 'compiled'}

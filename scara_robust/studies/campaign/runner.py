@@ -174,7 +174,7 @@ def result_columns(spec: CampaignSpec) -> list[str]:
     -------
     list of str
         :data:`RESULT_COLUMNS` for the SCARA; for an arm, its drawn inputs (one initial
-        error per joint) and fixed ones (:data:`~scara_robust.studies.campaign.arm.ARM_FIXED_COLUMNS`).
+        error per joint) and fixed ones (``ARM_FIXED_COLUMNS``).
     """
     if spec.robot_file is None:
         return list(RESULT_COLUMNS)
@@ -257,7 +257,7 @@ def run_campaign(
     Parameters
     ----------
     spec : CampaignSpec
-        A SCARA campaign, or an arm's (:func:`~scara_robust.studies.campaign.arm.arm_campaign_spec`).
+        A SCARA campaign, or an arm's (:func:`~scara_robust.arm_campaign_spec`).
     output : path
         ``.csv`` or ``.parquet`` file, sorted by scenario and controller, rewritten
         atomically after the first chunk, then at checkpoints (see `checkpoint`), and at

@@ -120,7 +120,7 @@ class CampaignSpec:
         others at their defaults; a SCARA campaign refuses them).
     robot_file : str or None
         A robot file naming a URDF: the campaign runs that arm (see
-        :mod:`scara_robust.studies.campaign.arm`); None: the SCARA.
+        ``scara_robust.studies.campaign.arm``); None: the SCARA.
     robot_digest : str
         Hash of the robot file and its URDF (part of :meth:`digest`, so a table is
         continued only on the same arm).
