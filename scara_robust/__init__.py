@@ -49,6 +49,7 @@ The controller on a board (:mod:`scara_robust.controller`)
     DiscretePID, INTEGRATOR_METHODS, DERIVATIVE_MODES -- Design.discretize(Ts): sampled PID, limits, anti-windup
     default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
     SampledStateFeedback            -- u_k = -K x(t_k) held by a zero-order hold: a gain of your own, sampled
+    ScheduledGain, load_schedule, SCHEDULE_KIND -- gains at breakpoints of a measured parameter, linear between
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
@@ -82,6 +83,10 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     rate_bounded_l2_gain, RateL2Gain, verify_rate_bounded_l2 -- the L2 gain for |ṗ| <= ν, P(p) = P0 + p·P1
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
+    synthesize_schedule, ScheduleSynthesis, schedule_riccati -- a gain scheduled on a measured parameter
+    schedule_certificate, ScheduleCertificate, max_schedule_rate, max_measurement_error, schedule_decay -- its
+                                    certificate for |ṗ| <= ν and |p̂ − p| <= δ (extra ``lmi``)
+    scheduled_parameter, SCHEDULE_POINTS, SCHEDULE_REFINE -- the parameter scheduled on; the grids
     max_certified_rate, RateMargin  -- the largest certified rate ν, by bisection
     payload_rate_certificate        -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)

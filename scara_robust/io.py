@@ -107,7 +107,8 @@ _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
 MODEL_FORMS = ("state", "pid", "integral")
 _MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices")
 _PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description")
-_PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "physical", "description")
+_PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "physical", "description", "measured",
+                   "measurement_error", "measurement_delay")
 _ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
 #: Results tables by file extension.
 TABLE_FORMATS = {".csv": "csv", ".parquet": "parquet"}
@@ -857,9 +858,15 @@ def _parameter(where: str, name: str, raw: Any) -> Parameter:
             raise InputFileError(f"{where} field `{field}.physical` must be [lower, upper] in {raw['unit']} (inf "
                                  f"for no bound, e.g. [0, inf]), found {describe(limits)}")
         limits = tuple(_limit(where, f"{field}.physical[{k}]", v, str(raw["unit"])) for k, v in enumerate(limits))
+    measured = raw.get("measured", False)
+    if not isinstance(measured, bool):
+        raise InputFileError(f"{where} field `{field}.measured` must be true or false, found {describe(measured)}")
+    error = field_number(where, f"{field}.measurement_error", raw.get("measurement_error", 0.0), str(raw["unit"]))
+    delay = field_number(where, f"{field}.measurement_delay", raw.get("measurement_delay", 0.0), "s")
     try:
         return Parameter(name, raw["unit"], bounds, nominal=raw.get("nominal"), rate=raw.get("rate"),
-                         samples=samples, description=str(raw.get("description", "")), limits=limits)
+                         samples=samples, description=str(raw.get("description", "")), limits=limits,
+                         measured=measured, measurement_error=error, measurement_delay=delay)
     except ArgumentError as err:
         raise InputFileError(f"{where} field `parameters.{err.argument}` {err.problem}") from err
 

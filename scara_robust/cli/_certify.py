@@ -12,6 +12,7 @@ from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
 from ._common import CommandLineError, add_setup_options, finite_float, method_names, per_joint_values, resolve_gain
 from ._parser import COMMAND_HELP
+from ._schedule import add_schedule_options, is_schedule_file, run_schedule_certificate
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -29,7 +30,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
     p.add_argument("--design", metavar="FILE.json",
                    help="certify your own gain instead: a design file with `K` on the plant's design form (and "
-                   "optionally `P`; without it, P solves the nominal loop's Lyapunov equation)")
+                   "optionally `P`; without it, P solves the nominal loop's Lyapunov equation), or a schedule file "
+                   "of synthesize --schedule (its certificate for a moving, mis-measured parameter)")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--methods", type=method_names("certificate", "--methods", many=True), metavar="NAME[,NAME...]",
                    help="the rows to run, by registered name (default: every default row; e.g. 'l2-rate-bounded', "
@@ -44,6 +46,7 @@ def add_parser(sub: Any) -> None:
                    help="half-widths of the box of initial errors on the design state (x = [∫e, e, ė] for a PID) for "
                    "which the plant file's input limits are certified (default: a unit step of each reference from "
                    "rest, e(0) = 1 output unit)")
+    add_schedule_options(p, synthesis=False)
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.set_defaults(func=run)
@@ -71,6 +74,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
+    if is_schedule_file(args.design):
+        return run_schedule_certificate(args, system)
+    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
+             if v is not None]
+    if given:
+        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
     model = system.model
     d, label = resolve_gain(args, model)
     table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,

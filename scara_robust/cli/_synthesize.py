@@ -17,6 +17,7 @@ from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
 from ._parser import COMMAND_HELP
+from ._schedule import add_schedule_options, run_schedule_synthesis
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
@@ -64,6 +65,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--initial-error", type=per_joint_values, metavar="V,V,...",
                    help="with --within-limits: half-widths of the box of initial errors on the design state "
                    "(default: a unit step of each reference from rest, e(0) = 1 output unit)")
+    add_schedule_options(p, synthesis=True)
     p.add_argument("--format", choices=("text", "json"), default="text")
     # dest is not `output`: the design file goes there, the summary to stdout
     p.add_argument("--output", dest="design_output", metavar="FILE.json",
@@ -110,6 +112,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--gain-bound` must be > 0, found {args.gain_bound:g}")
     if args.decay is not None and args.decay < 0:
         raise CommandLineError(f"`--decay` must be >= 0 1/s, found {args.decay:g}")
+    if args.schedule is not None:
+        return run_schedule_synthesis(args, system)
+    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
+             if v is not None]
+    if given:
+        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --schedule NAME")
     output = args.design_output
     if output is not None and not output.lower().endswith(".json"):
         raise CommandLineError(f"`--output` {output!r}: a design file is .json")

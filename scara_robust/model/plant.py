@@ -111,6 +111,15 @@ class Parameter:
         Whether margins scale its range (default True). False for a coordinate that is
         not an uncertainty, such as the reference time of a robot's linearization: its
         range stays whole at every scale.
+    measured : bool
+        The controller measures it (a payload weighed by a wrist sensor, told by the
+        task): a gain may be scheduled on it (:class:`~scara_robust.ScheduledGain`).
+        Only for a parameter with a range.
+    measurement_error : float
+        Bound δ on ``|p̂ − p|``, in its unit (>= 0); only for a measured parameter.
+    measurement_delay : float
+        Delay of the measurement, s (>= 0); only for a measured parameter. A
+        delay of τ at a rate bound ν adds ``ν τ`` to the error δ a certificate covers.
 
     Examples
     --------
@@ -129,6 +138,9 @@ class Parameter:
     description: str = ""
     limits: tuple[float, float] | None = None
     scales: bool = True
+    measured: bool = False
+    measurement_error: float = 0.0
+    measurement_delay: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -162,6 +174,28 @@ class Parameter:
         object.__setattr__(self, "samples", check_int(f"{self.name}.samples", self.samples, 2 if lo < hi else 1))
         coarse = min(self.samples, 5) if self.coarse is None else self.coarse
         object.__setattr__(self, "coarse", check_int(f"{self.name}.coarse", coarse, 2 if lo < hi else 1))
+        self._check_measurement(lo, hi)
+
+    def _check_measurement(self, lo: float, hi: float) -> None:
+        if not isinstance(self.measured, bool):
+            raise ArgumentValueError(f"{self.name}.measured", f"must be true or false, found {describe(self.measured)}")
+        error = check_real(f"{self.name}.measurement_error", self.measurement_error, nonnegative=True)
+        delay = check_real(f"{self.name}.measurement_delay", self.measurement_delay, nonnegative=True)
+        if not self.measured and (error > 0 or delay > 0):
+            which = "measurement_error" if error > 0 else "measurement_delay"
+            raise ArgumentValueError(f"{self.name}.{which}", "describes a measured parameter; set "
+                                                             f"{self.name}.measured = true")
+        if self.measured and lo == hi:
+            raise ArgumentValueError(f"{self.name}.measured", f"schedules a gain on a parameter with a range; "
+                                                              f"{self.name} is fixed at {lo:g} {self.unit}")
+        object.__setattr__(self, "measurement_error", error)
+        object.__setattr__(self, "measurement_delay", delay)
+
+    @property
+    def effective_error(self) -> float:
+        """The measurement error a certificate must cover: ``δ + ν τ`` (its unit; δ alone without a rate bound)."""
+        rate = 0.0 if self.rate is None else float(self.rate)
+        return float(self.measurement_error) + rate * float(self.measurement_delay)
 
     def _check_limits(self, lo: float, hi: float) -> None:
         if self.limits is None:
@@ -620,6 +654,11 @@ class UncertainPlant:
     def varying(self) -> tuple[Parameter, ...]:
         """The parameters with a range."""
         return tuple(p for p in self.parameters if p.varies)
+
+    @property
+    def measured(self) -> tuple[Parameter, ...]:
+        """The parameters the controller measures (a gain may be scheduled on them)."""
+        return tuple(p for p in self.parameters if p.measured)
 
     def parameter(self, name: str) -> Parameter:
         """The parameter called `name`."""

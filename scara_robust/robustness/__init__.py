@@ -37,6 +37,8 @@ from .registry import *  # noqa: F403
 from .registry import __all__ as _registry
 from .sampled import *  # noqa: F403
 from .sampled import __all__ as _sampled
+from .scheduled import *  # noqa: F403
+from .scheduled import __all__ as _scheduled
 from .search import *  # noqa: F403
 from .search import __all__ as _search
 from .synthesis import *  # noqa: F403
@@ -46,4 +48,4 @@ from .table import __all__ as _table
 
 __all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters,
            *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
-           *_actuator, *_loop_margins]
+           *_actuator, *_loop_margins, *_scheduled]

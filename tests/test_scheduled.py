@@ -1,0 +1,217 @@
+"""A gain scheduled on a measured parameter: the table, its certificate, its synthesis, the command line.
+
+Every certificate here is re-verified by ``tests/schedule_check.py``, written from the
+mathematics apart from the package's code: on a grid four times finer per segment, at both
+signs of the rate and at the measurement-error corners. Above a certified rate, a periodic
+ramp of the parameter that makes the loop grow closes the bracket from the other side.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from schedule_check import schedule_condition_margin, scheduled_floquet_growth
+
+import scara_robust as sr
+from scara_robust.cli import main
+from scara_robust.exceptions import InputFileError
+
+pytestmark = pytest.mark.lmi
+
+ARM = "examples/plant-arm-payload.toml"
+
+
+@pytest.fixture(scope="module")
+def arm():
+    """The one-joint arm whose payload m (0-2 kg) is measured within 0.05 kg, changing at up to 1 kg/s."""
+    plant = sr.load_plant(ARM)
+    params = tuple(dataclasses.replace(p, rate=1.0) if p.name == "m" else p for p in plant.parameters)
+    return dataclasses.replace(plant, parameters=params)
+
+
+@pytest.fixture(scope="module")
+def oscillator():
+    """A spring of stiffness k in [1, 9] (rad/s)² with little damping: fast changes of k pump energy in."""
+    k = sr.Parameter("k", "1/s²", (1.0, 9.0), measured=True)
+    return sr.UncertainPlant.from_expressions([k], [[0, 1], ["-k", -0.05]], [[0], [1]], form="state",
+                                              name="oscillator")
+
+
+# --- the table ------------------------------------------------------------------------------
+
+
+def test_gain_is_linear_between_breakpoints_and_clamped_outside():
+    g = sr.ScheduledGain("m", "kg", [0.0, 1.0, 3.0], [[[0.0, 2.0]], [[2.0, 2.0]], [[6.0, -2.0]]])
+    np.testing.assert_allclose(g(0.5), [[1.0, 2.0]])
+    np.testing.assert_allclose(g(2.0), [[4.0, 0.0]])
+    np.testing.assert_allclose(g(-1.0), g(0.0))
+    np.testing.assert_allclose(g(7.0), g(3.0))
+    assert g.clamped(-0.1) and g.clamped(3.1) and not g.clamped(3.0)
+    np.testing.assert_allclose(g(np.array([0.5, 2.0])), np.stack([g(0.5), g(2.0)]))
+    assert g.max_norm == pytest.approx(np.linalg.norm([6.0, -2.0]))
+
+
+def test_schedule_file_round_trip(tmp_path):
+    g = sr.ScheduledGain("m", "kg", [0.0, 2.0], np.arange(12.0).reshape(2, 2, 3), "lmi",
+                         {"rate": math.inf, "decay": 0.5})
+    path = tmp_path / "s.json"
+    g.save(path)
+    back = sr.load_schedule(path)
+    np.testing.assert_array_equal(back.gains, g.gains)
+    np.testing.assert_array_equal(back.breakpoints, g.breakpoints)
+    assert back.certified == {"rate": "inf", "decay": 0.5} and back.method == "lmi"
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    ('{"kind": "design"}', "field `kind` must be 'scheduled-gain'"),
+    ('{"kind": "scheduled-gain", "unit": "kg"}', "missing field `parameter`"),
+    ('{"kind": "scheduled-gain", "parameter": "m", "unit": "kg", "breakpoints": [1, 0], "gains": [[[1]], [[2]]]}',
+     "`breakpoints` must be at least 2 strictly increasing values"),
+    ("{", "not valid JSON"),
+])
+def test_bad_schedule_files_are_named(tmp_path, content, message):
+    path = tmp_path / "bad.json"
+    path.write_text(content)
+    with pytest.raises(InputFileError, match=message) as err:
+        sr.load_schedule(path)
+    assert "bad.json" in str(err.value)
+
+
+def test_measured_parameters_in_a_plant_file(tmp_path):
+    plant = sr.load_plant(ARM)
+    m = plant.parameter("m")
+    assert plant.measured == (m,) and m.measurement_error == 0.05 and m.effective_error == 0.05
+    delayed = dataclasses.replace(m, rate=2.0, measurement_delay=0.1)
+    assert delayed.effective_error == pytest.approx(0.05 + 2.0 * 0.1)
+    text = open(ARM, encoding="utf-8").read()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("measured = true", "measured = false"))
+    with pytest.raises(InputFileError, match=r"field `parameters.m.measurement_error` describes a measured"):
+        sr.load_plant(bad)
+    bad.write_text(text.replace("measurement_error = 0.05", "measurement_error = -1"))
+    with pytest.raises(InputFileError, match=r"m.measurement_error"):
+        sr.load_plant(bad)
+
+
+# --- the certificate ------------------------------------------------------------------------
+
+
+def test_riccati_schedule_is_certified_and_the_independent_check_agrees(arm):
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 5), 1.0, 10.0)
+    for K, m in zip(gain.gains, gain.breakpoints):  # each entry is the paper's design on the frozen plant
+        frozen = sr.load_plant(ARM)
+        frozen = dataclasses.replace(frozen, parameters=tuple(
+            dataclasses.replace(p, range=(m, m), nominal=None, measured=False, measurement_error=0.0)
+            if p.name == "m" else p for p in frozen.parameters))
+        np.testing.assert_allclose(K, sr.design(frozen, 1.0, 10.0).K, rtol=1e-12)
+    cert = sr.schedule_certificate(arm, gain, decay=0.3)
+    assert cert.certified and cert.rate == 1.0 and cert.measurement_error == 0.05
+    check = schedule_condition_margin(arm, "m", gain.breakpoints, gain.gains, cert.P, rate=1.0, delta=0.05,
+                                      decay=0.3, refine=4)
+    assert check["max_eig"] < 0 and check["min_P_eig"] > 0
+
+
+def test_a_constant_table_at_any_rate_is_the_common_p_test(arm):
+    K = sr.design(arm, 1.0, 10.0).K
+    table = sr.ScheduledGain("m", "kg", [0.0, 2.0], np.stack([K, K]), "fixed")
+    cert = sr.schedule_certificate(arm, table, rate=math.inf, measurement_error=0.0)
+    samples = arm.samples()
+    common = sr.lmi_certificate(samples.closed_loops(K))
+    assert cert.certified == common.certified
+    np.testing.assert_allclose(cert.P[0], cert.P[1])  # one P
+
+
+def test_certified_rate_is_bracketed_by_a_growing_ramp(oscillator):
+    """Above the largest certified rate, a periodic ramp of k makes the loop grow; at or below it, none does."""
+    gain = sr.ScheduledGain("k", "1/s²", [1.0, 5.0, 9.0], np.array([[[0.0, 0.3]]] * 3), "fixed")
+    rate, cert = sr.max_schedule_rate(oscillator, gain, measurement_error=0.0, tol=0.05)
+    assert 0 < rate < math.inf and cert is not None and cert.certified
+    check = schedule_condition_margin(oscillator, "k", gain.breakpoints, gain.gains, cert.P, rate=rate, delta=0.0)
+    assert check["max_eig"] < 0 and check["min_P_eig"] > 0
+    rates = np.geomspace(rate / 4, 100 * rate, 60)
+    growth = np.array([scheduled_floquet_growth(oscillator, "k", gain.breakpoints, gain.gains, r) for r in rates])
+    assert np.all(growth[rates <= rate] < 0)  # the certificate's promise, checked from outside
+    assert growth.max() > 0  # and a growing signal above: the answer is a bracket
+    assert rates[np.argmax(growth > 0)] > rate
+
+
+def test_measurement_error_is_covered_at_its_corners(arm):
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    cert = sr.schedule_certificate(arm, gain, measurement_error=0.4, decay=0.2)
+    assert cert.certified
+    check = schedule_condition_margin(arm, "m", gain.breakpoints, gain.gains, cert.P, rate=1.0, delta=0.4,
+                                      decay=0.2)
+    assert check["max_eig"] < 0
+
+
+def test_bad_arguments_are_named(arm):
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    short = sr.ScheduledGain("m", "kg", [0.0, 1.0], gain.gains[:2])
+    with pytest.raises(ValueError, match="`gain` its breakpoints must span m's range"):
+        sr.schedule_certificate(arm, short)
+    with pytest.raises(ValueError, match="`parameter` must be one of"):
+        sr.schedule_riccati(arm, "J0", [0.0, 2.0], 1.0, 10.0)
+    with pytest.raises(ValueError, match="`measurement_error` must be >= 0"):
+        sr.schedule_certificate(arm, gain, measurement_error=-0.1)
+    with pytest.raises(ValueError, match="`breakpoints` must lie in m's range"):
+        sr.synthesize_schedule(arm, [0.0, 3.0])
+
+
+# --- the synthesis --------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def synthesized(arm):
+    return sr.synthesize_schedule(arm, np.linspace(0, 2, 5), gain_bound=20.0)
+
+
+def test_synthesis_does_at_least_what_the_best_fixed_gain_does(arm, synthesized):
+    """The scheduled LMI holds the fixed gain's solution, so its decay is no smaller, at the same ‖K‖ bound."""
+    assert synthesized.certified and synthesized.gain.max_norm <= 20.0 * (1 + 1e-6)
+    coarse, fine = arm.samples(arm.coarse_points()), arm.samples()
+    fixed = sr.synthesize((coarse.A, coarse.B), objective="decay", gain_bound=20.0, check=(fine.A, fine.B))
+    table = sr.ScheduledGain("m", "kg", [0.0, 2.0], np.stack([fixed.K, fixed.K]), "fixed")
+    fixed_decay, _ = sr.schedule_decay(arm, table, tol=0.01)
+    assert synthesized.decay >= fixed_decay * (1 - 0.03)  # both to their bisections' tolerances
+
+
+def test_synthesized_table_is_verified_independently(arm, synthesized):
+    g, cert = synthesized.gain, synthesized.certificate
+    assert cert.decay == synthesized.decay and g.certified["rate"] == 1.0
+    check = schedule_condition_margin(arm, "m", g.breakpoints, g.gains, cert.P, rate=1.0, delta=0.05,
+                                      decay=synthesized.decay, refine=4)
+    assert check["max_eig"] < 0 and check["min_P_eig"] > 0
+
+
+# --- the command line -----------------------------------------------------------------------
+
+
+def test_synthesize_writes_a_schedule_that_certify_reads(tmp_path, capsys):
+    out = tmp_path / "schedule.json"
+    assert main(["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "3", "--rate", "1",
+                 "--gain-bound", "20", "--output", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "status: certified" in text and f"schedule file: {out}" in text
+    saved = json.loads(out.read_text())
+    assert saved["kind"] == "scheduled-gain" and saved["breakpoints"] == [0.0, 1.0, 2.0]
+    assert main(["certify", "--model", ARM, "--design", str(out), "--rate", "1", "--format", "json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["certified"] and record["rate"] == 1.0 and record["measurement_error"] == 0.05
+    assert record["decay"] >= 0.99 * saved["certified"]["decay"]
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["synthesize", "--model", ARM, "--schedule", "J0"], "`--schedule` must be one of"),
+    (["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "0,x"], "`--breakpoints` must be a count"),
+    (["synthesize", "--model", ARM, "--schedule", "m", "--rate", "-1"], "`--rate` must be >= 0"),
+    (["synthesize", "--model", ARM, "--rate", "1"], "`--rate` describes a scheduled gain"),
+])
+def test_bad_schedule_options_exit_2_in_one_line(argv, message, capsys, tmp_path):
+    assert main([*argv, "--output", str(tmp_path / "never.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "never.json").exists()
