@@ -367,8 +367,15 @@ def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: A
     status = _run(problem, solver)
     if t.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return status, None
-    if float(t.value) <= FEASIBILITY_TOL:
+    t_star = float(t.value)
+    if t_star <= FEASIBILITY_TOL:
         return ("infeasible" if status == cp.OPTIMAL else status), None
+    if status != cp.OPTIMAL:
+        # at the optimum the solver often stalls short of its tolerances; the strictly
+        # interior point t = t*/2 is asked for instead (as pdl's rate-bounded test does)
+        status = _run(cp.Problem(cp.Minimize(0), [*cons[1:], t == 0.5 * t_star]), solver)
+        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or any(Qj.value is None for Qj in Q):
+            return status, None
     P = np.array([T_inv.T @ np.asarray(Qj.value, dtype=float) @ T_inv for Qj in Q])
     return status, 0.5 * (P + np.swapaxes(P, 1, 2))
 
@@ -461,33 +468,43 @@ def schedule_certificate(
     first = np.unique(np.concatenate([np.flatnonzero(coarse.segment == j)[
         [int(np.argmax(spectral[coarse.segment == j]))]] for j in range(b.size - 1)]))
 
-    def solve(active: NDArray[np.int64]) -> tuple[str, Array | None]:
-        return _solve_lyapunov(coarse, b, nu, decay, T, scale, active, solver)
-
-    def violation(P: Array) -> Array:
-        return _max_eigs(_lhs(coarse, P, b, nu, decay), 1.0)
-
-    status, P, active = grow_active_set(solve, violation, first)
-    if P is None:
-        message = ("no piecewise-linear P(p) on the LMIs' grid" if status == "infeasible" else
-                   f"the solver returned {status!r}")
-        return result(status, None, coarse.A.shape[0], int(active.size), 0, math.nan, message)
-    size = float(max(np.linalg.norm(Pj, 2) for Pj in P))
     fine = _conditions(_grid(plant, name, b, fine_points, _others(plant, name, True)), gain, delta, moving)
-    margin = float(_max_eigs(_lhs(fine, P, b, nu, decay), size).max())
-    positive = float(min(np.linalg.eigvalsh(Pj)[0] for Pj in P))
-    if status != "optimal":
-        verdict = status  # an inaccurate answer is never a certificate, whatever numpy says
-        message = f"the solver returned {status!r}; not a certificate"
-    elif margin < 0 and positive > 0:
-        verdict = "certified"
-        message = (f"P(p) verified on {fine.A.shape[0]} conditions (largest eigenvalue {margin:.3g} of ‖P‖, "
-                   f"solved on {active.size} of {coarse.A.shape[0]})")
-    else:
-        verdict = "not verified"
-        message = (f"the LMIs' P(p) fails numpy's check on the finer grid (largest eigenvalue {margin:.3g} of ‖P‖ "
-                   f"at {name} = {fine.p[int(np.argmax(_max_eigs(_lhs(fine, P, b, nu, decay), size)))]:g})")
-    return result(verdict, P, coarse.A.shape[0], int(active.size), fine.A.shape[0], margin, message)
+
+    def attempt(rate: float, what: str) -> ScheduleCertificate:
+        def solve(active: NDArray[np.int64]) -> tuple[str, Array | None]:
+            return _solve_lyapunov(coarse, b, rate, decay, T, scale, active, solver)
+
+        def violation(P: Array) -> Array:
+            return _max_eigs(_lhs(coarse, P, b, rate, decay), 1.0)
+
+        status, P, active = grow_active_set(solve, violation, first)
+        if P is None:
+            message = (f"no {what} on the LMIs' grid" if status == "infeasible" else f"the solver returned {status!r}")
+            return result(status, None, coarse.A.shape[0], int(active.size), 0, math.nan, message)
+        size = float(max(np.linalg.norm(Pj, 2) for Pj in P))
+        worst = _max_eigs(_lhs(fine, P, b, rate, decay), size)
+        margin = float(worst.max())
+        positive = float(min(np.linalg.eigvalsh(Pj)[0] for Pj in P))
+        if status != "optimal":
+            verdict = status  # an inaccurate answer is never a certificate, whatever numpy says
+            message = f"the solver returned {status!r}; not a certificate"
+        elif margin < 0 and positive > 0:
+            verdict = "certified"
+            message = (f"{what} verified on {fine.A.shape[0]} conditions (largest eigenvalue {margin:.3g} of ‖P‖, "
+                       f"solved on {active.size} of {coarse.A.shape[0]})")
+        else:
+            verdict = "not verified"
+            message = (f"the LMIs' {what} fails numpy's check on the finer grid (largest eigenvalue {margin:.3g} of "
+                       f"‖P‖ at {name} = {fine.p[int(np.argmax(worst))]:g})")
+        return result(verdict, P, coarse.A.shape[0], int(active.size), fine.A.shape[0], margin, message)
+
+    found = attempt(nu, "P(p)" if moving else "P")
+    if found.certified or not moving:
+        return found
+    # One P for every p is a P(p) with no slope, and its LMI is better conditioned: where the
+    # P(p) solve fails (numerically, or infeasible on the grid), it may still hold
+    common = attempt(math.inf, "one P for all p")
+    return common if common.certified else found
 
 
 # --- searches over the certificate ---------------------------------------------------------
@@ -792,8 +809,9 @@ def synthesize_schedule(
 
         status, answer, active = grow_active_set(solve, violation, active_memory)
         active_memory = active
-        if answer is None or status != "optimal":
+        if answer is None:
             return None
+        # an inaccurate solve is only a candidate: the table it gives is certified below, or not
         X, Y = answer
         K = np.array([Yj @ np.linalg.inv(Xj) for Xj, Yj in zip(X, Y)])
         table = ScheduledGain(name, param.unit, b, K, "lmi")

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._resources import check_memory, simulation_bytes
 from .._validation import check_array, check_choice, check_int, check_real
+from ..controller.scheduled import ScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError, InputFileError
 from ..model.plant import UncertainPlant
@@ -243,9 +244,10 @@ class PlantRun:
 
 def simulate_plant(
     plant: UncertainPlant,
-    K: ArrayLike | SampledStateFeedback,
+    K: ArrayLike | SampledStateFeedback | ScheduledGain,
     *,
     profiles: Mapping[str, Callable[[float], float]] | None = None,
+    measurement_bias: float = 0.0,
     reference: tuple[ArrayLike, float] | None = None,
     disturbance: ArrayLike | None = None,
     t_final: float = 10.0,
@@ -266,11 +268,16 @@ def simulate_plant(
     Parameters
     ----------
     plant : UncertainPlant
-    K : array_like, shape (m, n), or SampledStateFeedback
-        Gain on the design form (a :class:`~scara_robust.Design`'s ``K``), or the same gain
-        sampled at its ``Ts``.
+    K : array_like, shape (m, n), SampledStateFeedback or ScheduledGain
+        Gain on the design form (a :class:`~scara_robust.Design`'s ``K``), the same gain
+        sampled at its ``Ts``, or a gain scheduled on a parameter: ``u = −K(p̂(t)) ξ`` with
+        the measured ``p̂(t) = p(t) + measurement_bias``.
     profiles : mapping of str to callable, optional
         ``p(t)`` per parameter (:func:`parameter_profile`); the others stay nominal.
+    measurement_bias : float
+        With a :class:`~scara_robust.ScheduledGain`: what the controller's measurement of
+        its parameter adds to the true value, in the parameter's unit (a bias of δ is the
+        worst a certificate with measurement error δ covers).
     reference : (amplitude, omega), optional
         ``r(t) = a·sin(ωt)`` per output, or a step of height a at t = 0 for ω = 0;
         amplitude array_like, shape (q,), in the outputs' units, ω in rad/s (default: a
@@ -317,6 +324,15 @@ def simulate_plant(
     """
     n_x, m = plant.n_states, plant.n_inputs
     n = plant.n_design_states
+    schedule = K if isinstance(K, ScheduledGain) else None
+    bias = check_real("measurement_bias", measurement_bias)
+    if schedule is not None:
+        check_choice("K.parameter", schedule.parameter, plant.names)
+        if schedule.shape != (m, n):
+            raise ArgumentValueError("K", f"must hold gains of shape ({m}, {n}) for this plant, found {schedule.shape}")
+        K = schedule.gain(plant.nominal[schedule.parameter])  # the transient's time step is estimated with it
+    elif bias != 0:
+        raise ArgumentValueError("measurement_bias", "applies to a ScheduledGain (the measured parameter's error)")
     Ts = K.Ts if isinstance(K, SampledStateFeedback) else None
     K = check_array("K", K.K if isinstance(K, SampledStateFeedback) else K, shape=(m, n))
     t_final = check_real("t_final", t_final, positive=True)
@@ -364,14 +380,20 @@ def simulate_plant(
         return {k: (profiles[k](t) if k in profiles else v) for k, v in nominal.items()}
 
 
+    def gain_at(t: float) -> Array:
+        if schedule is None:
+            return K
+        return schedule.gain(params_at(t)[schedule.parameter] + bias)
+
     def control(t: float, x: Array, z: Array) -> Array:
         r, rd = ref(t)
+        Kt = gain_at(t)
         if plant.form == "pid":
             e, ed = r - x[:q], rd - x[q:2 * q]
-            return np.asarray(-K @ np.concatenate([z, e, ed]))
+            return np.asarray(-Kt @ np.concatenate([z, e, ed]))
         if plant.form == "integral":
-            return np.asarray(-K @ np.concatenate([z, x]))
-        return np.asarray(-K @ x)
+            return np.asarray(-Kt @ np.concatenate([z, x]))
+        return np.asarray(-Kt @ x)
 
     def update(t: float, xs: Array, u_in: Array, params: object) -> Array:
         x, z = xs[:n_x], xs[n_x:]
