@@ -50,6 +50,7 @@ The controller on a board (:mod:`scara_robust.controller`)
     default_tracking_time           -- the anti-windup tracking time sqrt(T_i T_d) per joint
     SampledStateFeedback            -- u_k = -K x(t_k) held by a zero-order hold: a gain of your own, sampled
     ScheduledGain, load_schedule, SCHEDULE_KIND -- gains at breakpoints of a measured parameter, linear between
+    SampledScheduledGain            -- u_k = -K(p̂_k) x(t_k) held: the scheduled gain as exported to C
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution -- K from (ρ, η), steps 2-3
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1

@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -215,3 +217,81 @@ def test_bad_schedule_options_exit_2_in_one_line(argv, message, capsys, tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not (tmp_path / "never.json").exists()
+
+
+# --- the export -----------------------------------------------------------------------------
+
+CC = shutil.which("cc")
+
+_MAIN = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "sched.h"
+
+int main(void)
+{
+    double v[SCHED_NX + 1];
+    REAL x[SCHED_NX], u[SCHED_NU];
+    int i, flag;
+    for (;;) {
+        for (i = 0; i < SCHED_NX + 1; ++i) {
+            if (scanf("%lf", &v[i]) != 1) {
+                return 0;
+            }
+        }
+        for (i = 0; i < SCHED_NX; ++i) {
+            x[i] = (REAL)v[i];
+        }
+        flag = sched_step(x, (REAL)v[SCHED_NX], u);
+        for (i = 0; i < SCHED_NU; ++i) {
+            printf("%.17g ", (double)u[i]);
+        }
+        printf("%d\n", flag);
+    }
+}
+"""
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler `cc` on this machine: the exported C is not compiled")
+@pytest.mark.parametrize("precision", ["double", "single"])
+def test_exported_schedule_equals_the_python_step(tmp_path, precision):
+    """10⁴ random (state, p̂) pairs, p̂ also outside the breakpoints and NaN: to 1e-12 in double, bitwise in float32."""
+    rng = np.random.default_rng(1)
+    gain = sr.ScheduledGain("m_p", "kg", [0.0, 0.4, 1.1, 2.07], rng.normal(scale=50.0, size=(4, 2, 6)), "lmi",
+                            {"rate": 1.0, "measurement_error": 0.05})
+    ctrl = sr.SampledScheduledGain(gain, 1e-3)
+    files = sr.export_controller(ctrl, tmp_path, prefix="sched", precision=precision,
+                                 outputs=[sr.Signal("tau1", "N·m"), sr.Signal("tau2", "N·m")])
+    header = files[0].read_text()
+    ctype = "float" if precision == "single" else "double"
+    assert f"int sched_step(const {ctype} x[SCHED_NX], {ctype} p_hat, {ctype} u[SCHED_NU]);" in header
+    assert "rate = 1.0" in header and "measurement_error = 0.05" in header and "u[1] = tau2 [N·m]" in header
+    (tmp_path / "main.c").write_text(_MAIN.replace("REAL", ctype))
+    exe = tmp_path / "sched"
+    subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-ffp-contract=off", "-o",
+                    str(exe), str(tmp_path / "main.c"), str(files[1])], check=True, capture_output=True, text=True,
+                   timeout=120)
+    x = rng.normal(size=(10_000, 6))
+    p_hat = rng.uniform(-0.5, 2.6, size=10_000)
+    p_hat[::97] = np.nan
+    p_hat[::101] = gain.breakpoints[rng.integers(0, 4, size=p_hat[::101].size)]  # exactly on a breakpoint
+    if precision == "single":
+        x, p_hat = x.astype(np.float32).astype(float), p_hat.astype(np.float32).astype(float)
+    lines = "\n".join(" ".join(repr(float(v)) for v in (*row, p)) for row, p in zip(x, p_hat))
+    out = subprocess.run([str(exe)], input=lines, check=True, capture_output=True, text=True, timeout=120).stdout
+    result = np.array([[float(v) for v in line.split()] for line in out.splitlines()])
+    u_c, flags = result[:, :2], result[:, 2].astype(bool)
+    step = ctrl.step_single if precision == "single" else ctrl.step
+    expected = [step(row, p) for row, p in zip(x, p_hat)]
+    u_py = np.array([u for u, _ in expected], dtype=float)
+    assert result.shape == (10_000, 3)
+    assert flags.tolist() == [c for _, c in expected] and flags.sum() > 1000
+    if precision == "single":
+        assert np.array_equal(u_c.astype(np.float32), u_py.astype(np.float32))
+    else:
+        assert np.abs(u_c - u_py).max() <= 1e-12 * np.abs(u_py).max()
+    # and the table is the ScheduledGain's: the Python step is K(p̂) x, clamped
+    inside = ~np.isnan(p_hat)
+    reference = -np.einsum("kij,kj->ki", gain.gain(p_hat[inside]), x[inside])
+    np.testing.assert_allclose(u_py[inside], reference, rtol=1e-5 if precision == "single" else 1e-12,
+                               atol=1e-3 if precision == "single" else 1e-9)

@@ -22,10 +22,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array
+from .._validation import check_array, check_real
 from ..exceptions import ArgumentValueError, InputFileError
 
-__all__ = ["ScheduledGain", "load_schedule", "SCHEDULE_KIND"]
+__all__ = ["ScheduledGain", "SampledScheduledGain", "load_schedule", "SCHEDULE_KIND"]
 
 Array = NDArray[np.float64]
 
@@ -178,3 +178,71 @@ def load_schedule(path: str | os.PathLike[str]) -> ScheduledGain:
                              str(data.get("method", "")), dict(data.get("certified", {})))
     except (ArgumentValueError, TypeError, ValueError) as err:
         raise InputFileError(f"{where} {err}") from None
+
+
+@dataclass(frozen=True)
+class SampledScheduledGain:
+    """``u_k = −K(p̂_k) x(t_k)`` at sample time Ts, held: a scheduled gain as it runs on a board.
+
+    :meth:`step` is the exported C step (:func:`scara_robust.export_controller`) operation
+    for operation: p̂ clamped to the breakpoints (the flag says so), the segment found by
+    a scan from the first breakpoint, ``K = (1 − s)K_j + sK_{j+1}`` entry by entry, and
+    ``u_i = −Σ_k K_ik x_k`` summed in order; :meth:`step_single` the same in float32.
+
+    Parameters
+    ----------
+    gain : ScheduledGain
+    Ts : float
+        Sample time, s (> 0).
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> ctrl = sr.SampledScheduledGain(sr.ScheduledGain("m", "kg", [0, 2], [[[1.0, 2.0]], [[3.0, 4.0]]]), 1e-3)
+    >>> u, clamped = ctrl.step([1.0, 1.0], 1.0)
+    >>> u.tolist(), clamped
+    ([-5.0], False)
+    """
+
+    gain: ScheduledGain
+    Ts: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.gain, ScheduledGain):
+            raise ArgumentValueError("gain", f"must be a ScheduledGain, found {type(self.gain).__name__}")
+        object.__setattr__(self, "Ts", check_real("Ts", self.Ts, positive=True))
+
+    def _step(self, x: ArrayLike, p_hat: float, kind: Any) -> tuple[NDArray[Any], bool]:
+        b = self.gain.breakpoints.astype(kind)
+        G = self.gain.gains.astype(kind)
+        m, n = self.gain.shape
+        xs = np.asarray(x, dtype=kind).reshape(n)
+        p = kind(p_hat)
+        clamped = False
+        if not p >= b[0]:  # below the range, or not a number: the first gain
+            p, clamped = b[0], True
+        elif p > b[-1]:
+            p, clamped = b[-1], True
+        j = 0
+        while j < b.size - 2 and p >= b[j + 1]:
+            j += 1
+        s = (p - b[j]) / (b[j + 1] - b[j])
+        one = kind(1.0)
+        u = np.zeros(m, dtype=kind)
+        for i in range(m):
+            acc = kind(0.0)
+            for k in range(n):
+                gain_ik = (one - s) * G[j, i, k] + s * G[j + 1, i, k]
+                acc = acc + gain_ik * xs[k]
+            u[i] = -acc
+        return u, clamped
+
+    def step(self, x: ArrayLike, p_hat: float) -> tuple[Array, bool]:
+        """``(u, clamped)``: u of shape (m,) in double precision; clamped when p̂ left the breakpoints."""
+        u, clamped = self._step(x, p_hat, np.float64)
+        return np.asarray(u, dtype=float), clamped
+
+    def step_single(self, x: ArrayLike, p_hat: float) -> tuple[NDArray[np.float32], bool]:
+        """:meth:`step` in float32, as the single-precision C computes it."""
+        u, clamped = self._step(x, p_hat, np.float32)
+        return np.asarray(u, dtype=np.float32), clamped

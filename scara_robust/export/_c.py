@@ -28,6 +28,13 @@ e in rad, ė in rad/s, u in N·m; Ts in s.
 Static state feedback (:class:`~scara_robust.SampledStateFeedback`) is exported the same way,
 stateless: ``void <prefix>_step(const double x[NX], double u[NU])`` computes ``u = −K x``
 (called every Ts, its output held until the next call).
+
+A scheduled gain (:class:`~scara_robust.SampledScheduledGain`) is stateless too, with the
+measured parameter as an input and the breakpoint table as constants:
+``int <prefix>_step(const double x[NX], double p_hat, double u[NU])`` computes
+``u = −K(p̂) x``, K linear between the breakpoints; a p̂ outside them (or not a number)
+takes the edge gain and the step returns 1, the flag the caller reads (the certificate
+does not cover it), else 0. The header records what the schedule was certified for.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from numpy.typing import NDArray
 
 from .._validation import check_array, check_choice, check_instance
 from ..controller.discrete import DiscretePID
+from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
 from ..model.plant import Signal
@@ -321,8 +329,95 @@ void {prefix}_step(const {ctype} x[{macro}_NX], {ctype} u[{macro}_NU])
     return {f"{prefix}.h": header, f"{prefix}.c": source}
 
 
+def _scheduled_files(ctrl: SampledScheduledGain, prefix: str, notes: Sequence[str],
+                     inputs: Sequence[Signal] | None, outputs: Sequence[Signal] | None,
+                     precision: str) -> dict[str, str]:
+    """``<prefix>.h`` and ``<prefix>.c`` of a scheduled gain ``u = −K(p̂) x`` (see the module docstring)."""
+    check_choice("precision", precision, PRECISIONS)
+    g = ctrl.gain
+    m, n = g.shape
+    nb = g.breakpoints.size
+    xs = list(inputs) if inputs is not None else [Signal(f"x{i}", "model units") for i in range(n)]
+    us = list(outputs) if outputs is not None else [Signal(f"u{j}", "model units") for j in range(m)]
+    if len(xs) != n:
+        raise ArgumentValueError("inputs", f"must name the {n} states fed back, found {len(xs)}")
+    if len(us) != m:
+        raise ArgumentValueError("outputs", f"must name the {m} plant inputs, found {len(us)}")
+    ctype = "float" if precision == "single" else "double"
+    macro = prefix.upper()
+    lo, hi = g.range
+    certified = [f"{key} = {value}" for key, value in g.certified.items()]
+    if not certified:
+        certified = ["nothing: this schedule carries no certificate"]
+    signals = "\n".join([f" *   x[{i}] = {sig.name} [{sig.unit}]" for i, sig in enumerate(xs)]
+                        + [f" *   p_hat = measured {g.parameter} [{g.unit}]"]
+                        + [f" *   u[{j}] = {sig.name} [{sig.unit}]" for j, sig in enumerate(us)])
+    comment = "".join(f" * {line}\n" for line in notes)
+    record = "".join(f" *   {line}\n" for line in certified)
+    header = f"""/* {prefix}: a gain scheduled on the measured {g.parameter} [{g.unit}], u = -K(p_hat) x, sampled every
+ * Ts = {ctrl.Ts:.17g} s and held until the next sample. K is linear between the {nb} breakpoints
+ * {lo:.17g} ... {hi:.17g} {g.unit}; outside them the edge gain is used and {prefix}_step returns 1.
+ * Certified for:
+{record}{comment}{signals}
+ */
+#ifndef {macro}_H
+#define {macro}_H
+
+#define {macro}_NX {n}
+#define {macro}_NU {m}
+#define {macro}_NB {nb}
+#define {macro}_TS {_num(ctrl.Ts, precision)}
+#define {macro}_P_MIN {_num(lo, precision)}
+#define {macro}_P_MAX {_num(hi, precision)}
+
+/* Returns 1 when p_hat lay outside [{macro}_P_MIN, {macro}_P_MAX] or was not a number (the edge gain
+ * was used: outside what was certified), else 0. */
+int {prefix}_step(const {ctype} x[{macro}_NX], {ctype} p_hat, {ctype} u[{macro}_NU]);
+
+#endif
+"""
+    table = ", ".join(_num(v, precision) for v in g.breakpoints)
+    gains = ",\n    ".join(
+        "{" + ", ".join("{" + ", ".join(_num(v, precision) for v in row) + "}" for row in K) + "}" for K in g.gains)
+    one, zero = _num(1.0, precision), _num(0.0, precision)
+    source = f"""#include "{prefix}.h"
+
+static const {ctype} BREAKPOINTS[{macro}_NB] = {{{table}}};
+static const {ctype} GAINS[{macro}_NB][{macro}_NU][{macro}_NX] = {{
+    {gains}
+}};
+
+int {prefix}_step(const {ctype} x[{macro}_NX], {ctype} p_hat, {ctype} u[{macro}_NU])
+{{
+    int i, k, j = 0, clamped = 0;
+    {ctype} p = p_hat, s;
+    if (!(p >= BREAKPOINTS[0])) {{
+        p = BREAKPOINTS[0];
+        clamped = 1;
+    }} else if (p > BREAKPOINTS[{macro}_NB - 1]) {{
+        p = BREAKPOINTS[{macro}_NB - 1];
+        clamped = 1;
+    }}
+    while (j < {macro}_NB - 2 && p >= BREAKPOINTS[j + 1]) {{
+        ++j;
+    }}
+    s = (p - BREAKPOINTS[j]) / (BREAKPOINTS[j + 1] - BREAKPOINTS[j]);
+    for (i = 0; i < {macro}_NU; ++i) {{
+        {ctype} acc = {zero};
+        for (k = 0; k < {macro}_NX; ++k) {{
+            {ctype} gain = ({one} - s) * GAINS[j][i][k] + s * GAINS[j + 1][i][k];
+            acc = acc + gain * x[k];
+        }}
+        u[i] = -acc;
+    }}
+    return clamped;
+}}
+"""
+    return {f"{prefix}.h": header, f"{prefix}.c": source}
+
+
 def _c_files(
-    controller: DiscretePID | SampledStateFeedback,
+    controller: DiscretePID | SampledStateFeedback | SampledScheduledGain,
     *,
     prefix: str,
     notes: Sequence[str],
@@ -332,6 +427,9 @@ def _c_files(
     precision: str,
 ) -> dict[str, str]:
     """``write`` of the C target: ``{'.h': header, '.c': source}`` (`metadata` is not written)."""
+    if isinstance(controller, SampledScheduledGain):
+        files = _scheduled_files(controller, prefix, notes, inputs, outputs, precision)
+        return {name.removeprefix(prefix): text for name, text in files.items()}
     if isinstance(controller, SampledStateFeedback):
         files = _gain_files(controller, prefix, notes, inputs, outputs, precision)
         return {name.removeprefix(prefix): text for name, text in files.items()}

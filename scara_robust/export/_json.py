@@ -13,6 +13,7 @@ import numpy as np
 
 from .._validation import check_choice, check_instance
 from ..controller.discrete import DiscretePID
+from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..model.plant import Signal
 from ._common import PRECISIONS, per_second, signal_names, unit_of
@@ -84,7 +85,7 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
 
 
 def _json_file(
-    controller: DiscretePID | SampledStateFeedback,
+    controller: DiscretePID | SampledStateFeedback | SampledScheduledGain,
     *,
     prefix: str,
     notes: Sequence[str],
@@ -95,7 +96,14 @@ def _json_file(
 ) -> str:
     """``write`` of the JSON target: the text of ``<prefix>.json`` (the record, indented by 2)."""
     check_choice("precision", precision, PRECISIONS)
-    if isinstance(controller, SampledStateFeedback):
+    if isinstance(controller, SampledScheduledGain):
+        g = controller.gain
+        record = {"controller": "scheduled gain", "law": "u = -K(p_hat) x, K linear between the breakpoints, the "
+                  "edge gain outside them; zero-order hold", "Ts": controller.Ts, "parameter": g.parameter,
+                  "unit": g.unit, "breakpoints": g.breakpoints.tolist(), "gains": g.gains.tolist(),
+                  "certified": g.to_dict()["certified"], "precision": precision, **(metadata or {}),
+                  **({"notes": list(notes)} if notes else {})}
+    elif isinstance(controller, SampledStateFeedback):
         record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": controller.Ts,
                   "K": controller.K.tolist(), "precision": precision, **(metadata or {}),
                   **({"notes": list(notes)} if notes else {})}

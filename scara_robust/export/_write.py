@@ -13,6 +13,7 @@ from typing import Any
 
 from .._validation import check_choice, check_instance
 from ..controller.discrete import DiscretePID
+from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..io import current_umask
 from ..model.plant import Signal
@@ -28,7 +29,7 @@ EXPORT_FORMATS = ("c", "json")
 
 
 def export_controller(
-    pid: DiscretePID | SampledStateFeedback,
+    pid: DiscretePID | SampledStateFeedback | SampledScheduledGain,
     folder: str | os.PathLike[str],
     *,
     format: str = "c",
@@ -43,9 +44,10 @@ def export_controller(
 
     Parameters
     ----------
-    pid : DiscretePID or SampledStateFeedback
-        The PID (stateful: ``<prefix>_init`` and ``<prefix>_step``) or static state
-        feedback (stateless ``<prefix>_step(x, u)``: ``u = −K x``).
+    pid : DiscretePID, SampledStateFeedback or SampledScheduledGain
+        The PID (stateful: ``<prefix>_init`` and ``<prefix>_step``), static state
+        feedback (stateless ``<prefix>_step(x, u)``: ``u = −K x``) or a scheduled gain
+        (stateless ``<prefix>_step(x, p_hat, u)``: ``u = −K(p̂) x``, returning the clamp flag).
     folder : path-like
         An existing, writable folder.
     format : str
@@ -87,8 +89,8 @@ def export_controller(
     >>> [p.name for p in sr.export_controller(pid, tempfile.mkdtemp())]
     ['scara_pid.h', 'scara_pid.c']
     """
-    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
-                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
+    check_instance("pid", pid, (DiscretePID, SampledStateFeedback, SampledScheduledGain),
+                   "a DiscretePID (Design.discretize), a SampledStateFeedback or a SampledScheduledGain")
     check_choice("format", format, export_targets())
     kind = get_target(format)
     prefix = check_prefix(prefix)

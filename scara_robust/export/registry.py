@@ -23,6 +23,7 @@ from typing import Any
 
 from .._validation import check_callable, check_instance, describe
 from ..controller.discrete import DiscretePID
+from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.plant import Signal
@@ -53,7 +54,8 @@ class ExportTarget:
     write : callable
         ``write(controller, *, prefix, notes, metadata, outputs, inputs, precision)``,
         with the arguments of :func:`~scara_robust.export_controller` (the controller is a
-        :class:`~scara_robust.DiscretePID` or a :class:`~scara_robust.SampledStateFeedback`;
+        :class:`~scara_robust.DiscretePID`, a :class:`~scara_robust.SampledStateFeedback` or a
+        :class:`~scara_robust.SampledScheduledGain`;
         Ts and the gains in SI units, the signals' units as the plant gives them).
         Returns the text of ``<prefix><suffix>`` (str), or, for several files, a mapping
         of suffix to text in the order the files are written (the C target:
@@ -91,7 +93,7 @@ class ExportTarget:
 
     def files(
         self,
-        controller: DiscretePID | SampledStateFeedback,
+        controller: DiscretePID | SampledStateFeedback | SampledScheduledGain,
         *,
         prefix: str = DEFAULT_PREFIX,
         notes: Sequence[str] = (),
@@ -104,7 +106,7 @@ class ExportTarget:
 
         Parameters
         ----------
-        controller : DiscretePID or SampledStateFeedback
+        controller : DiscretePID, SampledStateFeedback or SampledScheduledGain
             The controller (Ts in s).
         prefix : str
             C identifier; the files are ``<prefix><suffix>``.

@@ -564,6 +564,15 @@ def max_measurement_error(plant: UncertainPlant, gain: ScheduledGain, *, rate: f
                           **options: Any) -> tuple[float, ScheduleCertificate | None]:
     """The largest measurement error δ (the parameter's unit) certified, by bisection up to the range's width.
 
+    Parameters
+    ----------
+    plant, gain : as :func:`schedule_certificate`
+    rate, decay : as :func:`schedule_certificate`
+    tol : float
+        Relative width of the final bracket.
+    **options
+        ``points``, ``refine``, ``solver``.
+
     Returns
     -------
     delta : float
@@ -589,6 +598,15 @@ def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | 
                    measurement_error: float | None = None, tol: float = 0.01,
                    **options: Any) -> tuple[float, ScheduleCertificate | None]:
     """The largest decay rate α (1/s) certified for the scheduled loop, by bisection.
+
+    Parameters
+    ----------
+    plant, gain : as :func:`schedule_certificate`
+    rate, measurement_error : as :func:`schedule_certificate`
+    tol : float
+        Relative width of the final bracket.
+    **options
+        ``points``, ``refine``, ``solver``.
 
     Returns
     -------
