@@ -19,6 +19,7 @@ from .paper import PAPER_TRANSIENT
 from .robustness.registry import analysis_methods
 
 if TYPE_CHECKING:
+    from .controller.scheduled import ScheduledGain
     from .lyapunov.surface import DesignSurface
     from .model.plant import UncertainPlant
     from .simulation.arm import ArmRun
@@ -38,6 +39,7 @@ __all__ = [
     "plot_anti_windup",
     "plot_plant_run",
     "plot_arm_run",
+    "plot_schedule",
 ]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
@@ -922,3 +924,73 @@ def plot_arm_run(run: ArmRun, *, title: str | None = None) -> Any:
     axes[-1].set_xlim(t[0], t[-1])
     fig.suptitle(title or f"{run.status}: {run.status_reason}")
     return fig
+
+
+def _gain_entry_labels(plant: UncertainPlant) -> tuple[list[str], list[str]]:
+    """Each design-form state's gain name and the unit of the state it multiplies (``rad·s`` for K_I)."""
+    n = plant.n_design_states
+    outs = list(plant.outputs)
+    if plant.form == "pid" and n == 3 * len(outs):
+        names, units = [], []
+        for kind, unit in (("K_I", "({}·s)"), ("K_P", "{}"), ("K_D", "({}/s)")):
+            for k, sig in enumerate(outs):
+                names.append(kind if len(outs) == 1 else f"{kind}[{k}]")
+                units.append(unit.format(sig.unit))
+        return names, units
+    return [f"x{j}" for j in range(n)], ["state unit"] * n
+
+
+def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = None,
+                  title: str | None = None) -> Any:
+    """Each entry of a scheduled gain against its parameter, the fixed gain beside it.
+
+    One panel per nonzero entry ``K_ij`` (at most 12, the largest first): the table's values at
+    the breakpoints (markers), linear between them as the controller interpolates, and a
+    fixed gain's entry as a dashed line.
+
+    Parameters
+    ----------
+    gain : ScheduledGain
+    plant : UncertainPlant
+        The plant it controls (names and units of the inputs and outputs).
+    fixed : array_like, shape (m, n), optional
+        A fixed gain to draw beside it.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    m, n = gain.shape
+    K_fixed = None if fixed is None else np.asarray(fixed, dtype=float).reshape(m, n)
+    names, per = _gain_entry_labels(plant)
+    ins: list[Any] = list(plant.inputs) or [None] * m
+    size = np.abs(gain.gains).max(axis=0)
+    entries = [(i, j) for i, j in zip(*np.unravel_index(np.argsort(-size, axis=None), size.shape)) if size[i, j] > 0]
+    entries = entries[:12]
+    cols = min(3, len(entries))
+    rows = -(-len(entries) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols + 1.0, 2.6 * rows + 0.8), squeeze=False,
+                             layout="constrained")
+    p = np.linspace(*gain.range, 201)
+    curve = gain.gain(p)
+    for ax, (i, j) in zip(axes.flat, entries):
+        unit = f"{ins[i].unit}/{per[j]}" if ins[i] is not None else "input unit per state unit"
+        label = names[j] if m == 1 else f"{names[j]} → {ins[i].name if ins[i] is not None else i}"
+        ax.plot(p, curve[:, i, j], color="C0", label="scheduled K(p̂)")
+        ax.plot(gain.breakpoints, gain.gains[:, i, j], "o", color="C0", ms=4, label="breakpoints")
+        if K_fixed is not None:
+            ax.axhline(K_fixed[i, j], color="C1", ls="--", label="fixed gain")
+        ax.set_title(label, fontsize=_LEGEND_SIZE + 1)
+        ax.set_ylabel(f"gain [{unit}]")
+        ax.set_xlabel(f"measured {gain.parameter} [{gain.unit}]")
+        ax.set_xlim(*gain.range)
+    for ax in list(axes.flat)[len(entries):]:
+        ax.set_visible(False)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=_LEGEND_SIZE)
+    fig.suptitle(title or f"{plant.name}: K of u = −K x, scheduled on {gain.parameter} ({gain.method})")
+    return fig
+

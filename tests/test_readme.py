@@ -31,6 +31,7 @@ PAGES = (
     "docs/guide/robust.md",
     "docs/guide/variation.md",
     "docs/guide/synthesis.md",
+    "docs/guide/scheduled.md",
     "docs/performance.md",
     "docs/guide/deployment.md",
     "docs/guide/campaigns.md",
