@@ -88,6 +88,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     schedule_certificate, ScheduleCertificate, max_schedule_rate, max_measurement_error, schedule_decay -- its
                                     certificate for |ṗ| <= ν and |p̂ − p| <= δ (extra ``lmi``)
     scheduled_parameter, SCHEDULE_POINTS, SCHEDULE_REFINE -- the parameter scheduled on; the grids
+    schedule_sampled_certificate    -- the scheduled gain held at Ts: one discrete P, exact in p̂ (extra ``lmi``)
     max_certified_rate, RateMargin  -- the largest certified rate ν, by bisection
     payload_rate_certificate        -- the robot's largest certified payload rate, kg/s
     payload_switching_growth        -- growth under a periodic payload ramping at a given rate (the other side)
@@ -145,6 +146,7 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_anti_windup                -- errors and torques under a torque limit, with and without anti-windup
     plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
     plot_arm_run                    -- an arm run: joint errors, torques and payload over time
+    plot_schedule                   -- a scheduled gain's entries against its parameter, a fixed gain beside
 """
 
 from __future__ import annotations

@@ -295,3 +295,43 @@ def test_exported_schedule_equals_the_python_step(tmp_path, precision):
     reference = -np.einsum("kij,kj->ki", gain.gain(p_hat[inside]), x[inside])
     np.testing.assert_allclose(u_py[inside], reference, rtol=1e-5 if precision == "single" else 1e-12,
                                atol=1e-3 if precision == "single" else 1e-9)
+
+
+def test_sampled_certificate_of_the_schedule_brackets_ts(arm):
+    """Certified at a small Ts with one discrete P (re-verified on a finer grid); refused where a frozen loop fails."""
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    fast = sr.schedule_sampled_certificate(arm, gain, 1e-3)
+    assert fast.certified and fast.P is not None
+    # the frozen sampled loops at the grid's p and p̂ corners, computed here directly: all Schur stable
+    plant_A, plant_B = arm.design_form(*arm.plant_matrices(np.array([[m if n == "m" else arm.nominal[n]
+                                                                      for n in arm.names] for m in (0.0, 0.95, 2.0)])))
+    for A, B, p_hat in zip(plant_A, plant_B, (0.05, 0.9, 1.95)):
+        closed = sr.sampled_closed_loops(A[None], (B @ gain(p_hat))[None], sr.SampledStateFeedback(np.eye(3), 1e-3))
+        assert np.abs(np.linalg.eigvals(closed[0])).max() < 1
+    slow = sr.schedule_sampled_certificate(arm, gain, 1.0)
+    assert not slow.certified
+
+
+def test_export_of_a_schedule_is_refused_beyond_its_certificate(tmp_path, capsys):
+    schedule = tmp_path / "s.json"
+    assert main(["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "3", "--rate", "1",
+                 "--gain-bound", "20", "--output", str(schedule)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "c"
+    out.mkdir()
+    base = ["export", "--model", ARM, "--design", str(schedule), "--ts", "0.001", "--output", str(out)]
+    for extra, why in ((["--rate", "2"], "rate 2 kg/s asked, 1.0 certified"),
+                       (["--rate", "1", "--measurement-error", "0.1"], "measurement error 0.1 kg asked, 0.05"),
+                       (["--rate", "1", "--ts", "1.0"], "a frozen sampled loop is unstable")):
+        argv = base + extra if "--ts" not in extra else [*base[:-4], *extra, "--output", str(out)]
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0] and "nothing written" in err[0], err
+        assert list(out.iterdir()) == []
+    assert main([*base, "--rate", "1"]) == 0
+    header = (out / "arm_pid_scheduled.h").read_text()
+    assert "int arm_pid_scheduled_step(const double x[ARM_PID_SCHEDULED_NX], double p_hat" in header
+    assert "WARNING" not in header and "measurement_error = 0.05" in header and "x[1] = angle error [rad]" in header
+    assert main([*base, "--rate", "2", "--allow-uncertified", "--precision", "single"]) == 0
+    header = (out / "arm_pid_scheduled.h").read_text()
+    assert "WARNING: NOT CERTIFIED as asked (rate 2 kg/s asked" in header and "float p_hat" in header

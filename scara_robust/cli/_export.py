@@ -26,6 +26,7 @@ from ._common import (
     resolve_gain,
 )
 from ._parser import COMMAND_HELP
+from ._schedule import add_schedule_options, is_schedule_file, run_schedule_export
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -51,7 +52,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
     p.add_argument("--design", metavar="FILE.json",
-                   help="export the PID gain of a design file (design --output, synthesize --output) instead")
+                   help="export the PID gain of a design file (design --output, synthesize --output) instead, or a "
+                   "schedule file (synthesize --schedule --output): PREFIX_step(x, p_hat, u) with its breakpoint "
+                   "table, refused beyond the rate and measurement error it was certified for")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--ts", type=finite_float, required=True, help="sample time, s (> 0)")
     p.add_argument("--integrator", choices=INTEGRATOR_METHODS, default="tustin", help="discretization of the integral")
@@ -63,6 +66,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--tracking-time", type=per_joint_values, default=None, metavar="T[,T2,...]",
                    help="anti-windup tracking time T_t, s (>= Ts; default sqrt(T_i T_d) per joint)")
     p.add_argument("--no-anti-windup", action="store_true", help="leave the integrator free against the limit")
+    add_schedule_options(p, synthesis=False)
     p.add_argument("--allow-uncertified", action="store_true",
                    help="write the controller even where the sampled-data certificate fails at --ts (the header "
                    "and the JSON say so); by default such a Ts is refused")
@@ -110,6 +114,21 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     _check_folder(args.folder)  # before any computation
     if args.prefix is not None:
         check_prefix(args.prefix)
+    if is_schedule_file(args.design):
+        changed = [o for o, v, default in (("--integrator", args.integrator, "tustin"),
+                                           ("--derivative", args.derivative, "measured"),
+                                           ("--filter-n", args.filter_n, 100.0),
+                                           ("--torque-limit", args.torque_limit, None),
+                                           ("--tracking-time", args.tracking_time, None),
+                                           ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+        if changed:
+            raise CommandLineError(f"`{changed[0]}` is an option of the PID; a schedule file's controller is "
+                                   "u = -K(p_hat) x(t_k) held")
+        return run_schedule_export(args, system)
+    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
+             if v is not None]
+    if given:
+        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
     check_gain_options(args)
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)

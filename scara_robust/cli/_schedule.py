@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from ..controller.scheduled import SCHEDULE_KIND, ScheduledGain, load_schedule
+from ..controller.scheduled import SCHEDULE_KIND, SampledScheduledGain, ScheduledGain, load_schedule
 from ..exceptions import ArgumentError, InputFileError
-from ..model.plant import UncertainPlant
+from ..export import export_controller
+from ..model.plant import Signal, UncertainPlant
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.scheduled import (
     ScheduleCertificate,
@@ -20,13 +21,15 @@ from ..robustness.scheduled import (
     max_schedule_rate,
     schedule_certificate,
     schedule_decay,
+    schedule_sampled_certificate,
     scheduled_parameter,
     synthesize_schedule,
 )
 from ._common import CommandLineError
 from ._system import LoadedSystem
 
-__all__ = ["is_schedule_file", "add_schedule_options", "run_schedule_synthesis", "run_schedule_certificate"]
+__all__ = ["is_schedule_file", "add_schedule_options", "run_schedule_synthesis", "run_schedule_certificate",
+           "run_schedule_export"]
 
 
 def is_schedule_file(path: str | None) -> bool:
@@ -189,3 +192,87 @@ def run_schedule_certificate(args: argparse.Namespace, system: LoadedSystem) -> 
                       f"largest certified measurement error: {delta:.4g} {unit} (rate {cert.rate:g} {unit}/s)",
                       f"guaranteed decay rate: {decay:.4g} 1/s (rate {cert.rate:g} {unit}/s, measurement error "
                       f"{cert.measurement_error:g} {unit})"])
+
+
+def _state_signals(plant: UncertainPlant) -> list[Signal] | None:
+    """The design-form state the scheduled gain reads: ``[∫e, e, ė]`` of a PID form, named with units."""
+    outs = list(plant.outputs)
+    if plant.form == "pid" and plant.n_design_states == 3 * len(outs):
+        return ([Signal(f"integral of {s.name} error", f"{s.unit}·s") for s in outs]
+                + [Signal(f"{s.name} error", s.unit) for s in outs]
+                + [Signal(f"{s.name} error rate", f"{s.unit}/s") for s in outs])
+    return None
+
+
+def _number(value: Any) -> float:
+    return math.inf if value in ("inf", None) else float(value)
+
+
+def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``export --design SCHEDULE.json``: a scheduled gain to C or JSON, with its certificates checked first.
+
+    Refused (nothing written) unless ``--allow-uncertified``, which the header records: a
+    rate or measurement error asked beyond what the schedule file was certified for, and a
+    Ts the sampled-data certificate does not hold at.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    system : LoadedSystem
+
+    Returns
+    -------
+    str
+    """
+    _check_numbers(args)
+    plant = _plant(system)
+    try:
+        gain = load_schedule(args.design)
+    except InputFileError as err:
+        raise CommandLineError(str(err)) from err
+    name = gain.parameter
+    if name not in plant.names:
+        raise CommandLineError(f"`--design` {args.design!r}: schedules {name!r}, which {plant.name!r} does not have")
+    param = plant.parameter(name)
+    rate = (math.inf if param.rate is None else float(param.rate)) if args.schedule_rate is None else \
+        args.schedule_rate
+    delta = param.effective_error if args.measurement_error is None else args.measurement_error
+    certified = gain.certified
+    problems = []
+    if not certified:
+        problems.append("the schedule file records no certificate")
+    else:
+        if rate > _number(certified.get("rate", 0.0)):
+            problems.append(f"rate {rate:g} {param.unit}/s asked, {certified.get('rate')} certified")
+        if delta > _number(certified.get("measurement_error", 0.0)):
+            problems.append(f"measurement error {delta:g} {param.unit} asked, {certified.get('measurement_error')} "
+                            "certified")
+    try:
+        sampled = schedule_sampled_certificate(plant, gain, args.ts, measurement_error=delta)
+    except ArgumentError as err:
+        raise CommandLineError(f"`--design` {args.design!r}: {err}") from err
+    if not sampled.certified:
+        problems.append(f"the sampled-data certificate: {sampled.message}")
+    if problems and not args.allow_uncertified:
+        raise CommandLineError(f"`--design` {args.design!r}: not certified for this export ({'; '.join(problems)}); "
+                               "nothing written (--allow-uncertified writes it anyway)")
+    notes = [f"Sampled-data certificate at Ts (one P for every {name}, so any rate between samples; "
+             f"measurement error {delta:g} {param.unit}): {sampled.message}."]
+    if problems:
+        notes.insert(0, "WARNING: NOT CERTIFIED as asked (" + "; ".join(problems) + "); written with "
+                        "--allow-uncertified. Do not deploy it without your own analysis.")
+    meta = {"schedule_file": args.design, "plant": plant.name, "plant_file": system.file,
+            "asked": {"rate": rate, "measurement_error": delta}, "sampled_certificate": {
+                "Ts [s]": sampled.Ts, "certified": sampled.certified, "spectral_radius": sampled.spectral_radius,
+                "decay_rate [1/s]": sampled.rate if math.isfinite(sampled.rate) else None,
+                "plants": sampled.n_plants, "message": sampled.message},
+            "allow_uncertified": bool(problems), "precision": args.precision}
+    prefix = args.prefix or f"{system.plant_prefix('plant')}_scheduled"
+    files = export_controller(SampledScheduledGain(gain, args.ts), args.folder, format=args.format, prefix=prefix,
+                              metadata=meta, notes=notes, precision=args.precision, outputs=list(plant.inputs),
+                              inputs=_state_signals(plant))
+    head = (f"gain scheduled on {name} of {args.design!r}, {plant.name}, Ts = {args.ts:g} s, u = -K(p_hat) x(t_k) "
+            f"held, {args.precision} precision")
+    status = ("WARNING: not certified as asked: " + "; ".join(problems)) if problems else \
+        f"certified for rate {rate:g} {param.unit}/s and measurement error {delta:g} {param.unit}"
+    return "\n".join([head, status, sampled.message, *(f"wrote {f}" for f in files)])

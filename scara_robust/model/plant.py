@@ -114,7 +114,6 @@ class Parameter:
     measured : bool
         The controller measures it (a payload weighed by a wrist sensor, told by the
         task): a gain may be scheduled on it (:class:`~scara_robust.ScheduledGain`).
-        Only for a parameter with a range.
     measurement_error : float
         Bound δ on ``|p̂ − p|``, in its unit (>= 0); only for a measured parameter.
     measurement_delay : float
@@ -185,9 +184,6 @@ class Parameter:
             which = "measurement_error" if error > 0 else "measurement_delay"
             raise ArgumentValueError(f"{self.name}.{which}", "describes a measured parameter; set "
                                                              f"{self.name}.measured = true")
-        if self.measured and lo == hi:
-            raise ArgumentValueError(f"{self.name}.measured", f"schedules a gain on a parameter with a range; "
-                                                              f"{self.name} is fixed at {lo:g} {self.unit}")
         object.__setattr__(self, "measurement_error", error)
         object.__setattr__(self, "measurement_delay", delay)
 

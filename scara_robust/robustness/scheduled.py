@@ -58,15 +58,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..controller.scheduled import ScheduledGain
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant
 from ..results import AnalysisResult, verdict_of
 from ._cutting import grow_active_set
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .sampled import SampledCertificate, sampled_certificate
 from .search import bisect
 
 __all__ = ["ScheduleCertificate", "ScheduleSynthesis", "schedule_riccati", "schedule_certificate",
+           "schedule_sampled_certificate",
            "synthesize_schedule", "max_schedule_rate", "max_measurement_error", "schedule_decay",
            "scheduled_parameter", "SCHEDULE_POINTS", "SCHEDULE_REFINE"]
 
@@ -505,6 +508,61 @@ def schedule_certificate(
     # P(p) solve fails (numerically, or infeasible on the grid), it may still hold
     common = attempt(math.inf, "one P for all p")
     return common if common.certified else found
+
+
+# --- the sampled-data certificate ----------------------------------------------------------
+
+
+def _sampled_pairs(plant: UncertainPlant, gain: ScheduledGain, name: str, points: int, fine: bool,
+                   delta: float) -> tuple[Array, Array]:
+    grid = _grid(plant, name, gain.breakpoints, points, _others(plant, name, fine))
+    A, BK = [], []
+    for i, p in enumerate(grid.p):
+        for ph in _measured_points(float(p), delta, gain.breakpoints):
+            A.append(grid.A[i])
+            BK.append(grid.B[i] @ gain.gain(ph))
+    return np.array(A), np.array(BK)
+
+
+def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts: float, *,
+                                 measurement_error: float | None = None, points: int = SCHEDULE_POINTS,
+                                 refine: int = SCHEDULE_REFINE, solver: str = "CLARABEL") -> SampledCertificate:
+    """The sampled-data certificate of the scheduled gain held by a zero-order hold at Ts.
+
+    ``u_k = −K(p̂_k) x(t_k)`` held over ``[t_k, t_k + Ts)``: the loops ``x_{k+1} =
+    (Φ(p, q) − Γ(p, q)K(p̂)) x_k`` at every grid point p, q and every p̂ that covers
+    ``|p̂ − p| <= δ`` must share one discrete Lyapunov matrix
+    (:func:`scara_robust.sampled_certificate`, solved on the LMIs' grid and re-verified on the
+    finer one). One P for every p covers the parameter changing at any rate between
+    samples; the discrete condition is convex in the closed loop, which is affine in K, so
+    the ends of ``[p − δ, p + δ]`` and the breakpoints inside it cover every p̂ exactly.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    gain : ScheduledGain
+    Ts : float
+        Sample time, s (> 0).
+    measurement_error : float, optional
+        δ (default the parameter's effective error).
+    points, refine : int
+        As :func:`schedule_certificate`.
+    solver : {'CLARABEL', 'SCS'}
+
+    Returns
+    -------
+    SampledCertificate
+        Of the pairs ``(A(p, q), B(p, q) K(p̂))`` under ``u' = −x`` (the gain folded into B).
+    """
+    name = scheduled_parameter(plant, gain.parameter)
+    Ts = check_real("Ts", Ts, positive=True)
+    delta = plant.parameter(name).effective_error if measurement_error is None else check_real(
+        "measurement_error", measurement_error, nonnegative=True)
+    n = plant.n_design_states
+    fine_points = check_int("refine", refine, 2) * (check_int("points", points, 2) - 1) + 1
+    coarse = _sampled_pairs(plant, gain, name, points, False, delta)
+    check = _sampled_pairs(plant, gain, name, fine_points, True, delta)
+    return sampled_certificate(coarse, SampledStateFeedback(np.eye(n), Ts), check=check, solver=solver)
 
 
 # --- searches over the certificate ---------------------------------------------------------
