@@ -335,3 +335,23 @@ def test_export_of_a_schedule_is_refused_beyond_its_certificate(tmp_path, capsys
     assert main([*base, "--rate", "2", "--allow-uncertified", "--precision", "single"]) == 0
     header = (out / "arm_pid_scheduled.h").read_text()
     assert "WARNING: NOT CERTIFIED as asked (rate 2 kg/s asked" in header and "float p_hat" in header
+
+
+def test_simulate_runs_a_schedule_file_with_a_measurement_bias(tmp_path, capsys, arm):
+    schedule = tmp_path / "s.json"
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    gain.save(schedule)
+    argv = ["simulate", "--model", ARM, "--design", str(schedule), "--parameter", "m", "--profile", "constant:1.7",
+            "--t-final", "12", "--format", "json"]
+    runs = {}
+    for bias in ("0", "0.05"):
+        assert main([*argv, "--measurement-bias", bias]) == 0
+        runs[bias] = json.loads(capsys.readouterr().out)
+    # the same run in Python: the controller sees 1.75 kg where the payload is 1.7 kg
+    plant = sr.load_plant(ARM)
+    direct = sr.simulate_plant(plant, gain, profiles={"m": sr.parameter_profile(plant, "m", "constant", value=1.7)},
+                               t_final=12.0, measurement_bias=0.05)
+    assert runs["0.05"]["max_abs_error"] == pytest.approx(direct.max_abs_error, rel=1e-9)
+    assert runs["0.05"]["max_abs_error"] != runs["0"]["max_abs_error"]
+    assert main(["simulate", "--model", ARM, "--rho", "1", "--eta", "10", "--measurement-bias", "0.05"]) == 2
+    assert "`--measurement-bias` is the error of a scheduled gain's measurement" in capsys.readouterr().err

@@ -8,12 +8,14 @@ from typing import Any
 
 import numpy as np
 
+from ..controller.scheduled import ScheduledGain, load_schedule
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
+from ._schedule import is_schedule_file
 
 __all__ = ["add_plant_run_options", "option_floats", "plant_gain", "plant_profiles", "plant_run", "run_inputs",
            "series_output", "summary"]
@@ -36,6 +38,10 @@ def add_plant_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reference", default="1", metavar="A[,OMEGA]",
                    help="with --model: reference a·sin(omega t) per output, in the outputs' units and rad/s; "
                    "OMEGA 0 or absent: a step of height A (default 1)")
+    p.add_argument("--measurement-bias", type=float, default=None, metavar="DELTA",
+                   help="with a schedule file as --design: what the measurement of its parameter adds to the true "
+                   "value, in the parameter's unit (default 0; +-measurement_error is the worst the certificate "
+                   "covers)")
     p.add_argument("--disturbance", default=None, metavar="D[,D2,...]",
                    help="with --model: constant input disturbance from t_final/4 on, in the inputs' units; with a "
                    "URDF --robot: the amplitudes, N·m, one for every joint or one per joint, of a square-wave "
@@ -58,6 +64,19 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
     K : ndarray, shape (m, n)
     label : str
     """
+    if is_schedule_file(getattr(args, "design", None)):
+        try:
+            schedule = load_schedule(args.design)
+        except InputFileError as err:
+            raise CommandLineError(str(err)) from err
+        if schedule.parameter not in plant.names or schedule.shape != (plant.n_inputs, plant.n_design_states):
+            raise CommandLineError(f"`--design` {args.design!r}: schedules {schedule.parameter!r} with gains of shape "
+                                   f"{schedule.shape}; this plant needs a parameter of {plant.names} and "
+                                   f"({plant.n_inputs}, {plant.n_design_states})")
+        return schedule, f"gain of {args.design!r} scheduled on {schedule.parameter}"
+    if getattr(args, "measurement_bias", None) is not None:
+        raise CommandLineError("`--measurement-bias` is the error of a scheduled gain's measurement; it goes with "
+                               "--design SCHEDULE.json")
     check_gain_options(args)
     loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), what)
     if loaded is not None:
@@ -185,6 +204,13 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
     ts = getattr(args, "ts", None)
     if ts is not None and not (np.isfinite(ts) and ts > 0):
         raise CommandLineError(f"`--ts` must be a sample time > 0 s, found {ts:g}")
+    bias = getattr(args, "measurement_bias", None)
+    if isinstance(K, ScheduledGain):
+        if ts is not None:
+            raise CommandLineError("`--ts` samples a fixed gain here; a scheduled gain runs continuous (its sampled-"
+                                   "data certificate is export's)")
+        if bias is not None and not np.isfinite(bias):
+            raise CommandLineError(f"`--measurement-bias` must be a number, found {bias}")
     gain = K if ts is None else SampledStateFeedback(K, ts)
     x0 = None
     if getattr(args, "x0", None) is not None:
@@ -196,7 +222,7 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
         raise CommandLineError("a plant in the state form is regulated to zero and starts at rest: give --x0 (an "
                                "initial state) or --disturbance, or nothing moves")
     return simulate_plant(plant, gain, profiles=profiles, reference=reference, disturbance=dist, t_final=t_final,
-                          x0=x0, tolerance=args.tolerance)
+                          x0=x0, tolerance=args.tolerance, measurement_bias=bias or 0.0)
 
 
 def run_inputs(args: argparse.Namespace, plant: UncertainPlant) -> tuple[tuple[float, float], Any]:
