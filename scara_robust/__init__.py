@@ -131,6 +131,7 @@ Export (:mod:`scara_robust.export`)
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)
+    compare_schedules               -- scheduled and fixed gains side by side: decay, rate, error, runs
     reproduction_table              -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, PAYLOAD_PROFILES, draw_scenario -- campaign specs

@@ -355,3 +355,19 @@ def test_simulate_runs_a_schedule_file_with_a_measurement_bias(tmp_path, capsys,
     assert runs["0.05"]["max_abs_error"] != runs["0"]["max_abs_error"]
     assert main(["simulate", "--model", ARM, "--rho", "1", "--eta", "10", "--measurement-bias", "0.05"]) == 2
     assert "`--measurement-bias` is the error of a scheduled gain's measurement" in capsys.readouterr().err
+
+
+def test_compare_puts_the_schedule_beside_the_best_fixed_gain(tmp_path, capsys):
+    schedule = tmp_path / "s.json"
+    assert main(["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "3", "--rate", "1",
+                 "--gain-bound", "20", "--output", str(schedule)]) == 0
+    capsys.readouterr()
+    assert main(["compare", "--model", ARM, "--design", str(schedule), "--rate", "1", "--t-final", "12",
+                 "--format", "json"]) == 0
+    rows = {row["gain"]: row for row in json.loads(capsys.readouterr().out)}
+    fixed, scheduled = rows["best fixed gain (synthesize, ||K|| <= 20)"], rows["schedule s.json"]
+    assert fixed["max ‖K_j‖"] <= 20 * (1 + 1e-6) and scheduled["max ‖K_j‖"] <= 20 * (1 + 1e-6)
+    assert scheduled["decay [1/s]"] > fixed["decay [1/s]"]  # under the same bound, rate and error
+    for row in (fixed, scheduled):
+        assert row["range [kg]"] == "0-2" and row["ramp: status"] in sr.STATUSES
+        assert row["ramp: peak |u| [N·m]"] > 0

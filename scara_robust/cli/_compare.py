@@ -10,19 +10,23 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
+from ..controller.scheduled import ScheduledGain, load_schedule
+from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
 from ..model.plant import as_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
-from ..studies.comparison import compare_controllers, compare_plant_designs
+from ..studies.comparison import compare_controllers, compare_plant_designs, compare_schedules
 from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
+from ._schedule import add_schedule_options, is_schedule_file
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -44,9 +48,12 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-synthesis", action="store_true",
                    help="with --model: leave out the synthesized PID (an LMI, extra lmi)")
     add_plant_run_options(p)
+    add_schedule_options(p, synthesis=False)
     add_arm_run_options(p)
     p.add_argument("--design", metavar="FILE.json", action="append",
-                   help="add rows for the PID gain of a design file (written by synthesize --output); repeatable")
+                   help="add rows for the PID gain of a design file (written by synthesize --output); repeatable. "
+                   "With --model, a schedule file (synthesize --schedule --output) is compared instead with the best "
+                   "fixed gain of its gain bound: decay, rate and measurement error certified, runs at the rate bound")
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help=f"horizon, s (> {PAPER_TRANSIENT:g})")
@@ -162,6 +169,13 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError("`--payload` is the robot's; it cannot go with --model")
     plant = system.require_physical("`--model` must have [parameters] to be compared (runs need a plant to "
                                     "simulate)")
+    schedules = [path for path in args.design or [] if is_schedule_file(path)]
+    if schedules:
+        return _compare_schedule(args, plant, schedules)
+    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
+             if v is not None]
+    if given:
+        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
     model = as_model("model", plant)
     rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
     eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
@@ -193,6 +207,47 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     head = f"{plant.name}: designs side by side; runs of {t_final:g} s, profile {args.profile}" + (
         f" of {name}" if name else "")
     return "\n".join([head, str(table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")), *notes])
+
+
+def _compare_schedule(args: argparse.Namespace, plant: Any, schedules: list[str]) -> str:
+    """``compare --model F --design SCHEDULE.json``: the schedule against the best fixed gain of the same bound."""
+    if len(schedules) != 1 or len(args.design) != 1:
+        raise CommandLineError("`--design` SCHEDULE.json is compared with the best fixed gain of its gain bound; give "
+                               "one schedule file and no other --design")
+    try:
+        gain = load_schedule(schedules[0])
+    except InputFileError as err:
+        raise CommandLineError(str(err)) from err
+    if gain.parameter not in plant.names or gain.shape != (plant.n_inputs, plant.n_design_states):
+        raise CommandLineError(f"`--design` {schedules[0]!r}: schedules {gain.parameter!r} with gains of shape "
+                               f"{gain.shape}, not a gain of this plant")
+    bound = float(gain.certified.get("gain_bound", 0.0)) or float(np.ceil(gain.max_norm))
+    coarse, fine = plant.samples(plant.coarse_points()), plant.samples()
+    best = synthesize((coarse.A, coarse.B), objective="decay", gain_bound=bound, check=(fine.A, fine.B))
+    gains = {f"schedule {os.path.basename(schedules[0])}": gain}
+    notes = []
+    if best.K is not None and best.certified:
+        fixed = ScheduledGain(gain.parameter, gain.unit, gain.breakpoints, np.stack([best.K] * gain.breakpoints.size),
+                              "fixed")
+        gains = {f"best fixed gain (synthesize, ||K|| <= {bound:g})": fixed, **gains}
+    else:
+        notes.append(f"no fixed gain with ||K|| <= {bound:g} is certified: {best.message}")
+    t_final = 20.0 if args.t_final == PAPER_T_FINAL else args.t_final
+    try:
+        table = compare_schedules(plant, gains, rate=args.schedule_rate, measurement_error=args.measurement_error,
+                                  t_final=t_final)
+    except ArgumentError as err:
+        raise CommandLineError(f"`--design` {schedules[0]!r}: {err}") from err
+    if args.format == "json":
+        return json.dumps(table.reset_index().to_dict(orient="records"), indent=2, default=str)
+    if args.format == "csv":
+        return str(table.reset_index().to_csv(index=False))
+    if args.format == "markdown":
+        frame = table.reset_index()
+        return frame.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(frame)
+    head = (f"{plant.name}: a gain scheduled on {gain.parameter} against the best fixed gain of the same bound; runs "
+            f"of {t_final:g} s with {gain.parameter} moving at its rate bound")
+    return "\n".join([head, str(table.T.to_string(float_format=lambda v: f"{v:.4g}")), *notes])
 
 
 #: The comparison of each system's closed loop (:attr:`Capabilities.run`).

@@ -8,16 +8,19 @@ metrics of :func:`scara_robust.tracking_metrics`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 from tqdm import tqdm
 
 from .._validation import check_array
+from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
@@ -29,11 +32,13 @@ from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
 from ..robustness.sampled import max_sample_time
+from ..robustness.scheduled import max_measurement_error, max_schedule_rate, schedule_decay
 from ..simulation.metrics import METRIC_NAMES
-from ..simulation.plants import simulate_plant
+from ..simulation.plants import parameter_profile, simulate_plant
 from ..simulation.run import run_scenario
 
-__all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS", "compare_plant_designs"]
+__all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS", "compare_plant_designs",
+           "compare_schedules"]
 
 #: Controllers of the default comparison: the paper's PID, the synthesized PID, both sliding modes.
 COMPARED_CONTROLLERS = ("pid", "pid-lmi", "smc", "smc-sign")
@@ -195,3 +200,82 @@ def compare_plant_designs(
                 if decay.P is not None else math.nan)
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def compare_schedules(
+    plant: UncertainPlant,
+    gains: Mapping[str, ScheduledGain],
+    *,
+    rate: float | None = None,
+    measurement_error: float | None = None,
+    decay: float | None = None,
+    t_final: float = 20.0,
+) -> pd.DataFrame:
+    """Scheduled (and fixed) gains side by side under one rate bound and measurement error.
+
+    A fixed gain enters as a :class:`~scara_robust.ScheduledGain` whose entries are all
+    equal, and gets the same certificate (a P(p) following the parameter) as a scheduled one.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    gains : mapping of str to ScheduledGain
+        Name -> gain, all on the same parameter.
+    rate, measurement_error : float, optional
+        ν (unit/s) and δ (unit); default the parameter's.
+    decay : float, optional
+        A decay rate α (1/s) at which the largest certified rate is also reported.
+    t_final : float
+        Horizon of the runs, s.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per gain: ``max ‖K_j‖``, ``range [UNIT]``, ``decay [1/s]`` (guaranteed at ν
+        and δ), ``rate [UNIT/s]`` (largest certified at decay 0, δ), ``rate at decay α
+        [UNIT/s]`` (with `decay`), ``measurement error [UNIT]`` (largest certified at ν),
+        and for two runs with the parameter moving at the rate bound, a ramp across the
+        range (the controller's measurement off by +δ) and a sinusoid between the range's
+        ends: ``status``, ``max |e|`` and ``peak |u|`` in the plant's units.
+    """
+    if not gains:
+        raise ArgumentValueError("gains", "must name at least one gain")
+    names = {g.parameter for g in gains.values()}
+    if len(names) != 1:
+        raise ArgumentValueError("gains", f"must all schedule one parameter, found {sorted(names)}")
+    name = names.pop()
+    param = plant.parameter(name)
+    nu = (math.inf if param.rate is None else float(param.rate)) if rate is None else float(rate)
+    delta = param.effective_error if measurement_error is None else float(measurement_error)
+    unit, out_unit = param.unit, plant.outputs[0].unit
+    in_unit = plant.inputs[0].unit
+    moving = plant if param.rate is not None or not math.isfinite(nu) else _with_rate(plant, name, nu)
+    profiles = {"ramp": parameter_profile(moving, name, "ramp", t_final=t_final),
+                "sinusoid": parameter_profile(moving, name, "sinusoid", t_final=t_final)}
+    rows = []
+    for label, gain in gains.items():
+        alpha, _ = schedule_decay(plant, gain, rate=nu, measurement_error=delta)
+        fastest, _ = max_schedule_rate(plant, gain, measurement_error=delta)
+        error, _ = max_measurement_error(plant, gain, rate=nu)
+        row: dict[str, Any] = {"gain": label, "max ‖K_j‖": gain.max_norm,
+                               f"range [{unit}]": f"{gain.range[0]:g}-{gain.range[1]:g}",
+                               "decay [1/s]": alpha, f"rate [{unit}/s]": fastest,
+                               f"measurement error [{unit}]": error}
+        if decay is not None:
+            row[f"rate at decay {decay:g} [{unit}/s]"] = max_schedule_rate(
+                plant, gain, measurement_error=delta, decay=decay)[0]
+        fixed = bool(np.all(gain.gains == gain.gains[0]))
+        for kind, profile in profiles.items():
+            bias = delta if kind == "ramp" and not fixed else 0.0
+            run = simulate_plant(plant, gain, profiles={name: profile}, t_final=t_final, measurement_bias=bias)
+            row[f"{kind}: status"] = run.status
+            row[f"{kind}: max |e| [{out_unit}]"] = run.max_abs_error
+            row[f"{kind}: peak |u| [{in_unit}]"] = run.peak_input
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("gain")
+
+
+def _with_rate(plant: UncertainPlant, name: str, rate: float) -> UncertainPlant:
+    params = tuple(dataclasses.replace(p, rate=rate) if p.name == name else p for p in plant.parameters)
+    return dataclasses.replace(plant, parameters=params)
+
