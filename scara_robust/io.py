@@ -236,6 +236,7 @@ ARM_KEYS: dict[str, str] = {
     "payload_rate": "kg/s", "payload_nominal": "kg", "payload_com": "m", "payload_inertia_per_kg": "m²",
     "gravity": "true/false", "armature": "kg·m²", "feedforward": "/".join(FEEDFORWARDS), "reference_samples": "count",
     "payload_samples": "count", "prefix": "identifier", "design_plant": "center/lower",
+    "payload_measurement_error": "kg", "payload_measurement_delay": "s",
 }
 _REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase": "rad"}
 #: An arm's ``[initial]`` and ``[disturbance]`` tables: the scenario file's fields, one value per joint.
@@ -355,7 +356,9 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     ``feedforward`` (``"none"``, ``"gravity"`` or ``"computed-torque"``),
     ``reference_samples`` and ``payload_samples`` (the linearization grid, default 721
     and 21), ``prefix`` (exported code), ``design_plant`` (``"center"``, the default, or
-    ``"lower"``: the nominal of the interval model, see :func:`scara_robust.arm_uncertain_plant`);
+    ``"lower"``: the nominal of the interval model, see :func:`scara_robust.arm_uncertain_plant`),
+    ``payload_measurement_error`` (kg: the robot measures its payload within this, so a gain
+    may be scheduled on it; absent: not measured) and ``payload_measurement_delay`` (s);
     a ``[reference]`` table with ``center``,
     ``amplitude``, ``omega`` and ``phase``, one value per joint:
     ``r_i(t) = center_i + amplitude_i sin(omega_i t + phase_i)``. Optional, the runs'
@@ -425,6 +428,15 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
         if mass[0] == mass[1]:
             raise InputFileError(f"{where} field `robot.payload_rate` bounds the change of a payload with a range; "
                                  f"the payload is fixed at {mass[0]:g} kg")
+    measured = "payload_measurement_error" in robot
+    delta = field_number(where, "robot.payload_measurement_error", robot.get("payload_measurement_error", 0.0), "kg")
+    delay = field_number(where, "robot.payload_measurement_delay", robot.get("payload_measurement_delay", 0.0), "s")
+    for key, value, unit in (("payload_measurement_error", delta, "kg"), ("payload_measurement_delay", delay, "s")):
+        if value < 0:
+            raise InputFileError(f"{where} field `robot.{key}` [{unit}] must be >= 0, found {value:g}")
+    if delay > 0 and not measured:
+        raise InputFileError(f"{where} field `robot.payload_measurement_delay` describes a measured payload; give "
+                             "`robot.payload_measurement_error` too")
     nominal = field_number(where, "robot.payload_nominal", robot.get("payload_nominal", mass[0]), "kg")
     if not mass[0] <= nominal <= mass[1]:
         raise InputFileError(f"{where} field `robot.payload_nominal` [kg] must lie in payload_mass {mass}, found "
@@ -476,7 +488,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
                              if not err.argument.startswith("reference") else f"{where} field `{err.argument}`: "
                              f"{err.problem}") from err
     return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
-                    prefix, design_plant, e0, edot0, disturbance)
+                    prefix, design_plant, e0, edot0, disturbance, delta if measured else None, delay)
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:

@@ -371,3 +371,22 @@ def test_compare_puts_the_schedule_beside_the_best_fixed_gain(tmp_path, capsys):
     for row in (fixed, scheduled):
         assert row["range [kg]"] == "0-2" and row["ramp: status"] in sr.STATUSES
         assert row["ramp: peak |u| [N·m]"] > 0
+
+
+@pytest.mark.robots
+def test_a_robot_file_measures_its_payload(tmp_path):
+    from test_arm_compiled import small_arm_file
+
+    path = small_arm_file(tmp_path)
+    m_p = sr.load_arm(path).plant.parameter("m_p")
+    assert m_p.measured and m_p.measurement_error == 0.05 and m_p.rate == 1.0
+    text = open(path, encoding="utf-8").read()
+    unmeasured = tmp_path / "unmeasured.toml"
+    unmeasured.write_text(text.replace("payload_measurement_error = 0.05", ""))
+    assert not sr.load_arm(unmeasured).plant.parameter("m_p").measured
+    unmeasured.write_text(text.replace("payload_measurement_error = 0.05", "payload_measurement_delay = 0.1"))
+    with pytest.raises(InputFileError, match="`robot.payload_measurement_delay` describes a measured payload"):
+        sr.load_arm(unmeasured)
+    unmeasured.write_text(text.replace("payload_measurement_error = 0.05", "payload_measurement_error = -1"))
+    with pytest.raises(InputFileError, match=r"`robot.payload_measurement_error` \[kg\] must be >= 0"):
+        sr.load_arm(unmeasured)

@@ -651,6 +651,8 @@ def arm_uncertain_plant(
     name: str | None = None,
     prefix: str = "arm_pid",
     design_plant: str = "center",
+    payload_measurement_error: float | None = None,
+    payload_measurement_delay: float = 0.0,
 ) -> UncertainPlant:
     """The arm's error dynamics linearized along its reference, over the payload range.
 
@@ -677,6 +679,11 @@ def arm_uncertain_plant(
         The nominal of the interval model, where the gain is designed: the centre of the
         box (default) or its lower corner (the paper's convention, which the SCARA's
         built-in model follows). See :class:`~scara_robust.UncertainPlant`.
+    payload_measurement_error : float, optional
+        The robot measures its payload within this, kg: ``m_p`` is then a measured
+        parameter (:attr:`~scara_robust.Parameter.measured`); None: not measured.
+    payload_measurement_delay : float
+        Delay of that measurement, s.
 
     Returns
     -------
@@ -705,7 +712,9 @@ def arm_uncertain_plant(
                   description="reference time over one period (the linearization point; margins keep it whole)"),
         Parameter("m_p", "kg", (lo, hi), nominal=nominal, rate=payload_rate if hi > lo else None,
                   samples=max(n_masses, 2), coarse=min(5, max(n_masses, 2)), description="payload mass",
-                  limits=(0.0, math.inf)),
+                  limits=(0.0, math.inf), measured=payload_measurement_error is not None,
+                  measurement_error=payload_measurement_error or 0.0,
+                  measurement_delay=payload_measurement_delay if payload_measurement_error is not None else 0.0),
     )
     n = arm.n_joints
     memo: dict[tuple[bytes, bytes], tuple[Array, Array]] = {}
@@ -779,6 +788,10 @@ class ArmSetup:
     disturbance : SquareWave or None
         The runs' disturbance torque (one sign or scale per joint, N·m), the file's
         ``[disturbance]``; None: none.
+    payload_measurement_error : float or None
+        The robot measures its payload within this, kg (None: not measured).
+    payload_measurement_delay : float
+        s.
     """
 
     arm: RobotArm
@@ -795,6 +808,8 @@ class ArmSetup:
     e0: tuple[float, ...] | None = None
     edot0: tuple[float, ...] | None = None
     disturbance: SquareWave | None = None
+    payload_measurement_error: float | None = None
+    payload_measurement_delay: float = 0.0
 
     @cached_property
     def plant(self) -> UncertainPlant:
@@ -802,7 +817,9 @@ class ArmSetup:
         return arm_uncertain_plant(self.arm, self.reference, self.payload_mass, payload_rate=self.payload_rate,
                                    payload_nominal=self.payload_nominal, feedforward=self.feedforward,
                                    n_times=self.n_times, n_masses=self.n_masses, name=self.name, prefix=self.prefix,
-                                   design_plant=self.design_plant)
+                                   design_plant=self.design_plant,
+                                   payload_measurement_error=self.payload_measurement_error,
+                                   payload_measurement_delay=self.payload_measurement_delay)
 
     def tau_ff(self, t: float) -> Array:
         """The loop's feedforward at time `t` (s), N·m, shape (n,)."""
