@@ -114,6 +114,7 @@ Simulation (:mod:`scara_robust.simulation`)
     COMPILED_INTEGRATORS            -- its integrators of a continuous law: stiff BDF (default) or Dormand–Prince
     CONTROLLERS, ControllerKind, SAMPLE_TIMES, make_controller -- controllers by name, with sample times
     sampled_pid_controller, SampledPID -- a DiscretePID on the robot, zero-order hold (``pid-sampled``)
+    scheduled_pid_controller        -- the SCARA's PID with its gain scheduled on the measured payload
     ENGINES                         -- integrators by name
     simulate, run_scenario, SimulationResult -- one run (``simulate`` command)
     run_scenarios                   -- many runs, the compiled ones batched (a campaign chunk)

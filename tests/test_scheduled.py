@@ -390,3 +390,23 @@ def test_a_robot_file_measures_its_payload(tmp_path):
     unmeasured.write_text(text.replace("payload_measurement_error = 0.05", "payload_measurement_error = -1"))
     with pytest.raises(InputFileError, match=r"`robot.payload_measurement_error` \[kg\] must be >= 0"):
         sr.load_arm(unmeasured)
+
+
+def test_the_scara_pid_scheduled_on_its_payload():
+    """A constant table runs exactly as the fixed PID; the law reads K at the measured payload m_p(t) + bias."""
+    K = sr.design(sr.paper_model(), 3, 90).K
+    pay = sr.SinusoidalPayload(1.0, 1.0, 0.5, 0.0)
+    constant = sr.ScheduledGain("m_p", "kg", [0.0, 2.07], np.stack([K, K]))
+    runs = [sr.simulate(c, "small", payload=pay, t_final=7.0)
+            for c in (sr.pid_controller(K), sr.scheduled_pid_controller(constant, pay))]
+    # (1 − s)K + sK rounds differently from K in the last bit; the adaptive steps carry it to ~1e-11 rad
+    np.testing.assert_allclose(runs[1].e, runs[0].e, rtol=0, atol=1e-8)
+    ramp = sr.ScheduledGain("m_p", "kg", [0.0, 2.07], np.stack([K, 2 * K]))
+    ctrl = sr.scheduled_pid_controller(ramp, pay, measurement_bias=0.1)
+    x, u = np.array([0.1, -0.2]), np.array([0.3, 0.1, -0.5, 0.2])
+    t = 1.3
+    ref = sr.paper_reference()
+    state = np.concatenate([x, ref.position(t) - u[:2], ref.velocity(t) - u[2:]])
+    np.testing.assert_allclose(ctrl.output(t, x, u), -ramp.gain(pay(t) + 0.1) @ state, rtol=1e-14)
+    with pytest.raises(ValueError, match="`gain` must be a ScheduledGain of \\(2, 6\\) gains"):
+        sr.scheduled_pid_controller(sr.ScheduledGain("m", "kg", [0, 1], np.zeros((2, 1, 3))), pay)

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_choice, check_per_item, check_real
 from ..controller.discrete import DiscretePID
+from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import design
 from ..model.robot import ScaraParams, dynamics_terms
@@ -42,6 +43,7 @@ __all__ = [
     "pid_lmi_gain",
     "SampledPID",
     "sampled_pid_controller",
+    "scheduled_pid_controller",
 ]
 
 Array = NDArray[np.float64]
@@ -156,6 +158,58 @@ def pid_controller(
     )
     sys.law = ControlLaw("pid", ref, limit, K=K)
     return sys
+
+
+def scheduled_pid_controller(
+    gain: ScheduledGain,
+    payload: Callable[[float], float],
+    reference: Reference | None = None,
+    *,
+    measurement_bias: float = 0.0,
+    torque_limit: Any = None,
+    name: str = "pid-scheduled",
+) -> ct.NonlinearIOSystem:
+    """The PID law of :func:`pid_controller` with the gain scheduled on the measured payload.
+
+    ``T_c = −K(m̂_p(t)) x`` with ``m̂_p = m_p(t) + measurement_bias``, ``K`` the
+    :class:`~scara_robust.ScheduledGain` (clamped to its breakpoints).
+
+    Parameters
+    ----------
+    gain : ScheduledGain
+        Gains of shape (2, 6) on ``x = [∫e1, ∫e2, e1, e2, ė1, ė2]``, scheduled on the payload (kg).
+    payload : callable
+        ``m_p(t)``, kg: the payload the run carries (the same profile the run is given).
+    reference : Reference, optional
+        Default: the paper's.
+    measurement_bias : float
+        What the measurement adds to the true payload, kg.
+    torque_limit : float or array_like of shape (2,), optional
+        N·m.
+    name : str
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        As :func:`pid_controller`'s.
+    """
+    if not isinstance(gain, ScheduledGain) or gain.shape != (2, 6):
+        raise ArgumentValueError("gain", "must be a ScheduledGain of (2, 6) gains on the SCARA's [∫e, e, ė]")
+    ref = reference or paper_reference()
+    limit = check_torque_limit(torque_limit)
+    bias = check_real("measurement_bias", measurement_bias)
+
+    def updfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        return np.asarray(ref.position(t), dtype=float) - u[:2]
+
+    def outfcn(t: float, x: Array, u: Array, params: Any) -> Array:
+        e = np.asarray(ref.position(t), dtype=float) - u[:2]
+        ed = np.asarray(ref.velocity(t), dtype=float) - u[2:]
+        K = gain.gain(float(payload(t)) + bias)
+        return _saturate(-K @ np.concatenate([x, e, ed]), limit)
+
+    return ct.NonlinearIOSystem(updfcn, outfcn, inputs=_MEASURED, outputs=_TORQUES, states=["int_e1", "int_e2"],
+                                name=name)
 
 
 @dataclass(frozen=True)
