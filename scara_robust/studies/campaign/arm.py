@@ -89,7 +89,8 @@ def arm_campaign_spec(spec: CampaignSpec, robot_file: str | os.PathLike[str]) ->
     if others:
         raise CampaignSpecError(
             f"campaign spec field `controllers`: an arm campaign runs {', '.join(ARM_CONTROLLERS)} (the PID K(rho, "
-            f"eta) on the arm's plant), found {others[0]!r}")
+            f"eta) on the arm's plant), found {others[0]!r} (the default is the SCARA's pid and smc: write "
+            "controllers = [\"pid\"])")
     path = os.path.abspath(os.fspath(robot_file))
     setup = load_arm(path)
     ranges = {name: Range(v[3], v[3]) for name, v in ARM_SPEC_FIELDS.items()}
