@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..controller.scheduled import ScheduledGain, load_schedule
-from ..exceptions import ArgumentError, InputFileError
+from ..controller.scheduled import ScheduledGain
+from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
 from ..model.plant import as_model
@@ -26,7 +26,7 @@ from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
-from ._schedule import add_schedule_options, is_schedule_file
+from ._schedule import add_schedule_options, is_schedule_file, read_schedule
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -214,10 +214,7 @@ def _compare_schedule(args: argparse.Namespace, plant: Any, schedules: list[str]
     if len(schedules) != 1 or len(args.design) != 1:
         raise CommandLineError("`--design` SCHEDULE.json is compared with the best fixed gain of its gain bound; give "
                                "one schedule file and no other --design")
-    try:
-        gain = load_schedule(schedules[0])
-    except InputFileError as err:
-        raise CommandLineError(str(err)) from err
+    gain = read_schedule(schedules[0])
     if gain.parameter not in plant.names or gain.shape != (plant.n_inputs, plant.n_design_states):
         raise CommandLineError(f"`--design` {schedules[0]!r}: schedules {gain.parameter!r} with gains of shape "
                                f"{gain.shape}, not a gain of this plant")

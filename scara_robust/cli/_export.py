@@ -92,6 +92,16 @@ def _check_folder(folder: str) -> None:
     os.unlink(probe)
 
 
+def _pid_options(args: argparse.Namespace) -> list[str]:
+    """The PID's options given with other than their defaults (for a controller that has none of them)."""
+    return [o for o, v, default in (("--integrator", args.integrator, "tustin"),
+                                    ("--derivative", args.derivative, "measured"),
+                                    ("--filter-n", args.filter_n, 100.0),
+                                    ("--torque-limit", args.torque_limit, None),
+                                    ("--tracking-time", args.tracking_time, None),
+                                    ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+
+
 def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Design (or read), discretize, certify at Ts and write the files; the list of files written.
 
@@ -115,12 +125,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.prefix is not None:
         check_prefix(args.prefix)
     if is_schedule_file(args.design):
-        changed = [o for o, v, default in (("--integrator", args.integrator, "tustin"),
-                                           ("--derivative", args.derivative, "measured"),
-                                           ("--filter-n", args.filter_n, 100.0),
-                                           ("--torque-limit", args.torque_limit, None),
-                                           ("--tracking-time", args.tracking_time, None),
-                                           ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+        changed = _pid_options(args)
         if changed:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; a schedule file's controller is "
                                    "u = -K(p_hat) x(t_k) held")
@@ -143,12 +148,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             raise CommandLineError(f"`--model` {system.file!r}: export writes a PID (form 'pid') or static state "
                                    "feedback u = -K x (form 'state'); a gain on the integral form [∫(r - Cx), x] "
                                    "needs its integrator on the controller and is not exported")
-        changed = [o for o, v, default in (("--integrator", args.integrator, "tustin"),
-                                           ("--derivative", args.derivative, "measured"),
-                                           ("--filter-n", args.filter_n, 100.0),
-                                           ("--torque-limit", args.torque_limit, None),
-                                           ("--tracking-time", args.tracking_time, None),
-                                           ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+        changed = _pid_options(args)
         if changed:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {system.file!r} is in the state "
                                    "form, whose controller is u = -K x(t_k) held")

@@ -8,14 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from ..controller.scheduled import ScheduledGain, load_schedule
+from ..controller.scheduled import ScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
-from ._schedule import is_schedule_file
+from ._schedule import is_schedule_file, read_schedule
 
 __all__ = ["add_plant_run_options", "option_floats", "plant_gain", "plant_profiles", "plant_run", "run_inputs",
            "series_output", "summary"]
@@ -65,10 +65,7 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
     label : str
     """
     if is_schedule_file(getattr(args, "design", None)):
-        try:
-            schedule = load_schedule(args.design)
-        except InputFileError as err:
-            raise CommandLineError(str(err)) from err
+        schedule = read_schedule(args.design)
         if schedule.parameter not in plant.names or schedule.shape != (plant.n_inputs, plant.n_design_states):
             raise CommandLineError(f"`--design` {args.design!r}: schedules {schedule.parameter!r} with gains of shape "
                                    f"{schedule.shape}; this plant needs a parameter of {plant.names} and "

@@ -28,8 +28,8 @@ from ..robustness.scheduled import (
 from ._common import CommandLineError
 from ._system import LoadedSystem
 
-__all__ = ["is_schedule_file", "add_schedule_options", "run_schedule_synthesis", "run_schedule_certificate",
-           "run_schedule_export"]
+__all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "run_schedule_synthesis",
+           "run_schedule_certificate", "run_schedule_export"]
 
 
 def is_schedule_file(path: str | None) -> bool:
@@ -42,6 +42,14 @@ def is_schedule_file(path: str | None) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and data.get("kind") == SCHEDULE_KIND
+
+
+def read_schedule(path: str) -> ScheduledGain:
+    """The schedule file of ``--design``, its errors as one command-line line."""
+    try:
+        return load_schedule(path)
+    except InputFileError as err:
+        raise CommandLineError(str(err)) from err
 
 
 def add_schedule_options(p: argparse.ArgumentParser, *, synthesis: bool) -> None:
@@ -164,10 +172,7 @@ def run_schedule_certificate(args: argparse.Namespace, system: LoadedSystem) -> 
     """
     _check_numbers(args)
     plant = _plant(system)
-    try:
-        gain = load_schedule(args.design)
-    except InputFileError as err:
-        raise CommandLineError(str(err)) from err
+    gain = read_schedule(args.design)
     try:
         cert = schedule_certificate(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
         rate, _ = max_schedule_rate(plant, gain, measurement_error=args.measurement_error)
@@ -226,10 +231,7 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     """
     _check_numbers(args)
     plant = _plant(system)
-    try:
-        gain = load_schedule(args.design)
-    except InputFileError as err:
-        raise CommandLineError(str(err)) from err
+    gain = read_schedule(args.design)
     name = gain.parameter
     if name not in plant.names:
         raise CommandLineError(f"`--design` {args.design!r}: schedules {name!r}, which {plant.name!r} does not have")

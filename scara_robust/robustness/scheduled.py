@@ -47,13 +47,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
@@ -65,6 +63,7 @@ from ..model.plant import UncertainPlant
 from ..results import AnalysisResult, verdict_of
 from ._cutting import grow_active_set
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .pdl import _balancing, _run
 from .sampled import SampledCertificate, sampled_certificate
 from .search import bisect
 
@@ -215,14 +214,18 @@ class _Conditions:
     p_hat: Array
 
 
-def _conditions(grid: _Grid, gain: ScheduledGain, delta: float, moving: bool) -> _Conditions:
+def _measured_pairs(grid: _Grid, gain: ScheduledGain, delta: float) -> tuple[NDArray[np.int64], Array]:
+    """Each grid point's index, repeated once per p̂ of :func:`_measured_points`, and those p̂."""
     idx, hats = [], []
     for i, p in enumerate(grid.p):
         for ph in _measured_points(float(p), delta, gain.breakpoints):
             idx.append(i)
             hats.append(ph)
-    index = np.array(idx, dtype=np.int64)
-    p_hat = np.array(hats)
+    return np.array(idx, dtype=np.int64), np.array(hats)
+
+
+def _conditions(grid: _Grid, gain: ScheduledGain, delta: float, moving: bool) -> _Conditions:
+    index, p_hat = _measured_pairs(grid, gain, delta)
     closed = grid.A[index] - grid.B[index] @ gain.gain(p_hat)
     signs = (1.0, -1.0) if moving else (0.0,)
     k = len(signs)
@@ -310,36 +313,12 @@ class ScheduleCertificate(AnalysisResult):
         return verdict_of(self.certified)
 
 
-def _balance(A: Array) -> Array:
-    """``T`` with ``TᵀPT = I`` for the Lyapunov matrix P of a Hurwitz A (identity otherwise)."""
-    n = A.shape[0]
-    if np.linalg.eigvals(A).real.max() >= 0:
-        return np.eye(n)
-    P = scipy.linalg.solve_continuous_lyapunov(A.T, -np.eye(n))
-    w, V = np.linalg.eigh(0.5 * (P + P.T))
-    if w[0] <= 0:
-        return np.eye(n)
-    return np.asarray(V @ np.diag(w**-0.5) @ V.T, dtype=float)
-
-
 def _units(A: Array) -> tuple[Array, float]:
     """A coordinate change T and a time unit that even out the loop's scales (see pdl's ``_solve``)."""
-    T = _balance(A)
+    T = _balancing(A)
     decays = np.abs(np.linalg.eigvals(np.linalg.solve(T, A @ T)).real)
     scale = float(np.sqrt(decays.max() * decays.min())) if decays.min() > 0 else float(np.abs(A).max() or 1.0)
     return T, scale or 1.0
-
-
-def _run(problem: Any, solver: str) -> str:
-    import cvxpy as cp
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
-            problem.solve(solver=solver)
-    except cp.SolverError as err:
-        return f"solver error: {err}"
-    return str(problem.status)
 
 
 def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: Array, scale: float,
@@ -367,7 +346,7 @@ def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: A
             M = M + (float(cond.sign[i]) * rate / scale / h[j]) * (Q[j + 1] - Q[j])
         cons.append(0.5 * (M + M.T) << -t * eye)
     problem = cp.Problem(cp.Maximize(t), cons)
-    status = _run(problem, solver)
+    status, _ = _run(problem, t, solver)
     if t.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return status, None
     t_star = float(t.value)
@@ -376,7 +355,7 @@ def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: A
     if status != cp.OPTIMAL:
         # at the optimum the solver often stalls short of its tolerances; the strictly
         # interior point t = t*/2 is asked for instead (as pdl's rate-bounded test does)
-        status = _run(cp.Problem(cp.Minimize(0), [*cons[1:], t == 0.5 * t_star]), solver)
+        status, _ = _run(cp.Problem(cp.Minimize(0), [*cons[1:], t == 0.5 * t_star]), t, solver)
         if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or any(Qj.value is None for Qj in Q):
             return status, None
     P = np.array([T_inv.T @ np.asarray(Qj.value, dtype=float) @ T_inv for Qj in Q])
@@ -516,12 +495,8 @@ def schedule_certificate(
 def _sampled_pairs(plant: UncertainPlant, gain: ScheduledGain, name: str, points: int, fine: bool,
                    delta: float) -> tuple[Array, Array]:
     grid = _grid(plant, name, gain.breakpoints, points, _others(plant, name, fine))
-    A, BK = [], []
-    for i, p in enumerate(grid.p):
-        for ph in _measured_points(float(p), delta, gain.breakpoints):
-            A.append(grid.A[i])
-            BK.append(grid.B[i] @ gain.gain(ph))
-    return np.array(A), np.array(BK)
+    index, p_hat = _measured_pairs(grid, gain, delta)
+    return grid.A[index], grid.B[index] @ gain.gain(p_hat)
 
 
 def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts: float, *,
@@ -775,7 +750,7 @@ def _solve_synthesis(grid: _Grid, b: Array, rate: float, decay: float, bound: fl
             M = base - sign * slope if slope is not None else base
             cons.append(0.5 * (M + M.T) << -t * eye_n)
     problem = cp.Problem(cp.Maximize(t), cons)
-    status = _run(problem, solver)
+    status, _ = _run(problem, t, solver)
     if t.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return status, None
     if float(t.value) <= FEASIBILITY_TOL:
