@@ -12,7 +12,7 @@ from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
 from ._common import CommandLineError, add_setup_options, finite_float, method_names, per_joint_values, resolve_gain
 from ._parser import COMMAND_HELP
-from ._schedule import add_schedule_options, is_schedule_file, run_schedule_certificate
+from ._schedule import add_schedule_options, is_schedule_file, refuse_schedule_options, run_schedule_certificate
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -76,10 +76,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     if is_schedule_file(args.design):
         return run_schedule_certificate(args, system)
-    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
-             if v is not None]
-    if given:
-        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
+    refuse_schedule_options(args, "--design SCHEDULE.json")
     model = system.model
     d, label = resolve_gain(args, model)
     table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,

@@ -26,7 +26,7 @@ from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
-from ._schedule import add_schedule_options, is_schedule_file, read_schedule
+from ._schedule import add_schedule_options, is_schedule_file, read_schedule, refuse_schedule_options
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -172,10 +172,7 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     schedules = [path for path in args.design or [] if is_schedule_file(path)]
     if schedules:
         return _compare_schedule(args, plant, schedules)
-    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
-             if v is not None]
-    if given:
-        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
+    refuse_schedule_options(args, "--design SCHEDULE.json")
     model = as_model("model", plant)
     rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
     eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta

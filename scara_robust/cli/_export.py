@@ -26,7 +26,7 @@ from ._common import (
     resolve_gain,
 )
 from ._parser import COMMAND_HELP
-from ._schedule import add_schedule_options, is_schedule_file, run_schedule_export
+from ._schedule import add_schedule_options, is_schedule_file, refuse_schedule_options, run_schedule_export
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -130,10 +130,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; a schedule file's controller is "
                                    "u = -K(p_hat) x(t_k) held")
         return run_schedule_export(args, system)
-    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
-             if v is not None]
-    if given:
-        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --design SCHEDULE.json")
+    refuse_schedule_options(args, "--design SCHEDULE.json")
     check_gain_options(args)
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)

@@ -28,8 +28,8 @@ from ..robustness.scheduled import (
 from ._common import CommandLineError
 from ._system import LoadedSystem
 
-__all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "run_schedule_synthesis",
-           "run_schedule_certificate", "run_schedule_export"]
+__all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "refuse_schedule_options",
+           "run_schedule_synthesis", "run_schedule_certificate", "run_schedule_export"]
 
 
 def is_schedule_file(path: str | None) -> bool:
@@ -74,6 +74,21 @@ def add_schedule_options(p: argparse.ArgumentParser, *, synthesis: bool) -> None
     p.add_argument("--measurement-error", type=float, default=None, metavar="DELTA",
                    help="with a scheduled gain: the bound on |measured − true| in the parameter's unit (default the "
                    "plant's `measurement_error`, its delay included)")
+
+
+def refuse_schedule_options(args: argparse.Namespace, goes_with: str) -> None:
+    """Refuse ``--rate`` and ``--measurement-error`` where no scheduled gain is analysed.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    goes_with : str
+        The option that would make them mean something (``'--design SCHEDULE.json'``).
+    """
+    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
+             if v is not None]
+    if given:
+        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with {goes_with}")
 
 
 def _plant(system: LoadedSystem) -> UncertainPlant:

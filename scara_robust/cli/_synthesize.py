@@ -17,7 +17,7 @@ from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
 from ._parser import COMMAND_HELP
-from ._schedule import add_schedule_options, run_schedule_synthesis
+from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_synthesis
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run", "PHYSICAL_GRID", "CHECK_GRID"]
@@ -114,10 +114,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--decay` must be >= 0 1/s, found {args.decay:g}")
     if args.schedule is not None:
         return run_schedule_synthesis(args, system)
-    given = [o for o, v in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error))
-             if v is not None]
-    if given:
-        raise CommandLineError(f"`{given[0]}` describes a scheduled gain; it goes with --schedule NAME")
+    refuse_schedule_options(args, "--schedule NAME")
     output = args.design_output
     if output is not None and not output.lower().endswith(".json"):
         raise CommandLineError(f"`--output` {output!r}: a design file is .json")

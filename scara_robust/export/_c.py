@@ -280,17 +280,24 @@ def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.f
     return step
 
 
-def _gain_files(ctrl: SampledStateFeedback, prefix: str, notes: Sequence[str], inputs: Sequence[Signal] | None,
-                outputs: Sequence[Signal] | None, precision: str) -> dict[str, str]:
-    """``<prefix>.h`` and ``<prefix>.c`` of static state feedback ``u = −K x``."""
-    check_choice("precision", precision, PRECISIONS)
-    m, n = ctrl.K.shape
+def _feedback_signals(n: int, m: int, inputs: Sequence[Signal] | None,
+                      outputs: Sequence[Signal] | None) -> tuple[list[Signal], list[Signal]]:
+    """The n states read and m inputs written by a state feedback (default ``x0..``, ``u0..``), their counts checked."""
     xs = list(inputs) if inputs is not None else [Signal(f"x{i}", "model units") for i in range(n)]
     us = list(outputs) if outputs is not None else [Signal(f"u{j}", "model units") for j in range(m)]
     if len(xs) != n:
         raise ArgumentValueError("inputs", f"must name the {n} states fed back, found {len(xs)}")
     if len(us) != m:
         raise ArgumentValueError("outputs", f"must name the {m} plant inputs, found {len(us)}")
+    return xs, us
+
+
+def _gain_files(ctrl: SampledStateFeedback, prefix: str, notes: Sequence[str], inputs: Sequence[Signal] | None,
+                outputs: Sequence[Signal] | None, precision: str) -> dict[str, str]:
+    """``<prefix>.h`` and ``<prefix>.c`` of static state feedback ``u = −K x``."""
+    check_choice("precision", precision, PRECISIONS)
+    m, n = ctrl.K.shape
+    xs, us = _feedback_signals(n, m, inputs, outputs)
     ctype = "float" if precision == "single" else "double"
     macro = prefix.upper()
     signals = "\n".join([f" *   x[{i}] = {sig.name} [{sig.unit}]" for i, sig in enumerate(xs)]
@@ -337,12 +344,7 @@ def _scheduled_files(ctrl: SampledScheduledGain, prefix: str, notes: Sequence[st
     g = ctrl.gain
     m, n = g.shape
     nb = g.breakpoints.size
-    xs = list(inputs) if inputs is not None else [Signal(f"x{i}", "model units") for i in range(n)]
-    us = list(outputs) if outputs is not None else [Signal(f"u{j}", "model units") for j in range(m)]
-    if len(xs) != n:
-        raise ArgumentValueError("inputs", f"must name the {n} states fed back, found {len(xs)}")
-    if len(us) != m:
-        raise ArgumentValueError("outputs", f"must name the {m} plant inputs, found {len(us)}")
+    xs, us = _feedback_signals(n, m, inputs, outputs)
     ctype = "float" if precision == "single" else "double"
     macro = prefix.upper()
     lo, hi = g.range

@@ -838,7 +838,6 @@ def synthesize_schedule(
         return ScheduleSynthesis(None, math.nan, None, kappa, nu, 0, 0.0, NOT_INSTALLED,
                                  "cvxpy is not installed (extra `lmi`)")
     grid = _grid(plant, name, b, points, _others(plant, name, False))
-    common = math.isinf(nu)
     # the coordinates of the open loop at the centre: A itself may be unstable, so balance
     # the loop of a stabilizing Riccati gain there
     centre = int(np.argmin(np.abs(grid.p - 0.5 * (lo + hi))))
@@ -853,7 +852,7 @@ def synthesize_schedule(
         steps += 1
 
         def solve(active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array] | None]:
-            return _solve_synthesis(grid, b, math.inf if common else nu, alpha, kappa, T, scale, active, solver)
+            return _solve_synthesis(grid, b, nu, alpha, kappa, T, scale, active, solver)
 
         def violation(answer: tuple[Array, Array]) -> Array:
             return _synthesis_violation(grid, b, nu, alpha, *answer)

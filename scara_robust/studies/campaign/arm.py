@@ -33,10 +33,10 @@ from ...exceptions import ArgumentValueError, CampaignSpecError
 from ...io import load_arm
 from ...lyapunov.gain import design
 from ...model.arm import ArmSetup, JointSinusoids
-from ...model.robot import ConstantPayload, SinusoidalPayload
-from ...model.signals import MeasurementNoise, SquareWave
+from ...model.signals import MeasurementNoise
 from ...simulation.arm import ArmRun, simulate_arm
 from ...simulation.metrics import METRIC_NAMES
+from .inputs import drawn_disturbance, drawn_payload
 from .spec import ARM_SPEC_FIELDS, SCARA_ONLY_FIELDS, SPEC_FIELDS, CampaignSpec, Range, _default_ranges
 
 __all__ = ["arm_campaign_spec", "draw_arm_scenario", "run_arm_draws", "replay_arm_scenario"]
@@ -191,16 +191,9 @@ def arm_run_arguments(spec: CampaignSpec, inputs: Mapping[str, Any], seed: int) 
     if scale != 1.0:
         ref = JointSinusoids(ref.center, tuple(scale * a for a in ref.amplitude), ref.omega, ref.phase)
         setup = dataclasses.replace(setup, reference=ref)
-    peak = float(inputs["payload_peak"])
-    payload: Any
-    if inputs["payload_profile"] == "sinusoidal":
-        payload = SinusoidalPayload(0.5 * peak, 0.5 * peak, float(inputs["payload_omega"]),
-                                    float(inputs["payload_phase"]))
-    else:
-        payload = ConstantPayload(peak)
+    payload = drawn_payload(inputs)
     signs = setup.disturbance.signs if setup.disturbance is not None else (1.0,) * n
-    disturbance = SquareWave(float(inputs["disturbance_amplitude"]), float(inputs["disturbance_period"]),
-                             float(inputs["disturbance_phase"]), signs)
+    disturbance = drawn_disturbance(inputs, signs)
     rms = float(inputs["measurement_noise"])
     noise = None
     if rms > 0:

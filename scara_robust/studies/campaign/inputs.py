@@ -67,6 +67,20 @@ def fixed_inputs(spec: CampaignSpec) -> dict[str, Any]:
     return out
 
 
+def drawn_payload(inputs: Mapping[str, Any]) -> SinusoidalPayload | ConstantPayload:
+    """The payload of a row: ``payload_profile``, ``payload_peak`` (kg), ``payload_omega``, ``payload_phase``."""
+    peak = float(inputs["payload_peak"])
+    if inputs["payload_profile"] == "sinusoidal":
+        return SinusoidalPayload(0.5 * peak, 0.5 * peak, float(inputs["payload_omega"]), float(inputs["payload_phase"]))
+    return ConstantPayload(peak)
+
+
+def drawn_disturbance(inputs: Mapping[str, Any], signs: tuple[float, ...] = (1.0, 1.0)) -> SquareWave:
+    """The square wave of a row's ``disturbance_amplitude`` (N·m), ``_period`` (s) and ``_phase`` (rad)."""
+    return SquareWave(float(inputs["disturbance_amplitude"]), float(inputs["disturbance_period"]),
+                      float(inputs["disturbance_phase"]), signs)
+
+
 def run_arguments(inputs: Mapping[str, Any]) -> dict[str, Any]:
     """The keyword arguments of :func:`scara_robust.run_scenario` for one campaign run.
 
@@ -95,14 +109,6 @@ def run_arguments(inputs: Mapping[str, Any]) -> dict[str, Any]:
         raise ArgumentValueError("inputs", f"lacks the campaign inputs {missing}")
     robot = {name: float(inputs[f"robot_{name}"]) for name in _ROBOT}
     params = ScaraParams(**robot, cp=float(inputs["cp"]))
-    peak = float(inputs["payload_peak"])
-    payload: Any
-    if inputs["payload_profile"] == "sinusoidal":
-        payload = SinusoidalPayload(
-            0.5 * peak, 0.5 * peak, float(inputs["payload_omega"]), float(inputs["payload_phase"])
-        )
-    else:
-        payload = ConstantPayload(peak)
     limit = float(inputs["torque_limit"])
     return {
         "scenario": Scenario(f"mc-{int(inputs['scenario'])}", (float(inputs["e1_0"]), float(inputs["e2_0"])),
@@ -111,11 +117,8 @@ def run_arguments(inputs: Mapping[str, Any]) -> dict[str, Any]:
         "torque_limit": None if math.isinf(limit) else limit,
         "params": params,
         "reference": sinusoidal_reference(float(inputs["reference_amplitude"]), float(inputs["reference_omega"])),
-        "payload": payload,
-        "disturbance": SquareWave(
-            float(inputs["disturbance_amplitude"]), float(inputs["disturbance_period"]),
-            float(inputs["disturbance_phase"]),
-        ),
+        "payload": drawn_payload(inputs),
+        "disturbance": drawn_disturbance(inputs),
         "K": _paper_gain(float(inputs["rho"]), float(inputs["eta"])).copy(),
     }
 
