@@ -132,7 +132,8 @@ Export (:mod:`scara_robust.export`)
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)
-    compare_schedules               -- scheduled and fixed gains side by side: decay, rate, error, runs
+    compare_schedules, ScheduleRun  -- scheduled and fixed gains side by side: decay, rate, error, runs
+    plant_schedule_run, scara_schedule_run, arm_schedule_run -- how compare_schedules runs a plant, the SCARA, an arm
     reproduction_table              -- the paper's claims next to the package's results
     error_sensitivity               -- the PID's error after 6 s against L2, payload and disturbance phase
     load_spec, spec_from_dict, CampaignSpec, Range, PAYLOAD_PROFILES, draw_scenario -- campaign specs

@@ -369,8 +369,63 @@ def test_compare_puts_the_schedule_beside_the_best_fixed_gain(tmp_path, capsys):
     assert fixed["max ‖K_j‖"] <= 20 * (1 + 1e-6) and scheduled["max ‖K_j‖"] <= 20 * (1 + 1e-6)
     assert scheduled["decay [1/s]"] > fixed["decay [1/s]"]  # under the same bound, rate and error
     for row in (fixed, scheduled):
-        assert row["range [kg]"] == "0-2" and row["ramp: status"] in sr.STATUSES
+        assert row["certified range [kg]"] == "0-2" and row["ramp: status"] in sr.STATUSES
         assert row["ramp: peak |u| [N·m]"] > 0
+
+
+def test_a_profile_evaluates_a_time_array_as_its_samples(arm):
+    """The SCARA's runs call the payload on the whole output grid at once."""
+    t = np.linspace(-1.0, 5.0, 13)
+    for kind in ("constant", "ramp", "sinusoid", "random-walk"):
+        profile = sr.parameter_profile(arm, "m", kind, t_final=5.0)
+        np.testing.assert_array_equal(profile(t), [profile(float(tk)) for tk in t])
+        assert isinstance(profile(1.0), float)
+
+
+def test_the_scara_compare_runs_read_the_gain_at_the_measured_payload():
+    """scara_schedule_run: the scheduled PID on the nonlinear SCARA, its measurement `bias` off."""
+    K = sr.design(sr.paper_model(), 3, 90).K
+    table = sr.ScheduledGain("m_p", "kg", [0.0, 2.07], np.stack([K, 0.5 * K]))
+    ramp = sr.parameter_profile(sr.scara_uncertain_plant(n_times=5, n_masses=2, payload_rate=1.0), "m_p", "ramp")
+    run = sr.scara_schedule_run("small", 8.0)
+    row = run(table, ramp, 0.05)
+    direct = sr.simulate(sr.scheduled_pid_controller(table, ramp, measurement_bias=0.05), "small", payload=ramp,
+                         t_final=8.0)
+    assert row == {"status": direct.status, "max |e| after 6 s [rad]": direct.metrics().max_abs_error,
+                   "peak |τ| [N·m]": direct.peak_torque}
+    assert run(table, ramp, 0.0)["max |e| after 6 s [rad]"] != row["max |e| after 6 s [rad]"]
+
+
+@pytest.mark.robots
+def test_an_arm_runs_a_scheduled_gain(tmp_path):
+    """simulate_arm with a ScheduledGain: a constant table is the fixed gain; the law reads K(m_p(t) + bias)."""
+    from test_arm_compiled import small_arm_file
+
+    setup = sr.load_arm(small_arm_file(tmp_path))
+    K = sr.design(setup.plant, 1000, 10).K
+    ramp = sr.parameter_profile(setup.plant, "m_p", "ramp", t_final=8.0)
+    fixed = sr.simulate_arm(setup, K, ramp, t_final=8.0)
+    constant = sr.simulate_arm(setup, sr.ScheduledGain("m_p", "kg", [0.0, 3.0], np.stack([K, K])), ramp, t_final=8.0)
+    # (1 − s)K + sK rounds differently from K in the last bit; the adaptive steps carry it to ~1e-8 rad
+    np.testing.assert_allclose(constant.e, fixed.e, rtol=0, atol=1e-6)
+    table = sr.ScheduledGain("m_p", "kg", [0.0, 3.0], np.stack([K, 0.6 * K]))
+    # a payload held at 1.2 kg measured 0.05 kg off: the law is the fixed gain K(1.25 kg)
+    held = sr.parameter_profile(setup.plant, "m_p", "constant", value=1.2)
+    run = sr.simulate_arm(setup, table, held, t_final=8.0, measurement_bias=0.05)
+    at = sr.simulate_arm(setup, table.gain(1.25), held, t_final=8.0)
+    np.testing.assert_allclose(run.e, at.e, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(run.torque, at.torque, rtol=0, atol=1e-9)
+    # K(1.2 kg), the gain at the true payload, runs measurably apart (7.9e-6 rad here)
+    assert np.abs(run.e - sr.simulate_arm(setup, table.gain(1.2), held, t_final=8.0).e).max() > 1e-6
+    run = sr.simulate_arm(setup, table, ramp, t_final=8.0, measurement_bias=0.05)
+    row = sr.arm_schedule_run(setup, 8.0)(table, ramp, 0.05)
+    assert row["max |e| after 6 s [rad]"] == run.metrics().max_abs_error
+    with pytest.raises(ValueError, match="`method` a scheduled gain runs on 'lsoda' or 'rk4'"):
+        sr.simulate_arm(setup, table, ramp, method="compiled")
+    with pytest.raises(ValueError, match="`measurement_bias` goes with a scheduled gain"):
+        sr.simulate_arm(setup, K, ramp, measurement_bias=0.1)
+    with pytest.raises(ValueError, match=r"`K` must schedule gains of shape \(6, 18\)"):
+        sr.simulate_arm(setup, sr.ScheduledGain("m_p", "kg", [0.0, 3.0], np.zeros((2, 1, 3))), ramp)
 
 
 @pytest.mark.robots
@@ -410,3 +465,23 @@ def test_the_scara_pid_scheduled_on_its_payload():
     np.testing.assert_allclose(ctrl.output(t, x, u), -ramp.gain(pay(t) + 0.1) @ state, rtol=1e-14)
     with pytest.raises(ValueError, match="`gain` must be a ScheduledGain of \\(2, 6\\) gains"):
         sr.scheduled_pid_controller(sr.ScheduledGain("m", "kg", [0, 1], np.zeros((2, 1, 3))), pay)
+
+
+def test_compare_on_a_robot_refuses_what_a_schedule_comparison_cannot_mean(tmp_path, capsys):
+    """One line and exit 2, before any certificate is computed."""
+    K = sr.design(sr.paper_model(), 3, 90).K
+    scara = tmp_path / "scara.json"
+    sr.ScheduledGain("m_p", "kg", [0.0, 2.07], np.stack([K, K])).save(scara)
+    one_joint = tmp_path / "one.json"
+    sr.ScheduledGain("m", "kg", [0.0, 2.0], np.zeros((2, 1, 3))).save(one_joint)
+    cases = {
+        ("--design", str(scara), "--profile", "ramp"): "`--profile`: a schedule is compared with the payload ramping",
+        ("--design", str(scara), "--payload", "off"): "`--payload`: a schedule is compared with the payload moving",
+        ("--design", str(scara), "--design", str(scara)): "`--design`: give one schedule file, and at most one",
+        ("--design", str(one_joint)): "schedules 'm' with gains of shape (1, 3), not a gain of",
+        ("--rate", "1"): "`--rate` describes a scheduled gain; it goes with --design SCHEDULE.json",
+    }
+    for argv, message in cases.items():
+        assert main(["compare", *argv]) == 2, argv
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1 and "Traceback" not in err, err

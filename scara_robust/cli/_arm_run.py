@@ -25,7 +25,8 @@ from ._common import CommandLineError, per_joint_values, resolve_design, save_fi
 from ._plant_run import option_floats, plant_gain, plant_profiles, series_output
 from ._system import LoadedSystem
 
-__all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options"]
+__all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options", "arm_run_inputs",
+           "check_arm_options"]
 
 #: Options of the SCARA's or a plant file's runs that mean nothing for an arm.
 _NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "torque_limit")
@@ -74,7 +75,7 @@ def _per_joint(option: str, values: list[float], n: int, unit: str) -> list[floa
     return values * n if len(values) == 1 else values
 
 
-def _run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
+def arm_run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
     """:func:`simulate_arm`'s ``e0``, ``edot0`` and ``disturbance`` from the options (None: the robot file's)."""
     n = setup.arm.n_joints
     inputs: dict[str, Any] = {}
@@ -106,7 +107,8 @@ def _describe_inputs(inputs: dict[str, Any], setup: ArmSetup) -> str:
     return "".join(f", {p}" for p in parts)
 
 
-def _refuse(args: argparse.Namespace, system: LoadedSystem) -> None:
+def check_arm_options(args: argparse.Namespace, system: LoadedSystem) -> None:
+    """Refuse the options of the SCARA's or a plant file's runs on a URDF arm's, in one line each."""
     if getattr(args, "x0", None) is not None:
         raise CommandLineError("`--x0` is a plant file's initial state; a URDF robot's run starts from the initial "
                                "error --e0 (rad) and --edot0 (rad/s), one value per joint")
@@ -155,13 +157,13 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     -------
     str
     """
-    _refuse(args, system)
+    check_arm_options(args, system)
     setup = system.arm()
     plant = setup.plant
     n = setup.arm.n_joints
     K, gain = plant_gain(args, plant, f"this arm's PID form ({n} joints)")
     t_final = 20.0 if args.t_final is None else args.t_final
-    inputs = _run_inputs(args, setup)
+    inputs = arm_run_inputs(args, setup)
     start = time.perf_counter()
     engine = {} if args.method is None else {"method": args.method}
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
@@ -210,7 +212,7 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
     -------
     pandas.DataFrame
     """
-    _refuse(args, system)
+    check_arm_options(args, system)
     setup = system.arm()
     plant = setup.plant
     model = plant.interval_model()
@@ -231,7 +233,7 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         designs[f"file {path}"] = (loaded.K, loaded.P)
     t_final = 20.0 if t_final is None else t_final
     payload = _payload(args, setup, t_final)
-    inputs = _run_inputs(args, setup)
+    inputs = arm_run_inputs(args, setup)
     rows = []
     for name, des in designs.items():
         K, P_file = des if isinstance(des, tuple) else (des.K, None)

@@ -21,8 +21,16 @@ from ..model.plant import as_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.synthesis import synthesize
 from ..simulation.metrics import METRIC_NAMES
-from ..studies.comparison import compare_controllers, compare_plant_designs, compare_schedules
-from ._arm_run import add_arm_run_options, compare_arm, refuse_arm_options
+from ..studies.comparison import (
+    ScheduleRun,
+    arm_schedule_run,
+    compare_controllers,
+    compare_plant_designs,
+    compare_schedules,
+    plant_schedule_run,
+    scara_schedule_run,
+)
+from ._arm_run import add_arm_run_options, arm_run_inputs, check_arm_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
@@ -52,8 +60,9 @@ def add_parser(sub: Any) -> None:
     add_arm_run_options(p)
     p.add_argument("--design", metavar="FILE.json", action="append",
                    help="add rows for the PID gain of a design file (written by synthesize --output); repeatable. "
-                   "With --model, a schedule file (synthesize --schedule --output) is compared instead with the best "
-                   "fixed gain of its gain bound: decay, rate and measurement error certified, runs at the rate bound")
+                   "A schedule file (synthesize --schedule --output) is compared instead with the best fixed gain of "
+                   "its gain bound (synthesize's, or a second --design file's): certified range, decay, rate and "
+                   "measurement error, runs with the payload (parameter) moving at the rate bound")
     p.add_argument("--format", choices=("text", "markdown", "csv", "json"), default="text")
     p.add_argument("--output", help="write to this file instead of stdout")
     p.add_argument("--t-final", type=finite_float, default=PAPER_T_FINAL, help=f"horizon, s (> {PAPER_TRANSIENT:g})")
@@ -104,6 +113,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if system.capabilities.run != "arm":
         refuse_arm_options(args, "the SCARA's runs start from --scenario's initial errors" if
                            system.capabilities.run == "scara" else "a plant file's runs start at rest")
+    if any(is_schedule_file(path) for path in args.design or []):
+        return _compare_schedule(args, system)
+    refuse_schedule_options(args, "--design SCHEDULE.json")
     return _COMPARES[system.capabilities.run](args, system)
 
 
@@ -169,10 +181,6 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError("`--payload` is the robot's; it cannot go with --model")
     plant = system.require_physical("`--model` must have [parameters] to be compared (runs need a plant to "
                                     "simulate)")
-    schedules = [path for path in args.design or [] if is_schedule_file(path)]
-    if schedules:
-        return _compare_schedule(args, plant, schedules)
-    refuse_schedule_options(args, "--design SCHEDULE.json")
     model = as_model("model", plant)
     rho = PAPER_DESIGN_POINT[0] if args.rho is None else args.rho
     eta = PAPER_DESIGN_POINT[1] if args.eta is None else args.eta
@@ -206,30 +214,71 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     return "\n".join([head, str(table.T.to_string(header=False, float_format=lambda v: f"{v:.4g}")), *notes])
 
 
-def _compare_schedule(args: argparse.Namespace, plant: Any, schedules: list[str]) -> str:
-    """``compare --model F --design SCHEDULE.json``: the schedule against the best fixed gain of the same bound."""
-    if len(schedules) != 1 or len(args.design) != 1:
-        raise CommandLineError("`--design` SCHEDULE.json is compared with the best fixed gain of its gain bound; give "
-                               "one schedule file and no other --design")
+def _schedule_runs(args: argparse.Namespace, system: LoadedSystem, t_final: float) -> tuple[ScheduleRun, str]:
+    """How the schedule comparison runs each gain on this system, and what the runs are."""
+    kind = system.capabilities.run
+    if kind == "plant":
+        return plant_schedule_run(system.require_physical(""), t_final), ""
+    if args.profile != "constant" or args.parameter is not None:
+        option = "--profile" if args.profile != "constant" else "--parameter"
+        raise CommandLineError(f"`{option}`: a schedule is compared with the payload ramping and sweeping at its rate "
+                               "bound (--rate)")
+    if kind == "arm":
+        check_arm_options(args, system)
+        setup = system.arm()
+        return arm_schedule_run(setup, t_final, **arm_run_inputs(args, setup)), " of the nonlinear arm"
+    scenario = system.setup.initial or "small"
+    name = scenario if isinstance(scenario, str) else scenario.name
+    return (scara_schedule_run(scenario, t_final, **system.setup.signals()),
+            f" of the nonlinear SCARA ({name} scenario)")
+
+
+def _compare_schedule(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``compare --design SCHEDULE.json``: the schedule against the best fixed gain of the same bound.
+
+    The fixed gain is a second ``--design`` file's, else ``synthesize``'s (the largest decay
+    with ‖K‖ at most the schedule's gain bound, one Lyapunov matrix on the coarse samples,
+    checked on the fine ones). Both get the same certificate (a P(p) following the parameter).
+    """
+    if args.payload is not None:
+        raise CommandLineError("`--payload`: a schedule is compared with the payload moving at its rate bound")
+    plant = system.require_physical("a scheduled gain needs a plant with named physical parameters (a plant file "
+                                    "with [parameters], a robot); this file describes only the uncertainty set")
+    paths = list(args.design or [])
+    schedules = [path for path in paths if is_schedule_file(path)]
+    others = [path for path in paths if path not in schedules]
+    if len(schedules) != 1 or len(others) > 1:
+        raise CommandLineError("`--design`: give one schedule file, and at most one design file as the fixed gain to "
+                               "compare it with (default: the best fixed gain of the schedule's gain bound)")
     gain = read_schedule(schedules[0])
-    if gain.parameter not in plant.names or gain.shape != (plant.n_inputs, plant.n_design_states):
+    shape = (plant.n_inputs, plant.n_design_states)
+    if gain.parameter not in plant.names or gain.shape != shape:
         raise CommandLineError(f"`--design` {schedules[0]!r}: schedules {gain.parameter!r} with gains of shape "
-                               f"{gain.shape}, not a gain of this plant")
-    bound = float(gain.certified.get("gain_bound", 0.0)) or float(np.ceil(gain.max_norm))
-    coarse, fine = plant.samples(plant.coarse_points()), plant.samples()
-    best = synthesize((coarse.A, coarse.B), objective="decay", gain_bound=bound, check=(fine.A, fine.B))
-    gains = {f"schedule {os.path.basename(schedules[0])}": gain}
-    notes = []
-    if best.K is not None and best.certified:
-        fixed = ScheduledGain(gain.parameter, gain.unit, gain.breakpoints, np.stack([best.K] * gain.breakpoints.size),
-                              "fixed")
-        gains = {f"best fixed gain (synthesize, ||K|| <= {bound:g})": fixed, **gains}
-    else:
-        notes.append(f"no fixed gain with ||K|| <= {bound:g} is certified: {best.message}")
+                               f"{gain.shape}, not a gain of {plant.name!r} (its {shape})")
     t_final = 20.0 if args.t_final == PAPER_T_FINAL else args.t_final
+    run, runs = _schedule_runs(args, system, t_final)
+    bound = float(gain.certified.get("gain_bound", 0.0)) or float(np.ceil(gain.max_norm))
+    notes: list[str] = []
+    fixed_K: np.ndarray | None
+    if others:
+        loaded = resolve_design(argparse.Namespace(design=others[0]), shape, f"{plant.name}'s design form")
+        assert loaded is not None
+        fixed_K, fixed_name = loaded.K, f"fixed gain {os.path.basename(others[0])}"
+    else:
+        coarse, fine = plant.samples(plant.coarse_points()), plant.samples()
+        best = synthesize((coarse.A, coarse.B), objective="decay", gain_bound=bound, check=(fine.A, fine.B))
+        fixed_K, fixed_name = (best.K, f"best fixed gain (synthesize, ||K|| <= {bound:g})") \
+            if best.K is not None and best.certified else (None, "")
+        if fixed_K is None:
+            notes.append(f"no fixed gain with ||K|| <= {bound:g} is certified: {best.message}")
+    gains = {f"schedule {os.path.basename(schedules[0])}": gain}
+    if fixed_K is not None:
+        fixed = ScheduledGain(gain.parameter, gain.unit, gain.breakpoints,
+                              np.stack([fixed_K] * gain.breakpoints.size), "fixed")
+        gains = {fixed_name: fixed, **gains}
     try:
         table = compare_schedules(plant, gains, rate=args.schedule_rate, measurement_error=args.measurement_error,
-                                  t_final=t_final)
+                                  t_final=t_final, run=run)
     except ArgumentError as err:
         raise CommandLineError(f"`--design` {schedules[0]!r}: {err}") from err
     if args.format == "json":
@@ -239,8 +288,8 @@ def _compare_schedule(args: argparse.Namespace, plant: Any, schedules: list[str]
     if args.format == "markdown":
         frame = table.reset_index()
         return frame.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(frame)
-    head = (f"{plant.name}: a gain scheduled on {gain.parameter} against the best fixed gain of the same bound; runs "
-            f"of {t_final:g} s with {gain.parameter} moving at its rate bound")
+    head = (f"{plant.name}: a gain scheduled on {gain.parameter} against a fixed gain; runs{runs} of {t_final:g} s "
+            f"with {gain.parameter} moving at its rate bound")
     return "\n".join([head, str(table.T.to_string(float_format=lambda v: f"{v:.4g}")), *notes])
 
 

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_callable, check_choice, check_instance, check_real
+from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
 from ..model.signals import MeasurementNoise, SquareWave
@@ -54,6 +55,14 @@ class _NoDisturbance:
         return np.zeros(0)
 
 
+def _gain_of_time(K: Array | ScheduledGain, payload: Callable[[float], Any],
+                  bias: float) -> Callable[[float], Array]:
+    """``t -> K`` (n, 3n): the fixed gain, or a schedule's at the measured payload ``m_p(t) + bias``."""
+    if isinstance(K, ScheduledGain):
+        return lambda t: K.gain(float(payload(t)) + bias)
+    return lambda t: K
+
+
 @dataclass(frozen=True)
 class ArmLoop:
     """One arm loop for the engines: state ``[q, q̇, ∫e]``, shape (3n,).
@@ -62,8 +71,8 @@ class ArmLoop:
     ----------
     setup : ArmSetup
         The arm, its reference and feedforward.
-    K : ndarray, shape (n, 3n)
-        The PID gain on ``[∫e, e, ė]``.
+    K : ndarray, shape (n, 3n), or ScheduledGain
+        The PID gain on ``[∫e, e, ė]``, or a gain scheduled on the measured payload.
     payload : callable
         ``m_p(t)`` in kg.
     disturbance : SquareWave or None
@@ -75,15 +84,18 @@ class ArmLoop:
     noise : MeasurementNoise or None
         Noise on the measured angles (its rate on the measured rates); the PID and its
         integrator see ``q + n(t)``.
+    measurement_bias : float
+        With a scheduled gain: what its measurement adds to ``m_p(t)``, kg.
     """
 
     setup: ArmSetup
-    K: Array
+    K: Array | ScheduledGain
     payload: Callable[[float], Any]
     disturbance: Any
     Ts: float | None = None
     torque_limit: float | None = None
     noise: MeasurementNoise | None = None
+    measurement_bias: float = 0.0
 
     sample_time = renamed_field("sample_time", "Ts")
 
@@ -102,17 +114,18 @@ class ArmLoop:
     @cached_property
     def torque(self) -> Callable[[float, Array], Array]:
         """``torque(t, x) -> τ_ff(t) − K [∫e, e, ė]``, shape (n,), N·m."""
-        n, K, ref, setup, noise = self.n, self.K, self.setup.reference, self.setup, self.noise
+        n, ref, setup, noise = self.n, self.setup.reference, self.setup, self.noise
         constant_ff = setup.feedforward == "none"
         zero = np.zeros(n)
         limit = self.torque_limit
+        gain_at = _gain_of_time(self.K, self.payload, self.measurement_bias)
 
         def torque(t: float, x: Array) -> Array:
             r, rd, _ = ref.at(t)
             if noise is not None:
                 r, rd = r - noise(t), rd - noise.rate(t)
             err = np.concatenate([x[2 * n:], r - x[:n], rd - x[n:2 * n]])
-            out: Array = (zero if constant_ff else setup.tau_ff(t)) - K @ err
+            out: Array = (zero if constant_ff else setup.tau_ff(t)) - gain_at(t) @ err
             return out if limit is None else np.clip(out, -limit, limit)
 
         return torque
@@ -210,7 +223,7 @@ class ArmRun:
 
 def simulate_arm(
     setup: ArmSetup,
-    K: ArrayLike,
+    K: ArrayLike | ScheduledGain,
     payload: Callable[[float], Any] | None = None,
     *,
     e0: ArrayLike | None = None,
@@ -229,6 +242,7 @@ def simulate_arm(
     tracking_tolerance: float = TRACKING_TOLERANCE,
     torque_limit: float | None = None,
     noise: MeasurementNoise | None = None,
+    measurement_bias: float = 0.0,
 ) -> ArmRun:
     """Simulate the arm under the PID ``τ = τ_ff − K [∫e, e, ė]`` with a varying payload.
 
@@ -236,8 +250,11 @@ def simulate_arm(
     ----------
     setup : ArmSetup
         The arm, reference and feedforward (:func:`scara_robust.load_arm`).
-    K : array_like, shape (n, 3n)
-        PID gain (a :class:`~scara_robust.Design`'s ``K``).
+    K : array_like, shape (n, 3n), or ScheduledGain
+        PID gain (a :class:`~scara_robust.Design`'s ``K``), or a gain scheduled on the
+        measured payload (:func:`scara_robust.synthesize_schedule`, a schedule file of
+        ``synthesize --schedule m_p``): ``K(m̂_p(t))`` with ``m̂_p = m_p(t) +
+        measurement_bias``, the edge gain outside its breakpoints.
     payload : callable, optional
         ``m_p(t)`` in kg (default: constant at the setup's nominal payload).
     e0, edot0 : array_like, shape (n,), optional
@@ -277,6 +294,8 @@ def simulate_arm(
         Noise on the measured joint angles (one row per joint); the PID, its integrator
         and the derivative term see ``q + n(t)`` and ``q̇ + ṅ(t)``, the metrics the true
         error ``r − q``.
+    measurement_bias : float
+        With a scheduled `K`: what the payload's measurement adds to the true ``m_p(t)``, kg.
 
     Returns
     -------
@@ -288,7 +307,19 @@ def simulate_arm(
     plot_arm_run : draws the run.
     """
     n = setup.arm.n_joints
-    gain = check_array("K", K, shape=(n, 3 * n))
+    bias = check_real("measurement_bias [kg]", measurement_bias)
+    if isinstance(K, ScheduledGain):
+        if K.shape != (n, 3 * n):
+            raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė], "
+                                          f"found {K.shape}")
+        if method == "compiled":
+            raise ArgumentValueError("method", "a scheduled gain runs on 'lsoda' or 'rk4' (the compiled engine takes "
+                                               "a fixed K)")
+        gain: Array | ScheduledGain = K
+    else:
+        if bias != 0.0:
+            raise ArgumentValueError("measurement_bias", "goes with a scheduled gain; a fixed K measures nothing")
+        gain = check_array("K", K, shape=(n, 3 * n))
     load = check_callable("payload", payload) if payload is not None else (lambda t: setup.payload_nominal)
     t_final = check_real("t_final", t_final, positive=True)
     dt = check_real("dt", dt, positive=True)
@@ -317,6 +348,7 @@ def simulate_arm(
         if noise.n != n:
             raise ArgumentValueError("noise", f"must have one row per joint ({n}), found {noise.n}")
     if method == "compiled":
+        assert not isinstance(gain, ScheduledGain)  # refused above
         fast = compiled_arm_run(setup, gain, payload, x0, t_final, disturbance=disturbance, dt=dt, rtol=rtol,
                                 atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator,
                                 torque_limit=torque_limit, noise=noise)
@@ -326,7 +358,7 @@ def simulate_arm(
         e, edot, tau = fast.e, fast.edot, fast.torque
     else:
         loop = ArmLoop(setup, gain, load, disturbance if disturbance is not None else _NoDisturbance(n), Ts,
-                       torque_limit, noise)
+                       torque_limit, noise, bias)
         traj = integrate(ENGINES[method], loop, x0, t_final, dt=dt, rtol=rtol, atol=atol,  # type: ignore[arg-type]
                          divergence_limit=divergence_limit)
         t, X = traj.t, traj.x
@@ -338,7 +370,12 @@ def simulate_arm(
         e, edot = r.T - X[:n], rd.T - X[n:2 * n]
         # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
         measured = (e, edot) if noise is None else (e - noise(t), edot - noise.rate(t))
-        tau = ff - gain @ np.vstack([X[2 * n:], *measured])
+        states = np.vstack([X[2 * n:], *measured])
+        if isinstance(gain, ScheduledGain):
+            gains = gain.gain(masses + bias)  # (k, n, 3n) at the measured payloads
+            tau = ff - np.einsum("kij,jk->ik", gains, states)
+        else:
+            tau = ff - gain @ states
         if torque_limit is not None:
             tau = np.clip(tau, -torque_limit, torque_limit)
     q = X[:n]

@@ -15,6 +15,7 @@ import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -173,8 +174,10 @@ class ParameterProfile:
     times: Array | None = None
     values: Array | None = None
 
-    def __call__(self, t: float) -> float:
-        """``p(t)`` in the parameter's unit, t in s."""
+    def __call__(self, t: Any) -> Any:
+        """``p(t)`` in the parameter's unit, t in s: a float, or an array of t's shape for an array."""
+        if np.ndim(t) > 0:
+            return np.array([self(float(tk)) for tk in np.ravel(t)]).reshape(np.shape(t))
         if self.kind == "constant":
             return self.numbers[0]
         if self.kind == "sinusoid":

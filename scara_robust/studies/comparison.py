@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -24,21 +24,29 @@ from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..lyapunov.theorem1 import certify
+from ..model.arm import ArmSetup
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant
-from ..paper import PAPER_T_FINAL
+from ..paper import PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.actuator import input_limit_certificate, peak_inputs, step_initial_errors
 from ..robustness.decay import design_decay_rate
 from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.parameters import frozen_limit, parameter_margin
 from ..robustness.sampled import max_sample_time
 from ..robustness.scheduled import max_measurement_error, max_schedule_rate, schedule_decay
+from ..simulation.arm import simulate_arm
+from ..simulation.controllers import scheduled_pid_controller
 from ..simulation.metrics import METRIC_NAMES
 from ..simulation.plants import parameter_profile, simulate_plant
-from ..simulation.run import run_scenario
+from ..simulation.run import run_scenario, simulate
 
 __all__ = ["compare_controllers", "COMPARISON_COLUMNS", "COMPARED_CONTROLLERS", "compare_plant_designs",
-           "compare_schedules"]
+           "compare_schedules", "ScheduleRun", "plant_schedule_run", "scara_schedule_run", "arm_schedule_run"]
+
+#: One run of a scheduled gain, ``run(gain, profile, bias) -> columns``: the parameter follows
+#: ``profile(t)``, the controller measures it ``bias`` off; the columns are the run's ``status``,
+#: its max |e| and peak input, their names with units.
+ScheduleRun = Callable[[ScheduledGain, Callable[[float], float], float], dict[str, Any]]
 
 #: Controllers of the default comparison: the paper's PID, the synthesized PID, both sliding modes.
 COMPARED_CONTROLLERS = ("pid", "pid-lmi", "smc", "smc-sign")
@@ -202,6 +210,92 @@ def compare_plant_designs(
     return pd.DataFrame(rows)
 
 
+def plant_schedule_run(plant: UncertainPlant, t_final: float = 20.0) -> ScheduleRun:
+    """Runs of a plant file's linear loop (:func:`scara_robust.simulate_plant`) for :func:`compare_schedules`.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    t_final : float
+        Horizon, s.
+
+    Returns
+    -------
+    ScheduleRun
+        Columns ``status``, ``max |e| [OUTPUT UNIT]`` (over the run) and ``peak |u| [INPUT UNIT]``.
+    """
+    out_unit, in_unit = plant.outputs[0].unit, plant.inputs[0].unit
+
+    def run(gain: ScheduledGain, profile: Callable[[float], float], bias: float) -> dict[str, Any]:
+        result = simulate_plant(plant, gain, profiles={gain.parameter: profile}, t_final=t_final,
+                                measurement_bias=bias)
+        return {"status": result.status, f"max |e| [{out_unit}]": result.max_abs_error,
+                f"peak |u| [{in_unit}]": result.peak_input}
+
+    return run
+
+
+def scara_schedule_run(scenario: Scenario | str = "small", t_final: float = PAPER_T_FINAL,
+                       **signals: Any) -> ScheduleRun:
+    """Runs of the nonlinear SCARA under :func:`scara_robust.scheduled_pid_controller` for :func:`compare_schedules`.
+
+    Parameters
+    ----------
+    scenario : Scenario or {'large', 'small'}
+        Initial tracking error.
+    t_final : float
+        Horizon, s.
+    **signals
+        ``params``, ``reference``, ``disturbance`` of :func:`scara_robust.simulate` (the
+        payload is the profile of each run).
+
+    Returns
+    -------
+    ScheduleRun
+        Columns ``status``, ``max |e| after 6 s [rad]`` and ``peak |τ| [N·m]``.
+    """
+    reference = signals.get("reference")
+    kwargs = {k: v for k, v in signals.items() if k in ("params", "reference", "disturbance")}
+
+    def run(gain: ScheduledGain, profile: Callable[[float], float], bias: float) -> dict[str, Any]:
+        controller = scheduled_pid_controller(gain, profile, reference, measurement_bias=bias)
+        result = simulate(controller, scenario, payload=profile, t_final=t_final, **kwargs)
+        return {"status": result.status,
+                f"max |e| after {PAPER_TRANSIENT:g} s [rad]": result.metrics().max_abs_error
+                if result.has_metrics and not result.diverged else math.nan,
+                "peak |τ| [N·m]": result.peak_torque}
+
+    return run
+
+
+def arm_schedule_run(setup: ArmSetup, t_final: float = 20.0, **inputs: Any) -> ScheduleRun:
+    """Runs of an arm from its URDF (:func:`scara_robust.simulate_arm`) for :func:`compare_schedules`.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+    t_final : float
+        Horizon, s.
+    **inputs
+        Further keywords of :func:`scara_robust.simulate_arm` (``e0``, ``disturbance``, ...;
+        default the robot file's).
+
+    Returns
+    -------
+    ScheduleRun
+        Columns ``status``, ``max |e| after 6 s [rad]`` and ``peak |τ| [N·m]``.
+    """
+
+    def run(gain: ScheduledGain, profile: Callable[[float], float], bias: float) -> dict[str, Any]:
+        result = simulate_arm(setup, gain, profile, t_final=t_final, measurement_bias=bias, **inputs)
+        return {"status": result.status,
+                f"max |e| after {result.t_transient:g} s [rad]": result.metrics().max_abs_error
+                if result.has_metrics and not result.diverged else math.nan,
+                "peak |τ| [N·m]": float(np.abs(result.torque).max())}
+
+    return run
+
+
 def compare_schedules(
     plant: UncertainPlant,
     gains: Mapping[str, ScheduledGain],
@@ -210,6 +304,7 @@ def compare_schedules(
     measurement_error: float | None = None,
     decay: float | None = None,
     t_final: float = 20.0,
+    run: ScheduleRun | None = None,
 ) -> pd.DataFrame:
     """Scheduled (and fixed) gains side by side under one rate bound and measurement error.
 
@@ -219,6 +314,8 @@ def compare_schedules(
     Parameters
     ----------
     plant : UncertainPlant
+        The plant the certificates are of (for a robot, its linearization:
+        :func:`scara_robust.scara_uncertain_plant`, :attr:`ArmSetup.plant`).
     gains : mapping of str to ScheduledGain
         Name -> gain, all on the same parameter.
     rate, measurement_error : float, optional
@@ -227,16 +324,21 @@ def compare_schedules(
         A decay rate α (1/s) at which the largest certified rate is also reported.
     t_final : float
         Horizon of the runs, s.
+    run : ScheduleRun, optional
+        How a gain is run (default :func:`plant_schedule_run` of `plant`;
+        :func:`scara_schedule_run` and :func:`arm_schedule_run` run the nonlinear robots).
 
     Returns
     -------
     pandas.DataFrame
-        One row per gain: ``max ‖K_j‖``, ``range [UNIT]``, ``decay [1/s]`` (guaranteed at ν
-        and δ), ``rate [UNIT/s]`` (largest certified at decay 0, δ), ``rate at decay α
-        [UNIT/s]`` (with `decay`), ``measurement error [UNIT]`` (largest certified at ν),
-        and for two runs with the parameter moving at the rate bound, a ramp across the
-        range (the controller's measurement off by +δ) and a sinusoid between the range's
-        ends: ``status``, ``max |e|`` and ``peak |u|`` in the plant's units.
+        One row per gain: ``max ‖K_j‖``, ``certified range [UNIT]`` (the plant's range of
+        the parameter when the loop is certified at ν and δ, else ``none``), ``decay
+        [1/s]`` (guaranteed at ν and δ), ``rate [UNIT/s]`` (largest certified at decay 0,
+        δ), ``rate at decay α [UNIT/s]`` (with `decay`), ``measurement error [UNIT]``
+        (largest certified at ν), and for two runs with the parameter moving at the rate
+        bound, a ramp across the range (the controller's measurement off by +δ) and a
+        sinusoid between the range's ends, the columns of `run` prefixed ``ramp:`` and
+        ``sinusoid:``.
     """
     if not gains:
         raise ArgumentValueError("gains", "must name at least one gain")
@@ -247,19 +349,20 @@ def compare_schedules(
     param = plant.parameter(name)
     nu = (math.inf if param.rate is None else float(param.rate)) if rate is None else float(rate)
     delta = param.effective_error if measurement_error is None else float(measurement_error)
-    unit, out_unit = param.unit, plant.outputs[0].unit
-    in_unit = plant.inputs[0].unit
-    moving = plant if param.rate is not None or not math.isfinite(nu) else _with_rate(plant, name, nu)
+    unit = param.unit
+    run = plant_schedule_run(plant, t_final) if run is None else run
+    moving = _with_rate(plant, name, nu) if math.isfinite(nu) else plant  # the runs move at ν
     profiles = {"ramp": parameter_profile(moving, name, "ramp", t_final=t_final),
                 "sinusoid": parameter_profile(moving, name, "sinusoid", t_final=t_final)}
+    lo, hi = param.range
     rows = []
     for label, gain in gains.items():
-        alpha, _ = schedule_decay(plant, gain, rate=nu, measurement_error=delta)
+        alpha, held = schedule_decay(plant, gain, rate=nu, measurement_error=delta)
         fastest, _ = max_schedule_rate(plant, gain, measurement_error=delta)
         error, _ = max_measurement_error(plant, gain, rate=nu)
         row: dict[str, Any] = {"gain": label, "max ‖K_j‖": gain.max_norm,
-                               f"range [{unit}]": f"{gain.range[0]:g}-{gain.range[1]:g}",
-                               "decay [1/s]": alpha, f"rate [{unit}/s]": fastest,
+                               f"certified range [{unit}]": f"{lo:g}-{hi:g}" if held is not None else "none",
+                               "decay [1/s]": alpha if held is not None else math.nan, f"rate [{unit}/s]": fastest,
                                f"measurement error [{unit}]": error}
         if decay is not None:
             row[f"rate at decay {decay:g} [{unit}/s]"] = max_schedule_rate(
@@ -267,10 +370,7 @@ def compare_schedules(
         fixed = bool(np.all(gain.gains == gain.gains[0]))
         for kind, profile in profiles.items():
             bias = delta if kind == "ramp" and not fixed else 0.0
-            run = simulate_plant(plant, gain, profiles={name: profile}, t_final=t_final, measurement_bias=bias)
-            row[f"{kind}: status"] = run.status
-            row[f"{kind}: max |e| [{out_unit}]"] = run.max_abs_error
-            row[f"{kind}: peak |u| [{in_unit}]"] = run.peak_input
+            row.update({f"{kind}: {key}": value for key, value in run(gain, profile, bias).items()})
         rows.append(row)
     return pd.DataFrame(rows).set_index("gain")
 
