@@ -397,7 +397,7 @@ def test_the_scara_compare_runs_read_the_gain_at_the_measured_payload():
 
 
 @pytest.mark.robots
-def test_an_arm_runs_a_scheduled_gain(tmp_path):
+def test_an_arm_runs_a_scheduled_gain(tmp_path, capsys):
     """simulate_arm with a ScheduledGain: a constant table is the fixed gain; the law reads K(m_p(t) + bias)."""
     from test_arm_compiled import small_arm_file
 
@@ -420,6 +420,15 @@ def test_an_arm_runs_a_scheduled_gain(tmp_path):
     run = sr.simulate_arm(setup, table, ramp, t_final=8.0, measurement_bias=0.05)
     row = sr.arm_schedule_run(setup, 8.0)(table, ramp, 0.05)
     assert row["max |e| after 6 s [rad]"] == run.metrics().max_abs_error
+    # the command line: simulate --robot F --design SCHEDULE.json --measurement-bias
+    schedule = tmp_path / "arm-schedule.json"
+    table.save(schedule)
+    argv = ["simulate", "--robot", str(tmp_path / "arm.toml"), "--design", str(schedule), "--profile", "ramp",
+            "--t-final", "8", "--format", "json"]
+    assert main([*argv, "--measurement-bias", "0.05"]) == 0
+    assert json.loads(capsys.readouterr().out)["max_abs_error"] == run.metrics().max_abs_error
+    assert main([*argv, "--method", "compiled"]) == 2
+    assert "`--method` compiled: a scheduled gain runs on 'lsoda' or 'rk4'" in capsys.readouterr().err
     with pytest.raises(ValueError, match="`method` a scheduled gain runs on 'lsoda' or 'rk4'"):
         sr.simulate_arm(setup, table, ramp, method="compiled")
     with pytest.raises(ValueError, match="`measurement_bias` goes with a scheduled gain"):
@@ -485,3 +494,29 @@ def test_compare_on_a_robot_refuses_what_a_schedule_comparison_cannot_mean(tmp_p
         assert main(["compare", *argv]) == 2, argv
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1 and "Traceback" not in err, err
+
+
+def test_simulate_runs_the_scara_on_a_schedule_file(tmp_path, capsys):
+    """simulate --design SCHEDULE.json on the SCARA: the same run as scheduled_pid_controller in Python."""
+    K = sr.design(sr.paper_model(), 3, 90).K
+    path = tmp_path / "scara.json"
+    table = sr.ScheduledGain("m_p", "kg", [0.0, 2.07], np.stack([K, 0.5 * K]))
+    table.save(path)
+    argv = ["simulate", "--design", str(path), "--scenario", "small", "--t-final", "8", "--format", "json"]
+    assert main([*argv, "--measurement-bias", "0.1"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    pay = sr.paper_payload()
+    direct = sr.simulate(sr.scheduled_pid_controller(table, pay, measurement_bias=0.1), "small", payload=pay,
+                         t_final=8.0)
+    assert record["controller"] == "pid-scheduled" and record["measurement_bias"] == 0.1
+    assert record["metrics"]["max_abs_error_after_6s"] == direct.metrics().max_abs_error
+    assert main([*argv, "--payload", "off"]) == 0
+    off = json.loads(capsys.readouterr().out)
+    assert off["series"]["m_p"][-1] == 0.0 and off["status"] in sr.STATUSES
+    for extra, message in ((["--controller", "smc"], "it goes with --controller pid, found 'smc'"),
+                           (["--measurement-bias", "nan"], "`--measurement-bias`")):
+        assert main([*argv, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+    assert main(["simulate", "--measurement-bias", "0.05"]) == 2
+    assert "it goes with --design SCHEDULE.json" in capsys.readouterr().err

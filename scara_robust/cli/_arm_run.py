@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..exceptions import ArgumentError
 from ..io import square_wave
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
@@ -165,10 +166,17 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     t_final = 20.0 if args.t_final is None else args.t_final
     inputs = arm_run_inputs(args, setup)
     start = time.perf_counter()
-    engine = {} if args.method is None else {"method": args.method}
-    run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
-                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
-                       **engine, **inputs)
+    engine: dict[str, Any] = {} if args.method is None else {"method": args.method}
+    if getattr(args, "measurement_bias", None) is not None:
+        engine["measurement_bias"] = args.measurement_bias  # a schedule file's (plant_gain refuses it otherwise)
+    try:
+        run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
+                           tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
+                           **engine, **inputs)
+    except ArgumentError as err:
+        if err.argument != "method":
+            raise
+        raise CommandLineError(f"`--method` {args.method}: {err.problem}") from err
     elapsed = time.perf_counter() - start
     files = []
     if args.plot is not None:
@@ -180,8 +188,9 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     if text is not None:
         return text
     files += [written] if written else []
+    measured = f" measured {args.measurement_bias:+g} kg off" if "measurement_bias" in engine else ""
     head = (f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
-            f"{_describe_inputs(inputs, setup)}")
+            f"{measured}{_describe_inputs(inputs, setup)}")
     return "\n".join([head, *_lines(run, elapsed),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
 

@@ -13,13 +13,14 @@ import numpy as np
 from ..exceptions import ArgumentError
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
+from ..model.robot import ConstantPayload, paper_payload
 from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_plant_run, plot_response
-from ..simulation.controllers import CONTROLLERS
+from ..simulation.controllers import CONTROLLERS, scheduled_pid_controller
 from ..simulation.engines import ENGINES
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.plants import PLANT_TRACKING_RTOL
-from ..simulation.run import SimulationResult, run_scenario
+from ..simulation.run import SimulationResult, run_scenario, simulate
 from ..studies.campaign.inputs import replay_scenario
 from ..studies.campaign.runner import read_results
 from ._arm_run import add_arm_run_options, refuse_arm_options, run_arm
@@ -35,6 +36,7 @@ from ._common import (
 )
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
+from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -182,6 +184,11 @@ def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
         controller = args.controller or "pid"
         payload = args.payload or "on"
         setup = system.setup
+        if is_schedule_file(args.design):
+            return _run_scara_schedule(args, system, controller, payload, tolerance)
+        if args.measurement_bias is not None:
+            raise CommandLineError("`--measurement-bias` is the error of a scheduled gain's measurement; it goes "
+                                   "with --design SCHEDULE.json")
         loaded = resolve_design(args)
         pid_like = controller in ("pid", "pid-sampled")
         if loaded is not None and not pid_like:
@@ -238,8 +245,45 @@ def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
     return _summary(res, payload, files) if args.format == "text" else ""
 
 
+def _run_scara_schedule(args: argparse.Namespace, system: LoadedSystem, controller: str, payload: str,
+                        tolerance: float) -> str:
+    """``simulate --design SCHEDULE.json`` on the SCARA: the PID with K(m̂_p), m̂_p = m_p(t) + --measurement-bias."""
+    if controller != "pid":
+        raise CommandLineError(f"`--design` SCHEDULE.json is a scheduled PID; it goes with --controller pid, found "
+                               f"{controller!r}")
+    gain = read_schedule(args.design)
+    if gain.parameter != "m_p" or gain.shape != (2, 6):
+        raise CommandLineError(f"`--design` {args.design!r}: schedules {gain.parameter!r} with gains of shape "
+                               f"{gain.shape}; the SCARA's PID is scheduled on m_p with (2, 6) gains")
+    setup = system.setup
+    profile = (setup.payload or paper_payload(setup.params)) if payload == "on" else ConstantPayload(0.0)
+    bias = 0.0 if args.measurement_bias is None else args.measurement_bias
+    _announce_compilation(args.method)
+    try:
+        pid = scheduled_pid_controller(gain, profile, setup.reference, measurement_bias=bias,
+                                       torque_limit=args.torque_limit)
+    except ArgumentError as err:
+        raise CommandLineError(f"`--{err.argument.replace('_', '-')}` {err.problem}") from err
+    res = simulate(pid, setup.initial or SCENARIOS["large"], params=setup.params, payload=profile,
+                   reference=setup.reference, disturbance=setup.disturbance, method=args.method,
+                   t_final=PAPER_T_FINAL if args.t_final is None else args.t_final, tracking_tolerance=tolerance)
+    files = []
+    if args.plot is not None:
+        save_figure("--plot", args.plot, plot_response(res))
+        files.append(f"figure: {args.plot}")
+    text, written = series_output(args, res.to_pandas(), {
+        "controller": "pid-scheduled", "scenario": res.scenario, "payload": payload, "measurement_bias": bias,
+        "status": res.status, "status_reason": res.status_reason, "method": res.method,
+        "metrics": res.metrics().to_dict() if res.has_metrics else None})
+    if text is not None:
+        return text
+    files = [f"gain: schedule file {args.design} (m_p measured {bias:+g} kg off)", *files,
+             written or "time series: not written (use --output FILE or --format csv|json)"]
+    return _summary(res, payload, files)
+
+
 #: Options that describe a run's inputs beside the robot's; a replayed run takes them from its campaign table.
-_INPUT_OPTIONS = ("design", "payload", "torque_limit")
+_INPUT_OPTIONS = ("design", "payload", "torque_limit", "measurement_bias")
 
 
 def _replay(args: argparse.Namespace, system: LoadedSystem, tolerance: float) -> tuple[SimulationResult, str | None]:
