@@ -926,7 +926,7 @@ def plot_arm_run(run: ArmRun, *, title: str | None = None) -> Any:
     return fig
 
 
-def _gain_entry_labels(plant: UncertainPlant) -> tuple[list[str], list[str]]:
+def gain_entry_labels(plant: UncertainPlant) -> tuple[list[str], list[str]]:
     """Each design-form state's gain name and the unit of the state it multiplies (``rad·s`` for K_I)."""
     n = plant.n_design_states
     outs = list(plant.outputs)
@@ -965,7 +965,7 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
 
     m, n = gain.shape
     K_fixed = None if fixed is None else np.asarray(fixed, dtype=float).reshape(m, n)
-    names, per = _gain_entry_labels(plant)
+    names, per = gain_entry_labels(plant)
     ins: list[Any] = list(plant.inputs) or [None] * m
     size = np.abs(gain.gains).max(axis=0)
     entries = [(i, j) for i, j in zip(*np.unravel_index(np.argsort(-size, axis=None), size.shape)) if size[i, j] > 0]

@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
-from ..exceptions import ArgumentError
+from ..controller.scheduled import ScheduledGain
+from ..exceptions import ArgumentError, ArgumentValueError
 from ..lyapunov.gain import Design, design
 from ..lyapunov.surface import DesignSurface, design_surface
 from ..lyapunov.theorem1 import certify
@@ -41,6 +42,7 @@ from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.registry import analysis_methods, get_method
 from ..robustness.sampled import max_sample_time
+from ..robustness.scheduled import schedule_certificate
 from ..robustness.table import certificate_table
 from ..simulation.plants import simulate_plant
 from ..simulation.run import run_scenario
@@ -196,6 +198,10 @@ class DesignExplorer:
         the map and in the selected design's verdict.
     t_final : float
         Horizon of the response, s.
+    schedule : ScheduledGain, optional
+        A gain scheduled on a parameter of `plant` (a schedule file): the page draws its
+        entries against the parameter, the selected design's beside them, and re-verifies
+        the certificate its file records (:meth:`schedule_check`).
     """
 
     model: UncertainLTVModel
@@ -211,6 +217,7 @@ class DesignExplorer:
     etas: Any = field(default_factory=lambda: np.linspace(1.0, 200.0, 200))
     elements: str = "all"
     t_final: float = 20.0
+    schedule: ScheduledGain | None = None
     surface: DesignSurface | None = field(default=None, init=False)
     _generation: int = field(default=0, init=False)
     _pending: list[Future[tuple[Any, str, float]]] = field(default_factory=list, init=False)
@@ -223,8 +230,15 @@ class DesignExplorer:
     payload_values: Array | None = field(default=None, init=False)
     _deployable: tuple[DesignSurface, Array] | None = field(default=None, init=False, repr=False)
     settings: RunSettings = field(default_factory=RunSettings, init=False)
+    _schedule_future: Future[Any] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.schedule is not None:
+            shape = (self.model.n_inputs, self.model.n_states)
+            if self.plant is None or self.schedule.parameter not in self.plant.names or self.schedule.shape != shape:
+                raise ArgumentValueError("schedule", f"must schedule gains of shape {shape} on a parameter of the "
+                                                     f"plant, found {self.schedule.shape} on "
+                                                     f"{self.schedule.parameter!r}")
         self.compute_map(self.rhos, self.etas)
 
     @property
@@ -661,6 +675,26 @@ class DesignExplorer:
             raise ValueError(f"the {self.limit_name} must be > 0 {self.signals[3]}, found {min(torque_limit):g}")
         return self.exporter(rho, eta, ts, torque_limit)
 
+    def schedule_check(self) -> Future[Any]:
+        """The schedule's certificate re-verified, in a worker, at the rate and error its file records.
+
+        Stability (decay 0) at the rate and measurement error of its ``certified`` record (the
+        plant's when it records none) on :attr:`plant` (:func:`scara_robust.schedule_certificate`).
+
+        Returns
+        -------
+        concurrent.futures.Future
+            Of ``(certificate, error, seconds)``.
+        """
+        if self.schedule is None:
+            raise ArgumentValueError("schedule", "is not given: this page has no scheduled gain")
+        with self._lock:  # once per page: every browser that opens it shows the same check
+            if self._schedule_future is None:
+                plant = self.plant if self.plant_source is None else None  # a plant's functions cannot be sent
+                self._schedule_future = self._workers().submit(_timed, _schedule_check, self.plant_source, plant,
+                                                               self.schedule)
+            return self._schedule_future
+
     def close(self) -> None:
         """Stop the worker processes (pending answers are dropped)."""
         self._generation += 1
@@ -724,6 +758,22 @@ def _cheap(family: str, capabilities: frozenset[str]) -> tuple[str, ...]:
     """The registered methods of a family that answer in milliseconds and apply to these capabilities."""
     methods = (get_method(family, name) for name in analysis_methods(family, defaults=True))
     return tuple(m.name for m in methods if m.cheap and m.applies_to(capabilities))
+
+
+def _recorded(value: Any) -> float | None:
+    """A number of a schedule file's ``certified`` record (``'inf'`` as written by JSON), or None."""
+    return None if value is None else math.inf if value == "inf" else float(value)
+
+
+def _schedule_check(plant_source: Callable[[], Any] | None, plant: UncertainPlant | None,
+                    gain: ScheduledGain) -> Any:
+    """:func:`schedule_certificate` of `gain` (stability, decay 0) at its file's recorded rate and error."""
+    on = _plant_of(plant_source) if plant_source is not None else plant
+    if on is None:
+        raise ArgumentValueError("plant", "is needed to certify a scheduled gain")
+    record = gain.certified
+    return schedule_certificate(on, gain, rate=_recorded(record.get("rate")),
+                                measurement_error=_recorded(record.get("measurement_error")))
 
 
 def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:

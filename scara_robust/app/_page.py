@@ -34,6 +34,7 @@ from bokeh.server.server import Server
 
 from ..exceptions import ArgumentError
 from ..model.initial import SCENARIOS
+from ..plotting import gain_entry_labels
 from ._explorer import MEASURES, PAYLOAD_MAP_TOL, Answer, DesignExplorer, QuickAnswer, Response, RunSettings
 
 __all__ = ["build_page", "envelope", "serve", "start_in_thread"]
@@ -43,7 +44,7 @@ _PALETTE = {"max_eig": tuple(RdBu11), "margin": tuple(reversed(RdBu11)), "payloa
             "deployable": tuple(reversed(RdBu11))}
 _TABLE = "style='border-collapse:collapse' cellpadding='3' border='1'"
 #: The page's roots in a grid: the title across, the map on the left, K and then the answers on the right.
-_TEMPLATE = get_env().from_string("""{% extends base %}
+_LAYOUT = """{% extends base %}
 {% block contents %}
 <div style="display: grid; grid-template-columns: 575px 600px; column-gap: 10px; align-items: start">
   <div style="grid-column: 1 / 3">{{ embed(roots.header) }}</div>
@@ -53,8 +54,15 @@ _TEMPLATE = get_env().from_string("""{% extends base %}
   <div>{{ embed(roots.plots) }}</div>
   <div>{{ embed(roots.answers) }}</div>
   <div>{{ embed(roots["export-root"]) }}</div>
+  SCHEDULE
 </div>
-{% endblock %}""")
+{% endblock %}"""
+_TEMPLATE = get_env().from_string(_LAYOUT.replace("SCHEDULE", ""))
+#: With a scheduled gain: its panel under both columns.
+_SCHEDULE_TEMPLATE = get_env().from_string(_LAYOUT.replace(
+    "SCHEDULE", '<div style="grid-column: 1 / 3">{{ embed(roots.schedule) }}</div>'))
+#: Entries of a scheduled gain the page draws (the largest first), and its panels per row.
+SCHEDULE_ENTRIES, SCHEDULE_COLUMNS = 12, 4
 _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2")
 
 
@@ -177,6 +185,91 @@ def _table_html(frame: Any, columns: list[str], table_id: str) -> str:
                              border=1))
 
 
+def _recorded_text(gain: Any) -> str:
+    """What a schedule file says it was certified for, in words with units."""
+    record, unit = gain.certified, gain.unit
+    if not record:
+        return "the file records no certificate"
+
+    def number(key: str) -> str:
+        value = record.get(key)
+        return "any" if value in ("inf", math.inf) else f"{float(value):.4g}"
+
+    parts = []
+    if "range" in record:
+        parts.append(f"range {record['range'][0]:g}–{record['range'][1]:g} {unit}")
+    for key, label, suffix in (("rate", "rate", f" {unit}/s"), ("measurement_error", "measurement error", f" {unit}"),
+                               ("decay", "decay", " 1/s"), ("gain_bound", "gain bound ‖K_j‖ <=", "")):
+        if key in record:
+            parts.append(f"{label} {number(key)}{suffix}")
+    if "checked_conditions" in record:
+        parts.append(f"{record['checked_conditions']} conditions checked")
+    if "plant" in record:
+        parts.append(f"plant {record['plant']}")
+    return "the file records: " + ", ".join(parts)
+
+
+def _schedule_panel(doc: Document, explorer: DesignExplorer) -> tuple[Any, Callable[[Any], None]]:
+    """The scheduled gain's panel and the function that draws a selected design's K beside it.
+
+    One small figure per entry ``K_ij`` (the largest :data:`SCHEDULE_ENTRIES`): the table at
+    its breakpoints (dots), linear between them as the controller interpolates, and the
+    selected design's entry dashed. Above them, the certificate its file records and the
+    certificate re-verified in a worker (:meth:`DesignExplorer.schedule_check`).
+    """
+    gain, plant = explorer.schedule, explorer.plant
+    assert gain is not None and plant is not None
+    names, per = gain_entry_labels(plant)
+    inputs = list(plant.inputs)
+    size = np.abs(gain.gains).max(axis=0)
+    entries = [(int(i), int(j)) for i, j in zip(*np.unravel_index(np.argsort(-size, axis=None), size.shape))
+               if size[i, j] > 0][:SCHEDULE_ENTRIES]
+    p = np.linspace(*gain.range, 201)
+    curve = gain.gain(p)
+    fixed = ColumnDataSource({"x": [], **{f"k{k}": [] for k in range(len(entries))}}, name="schedule-fixed")
+    figures = []
+    for k, (i, j) in enumerate(entries):
+        unit = f"{inputs[i].unit}/{per[j]}" if i < len(inputs) else "input unit per state unit"
+        label = names[j] if gain.shape[0] == 1 else f"{names[j]} → {inputs[i].name if i < len(inputs) else i}"
+        fig = figure(width=280, height=190, title=label, x_axis_label=f"measured {gain.parameter} [{gain.unit}]",
+                     y_axis_label=f"gain [{unit}]", tools="pan,wheel_zoom,reset,save", name=f"schedule-{k}")
+        fig.line(p, curve[:, i, j], color=_COLORS[0], line_width=2)
+        fig.scatter(gain.breakpoints, gain.gains[:, i, j], color=_COLORS[0], size=6)
+        fig.line("x", f"k{k}", source=fixed, color=_COLORS[1], line_dash="dashed", line_width=2)
+        figures.append(fig)
+    head = (f"<b>Scheduled gain</b> on {html.escape(gain.parameter)} [{html.escape(gain.unit)}] "
+            f"({html.escape(gain.method or 'table')}, {gain.breakpoints.size} breakpoints, max ‖K_j‖ = "
+            f"{gain.max_norm:.4g}): solid blue, K(p̂) of u = −K x on the design form (dots: the breakpoints, "
+            f"linear between, the edge gain outside); dashed red, the selected (ρ, η) design's fixed K.<br>"
+            f"{html.escape(_recorded_text(gain))}")
+    check = Div(text=head + "<br><span id='schedule-check'>certificate: re-verifying…</span>", width=1150,
+                name="schedule-text")
+
+    def show_check(done: Any) -> None:
+        try:
+            cert, error, seconds = done.result()
+        except Exception as err:  # noqa: BLE001  # the worker died: say so on the page
+            cert, error, seconds = None, f"{type(err).__name__}: {err}", math.nan
+        if cert is None:
+            text = f"certificate: failed: {html.escape(str(error))}"
+        else:
+            text = (f"certificate re-verified now ({seconds:.1f} s): {html.escape(cert.verdict)}, rate "
+                    f"|d{html.escape(gain.parameter)}/dt| <= {cert.rate:g} {html.escape(gain.unit)}/s, measurement "
+                    f"error <= {cert.measurement_error:g} {html.escape(gain.unit)}: {html.escape(cert.message)} "
+                    f"(covers: {html.escape(cert.covers)})")
+        check.text = head + f"<br><span id='schedule-check'>{text}</span>"
+
+    future = explorer.schedule_check()
+    future.add_done_callback(lambda done: doc.add_next_tick_callback(partial(show_check, done)))
+
+    def draw_fixed(K: Any) -> None:
+        K = np.asarray(K, dtype=float)
+        fixed.data = {"x": list(gain.range), **{f"k{k}": [K[i, j]] * 2 for k, (i, j) in enumerate(entries)}}
+
+    rows = [row(*figures[c:c + SCHEDULE_COLUMNS]) for c in range(0, len(figures), SCHEDULE_COLUMNS)]
+    return column(check, *rows, name="schedule"), draw_fixed
+
+
 def build_page(doc: Document, explorer: DesignExplorer) -> None:
     """Fill `doc` with the page of `explorer`.
 
@@ -259,6 +352,11 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     initial = Select(title="initial error", value="large", width=250, name="initial",
                      options=[(name, f"{name} (e₀ = ({', '.join(f'{v:g}' for v in SCENARIOS[name].e0)}) rad)")
                               for name in ("large", "small")])
+    draw_fixed: Callable[[Any], None] | None = None
+    extra: list[Any] = []
+    if explorer.schedule is not None:
+        panel, draw_fixed = _schedule_panel(doc, explorer)
+        extra.append(panel)
     payload = Select(title="payload", value="on", width=200, name="payload",
                      options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
 
@@ -367,6 +465,8 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
             return
         state["selected"] = answer
         design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
+        if draw_fixed is not None:
+            draw_fixed(answer.design.K)
         doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
 
     def mark_pending(answer: QuickAnswer) -> None:
@@ -514,9 +614,9 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     # separate roots, placed by the page's template: a text that changes re-lays out its own root only
     # (in one root, every new K or "computing…" would lay out the map and the response plots again)
     title.name = "header"
-    for root in (title, left, design_div, response_div, plots, answers, export):
+    for root in (title, left, design_div, response_div, plots, answers, export, *extra):
         doc.add_root(root)
-    doc.template = _TEMPLATE
+    doc.template = _SCHEDULE_TEMPLATE if extra else _TEMPLATE
 
 
 def serve(explorer: DesignExplorer, port: int, *, address: str = "127.0.0.1",

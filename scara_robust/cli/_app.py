@@ -10,12 +10,14 @@ import sys
 import tempfile
 from typing import Any
 
+from ..controller.scheduled import SCHEDULE_KIND
 from ._common import RANGE_HELP, CommandLineError, Parser, add_setup_options, parse_range
 from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
 from ._parser import COMMAND_HELP
+from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem, load_system, plant_source
 
 __all__ = ["add_parser", "run", "explorer_of"]
@@ -42,6 +44,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--elements", choices=("all", "A", "B"), default="all",
                    help="uncertain elements entering Theorem 1's Z on the map and in the verdict (default all; for "
                    "the SCARA, A shows the certified region)")
+    p.add_argument("--design", metavar="SCHEDULE.json",
+                   help="a schedule file (synthesize --schedule --output): the page draws its gains against the "
+                   "parameter, the selected design's beside them, and re-verifies its certificate")
     p.add_argument("--port", type=int, default=5006, help="TCP port on 127.0.0.1 (default 5006)")
     p.set_defaults(func=run)
 
@@ -96,12 +101,23 @@ def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) ->
         design_args = design_parser.parse_args(argv)
         return design_run(design_args, load_system(design_args)) + "\n"
 
+    schedule = None
+    if args.design is not None:
+        if not is_schedule_file(args.design):
+            raise CommandLineError(f"`--design` {args.design!r}: the page takes a schedule file (JSON of kind "
+                                   f"'{SCHEDULE_KIND}', written by synthesize --schedule --output)")
+        schedule = read_schedule(args.design)
+        shape = (model.n_inputs, model.n_states)
+        if schedule.parameter not in physical.names or schedule.shape != shape:
+            raise CommandLineError(f"`--design` {args.design!r}: schedules {schedule.parameter!r} with gains of shape "
+                                   f"{schedule.shape}, not a gain of this plant ({shape} on one of "
+                                   f"{list(physical.names)})")
     return DesignExplorer(model, system.title(), plant=physical,  # type: ignore[arg-type]  # a box, checked above
                           plant_source=plant_source(args, system),
                           robot_signals=system.robot_signals(),
                           sampled=system.sampled(), exporter=exporter, design_file=design_file,
                           parse_grid=parse_range,
-                          rhos=args.rho, etas=args.eta, elements=args.elements)
+                          rhos=args.rho, etas=args.eta, elements=args.elements, schedule=schedule)
 
 
 def run(args: argparse.Namespace, system: LoadedSystem) -> str:
