@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..exceptions import ArgumentError
 from ..io import square_wave
 from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
@@ -169,14 +168,9 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     engine: dict[str, Any] = {} if args.method is None else {"method": args.method}
     if getattr(args, "measurement_bias", None) is not None:
         engine["measurement_bias"] = args.measurement_bias  # a schedule file's (plant_gain refuses it otherwise)
-    try:
-        run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
-                           tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
-                           **engine, **inputs)
-    except ArgumentError as err:
-        if err.argument != "method":
-            raise
-        raise CommandLineError(f"`--method` {args.method}: {err.problem}") from err
+    run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
+                       tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
+                       **engine, **inputs)
     elapsed = time.perf_counter() - start
     files = []
     if args.plot is not None:

@@ -169,10 +169,11 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
 # --- a URDF arm: the recursive algorithms over its rigid bodies ---------------------------------
 # An arm's model is a tuple of arrays (built by compiled_arm.pack_arm_loop), bodies in the model's
 # order (parents first), vectors of the arm's joints in its own (file) order:
-#   0 P     float (16,): gravity (3, m/s²); payload kind and 4 numbers; disturbance amplitude
+#   0 P     float (18,): gravity (3, m/s²); payload kind and 4 numbers; disturbance amplitude
 #           (N·m), period (s), phase (rad); feedforward kind (0 none, 1 gravity, 2 computed
 #           torque); the nominal payload (kg); the sample time (s, 0: continuous); the
-#           torque limit (N·m, inf: none); 1 when the angles are measured with noise
+#           torque limit (N·m, inf: none); 1 when the angles are measured with noise; 1 when
+#           the gain is scheduled (SCHED); the payload measurement's bias (kg)
 #   1 IX    int (2 + 2n,): n; the payload's body; each body's parent (-1: the base); each
 #           joint's body
 #   2 TREE  float (n, 16): joint placement rotation (9, row-major) and translation (3, m) in
@@ -191,8 +192,13 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
 #  10 WC    float (2,): the time the reference rows of WS hold, and its payload mass
 #  11 NOISE float (n, 3M): the measurement noise's M amplitudes (rad), ω (rad/s) and
 #           phases (rad) per joint, n_k(t) = Σ a cos(ω t + φ)
-_P, _IX, _TREE, _BODY, _REFS, _GAIN, _TAB, _WB, _WM, _WS, _WC, _NOISE = range(12)
+#  12 SCHED float (N + 1, 1 + 3n²): a gain scheduled on the measured payload, one row per
+#           breakpoint: the breakpoint (kg), then K_j (n, 3n) row-major; GAIN holds K(m̂_p(t))
+#           with m̂_p = m_p(t) + P[17], linear between breakpoints and clamped to them, when
+#           P[16] is 1
+_P, _IX, _TREE, _BODY, _REFS, _GAIN, _TAB, _WB, _WM, _WS, _WC, _NOISE, _SCHED = range(13)
 _A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS, _A_LIMIT, _A_NOISY = 0, 3, 8, 11, 12, 13, 14, 15
+_A_SCHEDULED, _A_BIAS = 16, 17
 _W_ROT, _W_V, _W_A, _W_F, _W_I = 0, 9, 15, 21, 27
 _S_Q, _S_QD, _S_QDD, _S_TAU, _S_APPLIED, _S_FF, _S_R, _S_RD, _S_RDD, _S_N, _S_ND = range(11)
 
@@ -516,6 +522,23 @@ def arm_reference(m: Any, t: float) -> None:
             WS[_S_N, k], WS[_S_ND, k] = v, dv
     WC[1] = arm_payload(P, m[_TAB], t)
     WC[0] = t
+    if P[_A_SCHEDULED] > 0:
+        arm_schedule(m[_SCHED], WC[1] + P[_A_BIAS], m[_GAIN])
+
+
+@inline
+def arm_schedule(S: Array, p_hat: float, K: Array) -> None:
+    """K(p̂) of the table S (see SCHED) into K (n, 3n), as ScheduledGain.gain computes it."""
+    last = S.shape[0] - 1
+    p = min(max(p_hat, S[0, 0]), S[last, 0])
+    j = 0
+    while j < last - 1 and S[j + 1, 0] <= p:  # searchsorted(..., side='right') - 1, clipped to 0..N-1
+        j += 1
+    s = (p - S[j, 0]) / (S[j + 1, 0] - S[j, 0])
+    cols = K.shape[1]
+    for i in range(K.shape[0]):
+        for k in range(cols):
+            K[i, k] = (1.0 - s) * S[j, 1 + i * cols + k] + s * S[j + 1, 1 + i * cols + k]
 
 
 @inline

@@ -312,9 +312,6 @@ def simulate_arm(
         if K.shape != (n, 3 * n):
             raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė], "
                                           f"found {K.shape}")
-        if method == "compiled":
-            raise ArgumentValueError("method", "a scheduled gain runs on 'lsoda' or 'rk4' (the compiled engine takes "
-                                               "a fixed K)")
         gain: Array | ScheduledGain = K
     else:
         if bias != 0.0:
@@ -348,10 +345,9 @@ def simulate_arm(
         if noise.n != n:
             raise ArgumentValueError("noise", f"must have one row per joint ({n}), found {noise.n}")
     if method == "compiled":
-        assert not isinstance(gain, ScheduledGain)  # refused above
         fast = compiled_arm_run(setup, gain, payload, x0, t_final, disturbance=disturbance, dt=dt, rtol=rtol,
                                 atol=atol, divergence_limit=divergence_limit, Ts=Ts, integrator=integrator,
-                                torque_limit=torque_limit, noise=noise)
+                                torque_limit=torque_limit, noise=noise, measurement_bias=bias)
         t, X, ff, masses = fast.t, fast.x, fast.feedforward, fast.payload
         success, diverged, message = fast.success, fast.diverged, fast.message
         # the kernel's own errors and torque at the samples (the reference it evaluated)

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_choice
+from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..model.arm import FEEDFORWARDS, ArmSetup, RigidBodies, RobotArm
 from ..model.robot import ConstantPayload, SinusoidalPayload
@@ -57,8 +58,9 @@ DYNAMICS_RTOL = 1e-12
 CHECK_STATES = 24
 
 # Layout of the model tuple: see _kernels.py ("a URDF arm").
-_N_P = 16
+_N_P = 18
 _A_GRAVITY, _A_PAYLOAD, _A_DIST, _A_FF, _A_NOMINAL, _A_TS, _A_LIMIT, _A_NOISY = 0, 3, 8, 11, 12, 13, 14, 15
+_A_SCHEDULED, _A_BIAS = 16, 17
 _COMPLETED, _DIVERGED, _FAILED = 0, 1, 2
 _PAYLOAD_KINDS = {"constant": 0, "sine": 1, "sinusoid": 2, "ramp": 3, "table": 4}
 
@@ -136,7 +138,7 @@ def _model(ix: NDArray[np.int64], tree: Array, body: Array, gravity: Array, *, r
            gain: Array | None = None, payload: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0),
            table: Array | None = None, disturbance: tuple[float, float, float] = (0.0, 1.0, 0.0),
            feedforward: int = 0, nominal: float = 0.0, Ts: float = 0.0, limit: float = math.inf,
-           noise: Array | None = None) -> tuple[Any, ...]:
+           noise: Array | None = None, schedule: ScheduledGain | None = None, bias: float = 0.0) -> tuple[Any, ...]:
     """The model tuple the kernels take (see _kernels.py), with its own scratch arrays."""
     n = int(ix[0])
     P = np.zeros(_N_P)
@@ -145,12 +147,16 @@ def _model(ix: NDArray[np.int64], tree: Array, body: Array, gravity: Array, *, r
     P[_A_DIST:_A_DIST + 3] = disturbance
     P[_A_FF], P[_A_NOMINAL], P[_A_TS] = feedforward, nominal, Ts
     P[_A_LIMIT], P[_A_NOISY] = limit, 0.0 if noise is None else 1.0
+    P[_A_SCHEDULED], P[_A_BIAS] = (0.0, 0.0) if schedule is None else (1.0, bias)
     refs = np.zeros((5, n)) if reference is None else np.ascontiguousarray(reference, dtype=float)
-    K = np.zeros((n, 3 * n)) if gain is None else np.ascontiguousarray(gain, dtype=float)
+    # the kernels write a scheduled K(m̂_p(t)) into this array: always the tuple's own
+    K = np.zeros((n, 3 * n)) if gain is None else np.array(gain, dtype=float, order="C")
+    sched = np.zeros((1, 1 + 9 * n * n)) if schedule is None else np.hstack(
+        [schedule.breakpoints[:, None], schedule.gains.reshape(schedule.breakpoints.size, -1)])
     tab = np.zeros((2, 2)) if table is None else np.ascontiguousarray(table, dtype=float)
     noise_table = np.zeros((n, 3)) if noise is None else np.ascontiguousarray(noise, dtype=float)
     return (P, ix, tree, body, refs, K, tab, np.zeros((n, 40)), np.zeros((n, n)), np.zeros((11, n)),
-            np.full(2, np.nan), noise_table)
+            np.full(2, np.nan), noise_table, np.ascontiguousarray(sched, dtype=float))
 
 
 def check_compiled_dynamics(arm: RobotArm, bodies: tuple[NDArray[np.int64], Array, Array, Array] | None = None, *,
@@ -262,15 +268,16 @@ def _payload_spec(payload: Any, nominal: float) -> tuple[tuple[float, ...], Arra
                                         "runs on method='lsoda' or 'rk4'")
 
 
-def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWave | None,
+def pack_arm_loop(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, disturbance: SquareWave | None,
                   Ts: float | None, torque_limit: float | None = None,
-                  noise: MeasurementNoise | None = None) -> tuple[Any, ...]:
+                  noise: MeasurementNoise | None = None, measurement_bias: float = 0.0) -> tuple[Any, ...]:
     """The model tuple of one arm loop (checking the arm's compiled dynamics the first time).
 
     Parameters
     ----------
     setup : ArmSetup
-    K : ndarray, shape (n, 3n)
+    K : ndarray, shape (n, 3n), or ScheduledGain
+        The PID gain, or one scheduled on the measured payload ``m_p(t) + measurement_bias``.
     payload : ConstantPayload, SinusoidalPayload, ParameterProfile or None
         ``m_p(t)`` in kg; None: the setup's nominal payload.
     disturbance : SquareWave or None
@@ -280,6 +287,8 @@ def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWa
         Each joint's torque is clipped to ± this, N·m (None: no limit).
     noise : MeasurementNoise, optional
         Noise on the measured angles (and its rate on the measured rates).
+    measurement_bias : float
+        With a scheduled `K`: what the payload's measurement adds to ``m_p(t)``, kg.
 
     Returns
     -------
@@ -299,11 +308,14 @@ def pack_arm_loop(setup: ArmSetup, K: Array, payload: Any, disturbance: SquareWa
     wave = (0.0, 1.0, 0.0) if disturbance is None else (float(disturbance.amplitude), float(disturbance.period),
                                                          float(disturbance.phase))
     reference = np.vstack([ref.center, ref.amplitude, ref.omega, ref.phase, signs])
-    return _model(bodies.ix, bodies.tree, bodies.body, bodies.gravity, reference=reference, gain=K, payload=spec,
+    scheduled = K if isinstance(K, ScheduledGain) else None
+    return _model(bodies.ix, bodies.tree, bodies.body, bodies.gravity, reference=reference,
+                  gain=K.gains[0] if isinstance(K, ScheduledGain) else K, payload=spec,
                   table=table, disturbance=wave, feedforward=FEEDFORWARDS.index(setup.feedforward),
                   nominal=float(setup.payload_nominal), Ts=0.0 if Ts is None else float(Ts),
                   limit=math.inf if torque_limit is None else float(torque_limit),
-                  noise=None if noise is None else np.hstack([noise.amplitude, noise.omega, noise.phase]))
+                  noise=None if noise is None else np.hstack([noise.amplitude, noise.omega, noise.phase]),
+                  schedule=scheduled, bias=float(measurement_bias))
 
 
 @dataclass(frozen=True)
@@ -342,17 +354,18 @@ class CompiledArmRun:
     rhs_calls: int
 
 
-def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_final: float, *,
+def compiled_arm_run(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, x0: ArrayLike, t_final: float, *,
                      disturbance: SquareWave | None = None, dt: float = 1e-3, rtol: float = 1e-8,
                      atol: float = 1e-10, divergence_limit: float = 50.0, Ts: float | None = None,
                      integrator: str = "bdf", torque_limit: float | None = None,
-                     noise: MeasurementNoise | None = None) -> CompiledArmRun:
+                     noise: MeasurementNoise | None = None, measurement_bias: float = 0.0) -> CompiledArmRun:
     """Integrate one arm loop with the compiled engine.
 
     Parameters
     ----------
     setup : ArmSetup
-    K : ndarray, shape (n, 3n)
+    K : ndarray, shape (n, 3n), or ScheduledGain
+        The PID gain, or one scheduled on the measured payload.
     payload : ConstantPayload, SinusoidalPayload, ParameterProfile or None
         ``m_p(t)``, kg (None: the nominal).
     x0 : array_like, shape (3n,)
@@ -372,13 +385,16 @@ def compiled_arm_run(setup: ArmSetup, K: Array, payload: Any, x0: ArrayLike, t_f
         N·m, on every joint (None: no limit).
     noise : MeasurementNoise, optional
         Noise on the measured angles.
+    measurement_bias : float
+        With a scheduled `K`: what the payload's measurement adds to ``m_p(t)``, kg.
 
     Returns
     -------
     CompiledArmRun
     """
     stiff = check_choice("integrator", integrator, COMPILED_INTEGRATORS) == "bdf"
-    model = pack_arm_loop(setup, np.asarray(K, dtype=float), payload, disturbance, Ts, torque_limit, noise)
+    gain = K if isinstance(K, ScheduledGain) else np.asarray(K, dtype=float)
+    model = pack_arm_loop(setup, gain, payload, disturbance, Ts, torque_limit, noise, measurement_bias)
     n = setup.arm.n_joints
     if Ts is not None:
         steps = int(np.floor(t_final / Ts + 1e-9))
