@@ -526,3 +526,28 @@ def test_simulate_runs_the_scara_on_a_schedule_file(tmp_path, capsys):
         assert message in err and err.count("\n") == 1, err
     assert main(["simulate", "--measurement-bias", "0.05"]) == 2
     assert "it goes with --design SCHEDULE.json" in capsys.readouterr().err
+
+
+@pytest.mark.robots
+def test_the_example_schedule_is_the_six_joint_arm_s():
+    """examples/arm6-schedule.json: the guide's 6-joint arm schedule, on the arm of examples/robot-arm6.toml."""
+    gain = sr.load_schedule("examples/arm6-schedule.json")
+    plant = sr.load_arm("examples/robot-arm6.toml").plant
+    assert gain.parameter == "m_p" and gain.shape == (plant.n_inputs, plant.n_design_states) == (6, 18)
+    assert gain.range == plant.parameter("m_p").range == (0.0, 3.0)
+    record = gain.certified
+    assert (record["rate"], record["measurement_error"], record["plant"]) == (1.0, 0.05, plant.name)
+    assert gain.max_norm <= record["gain_bound"]
+
+
+@pytest.mark.slow
+@pytest.mark.robots
+def test_the_example_schedule_s_certificate_holds():
+    """Its recorded certificate re-verified (about a minute): rate 1 kg/s, error 0.05 kg, the recorded decay."""
+    gain = sr.load_schedule("examples/arm6-schedule.json")
+    plant = sr.load_arm("examples/robot-arm6.toml").plant
+    cert = sr.schedule_certificate(plant, gain, rate=1.0, measurement_error=0.05, decay=gain.certified["decay"])
+    assert cert.certified, cert.message
+    check = schedule_condition_margin(plant, "m_p", gain.breakpoints, gain.gains, cert.P, rate=1.0, delta=0.05,
+                                      decay=gain.certified["decay"])
+    assert check["certified"], check

@@ -288,8 +288,9 @@ def _compare_schedule(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.format == "markdown":
         frame = table.reset_index()
         return frame.to_markdown(index=False, floatfmt=".4g") if _has_tabulate() else _markdown(frame)
-    head = (f"{plant.name}: a gain scheduled on {gain.parameter} against a fixed gain; runs{runs} of {t_final:g} s "
-            f"with {gain.parameter} moving at its rate bound")
+    name = system.title() if system.capabilities.run == "scara" else plant.name
+    head = (f"{name}: a gain scheduled on {gain.parameter} against a fixed gain; runs{runs} of {t_final:g} s with "
+            f"{gain.parameter} moving at its rate bound")
     return "\n".join([head, str(table.T.to_string(float_format=lambda v: f"{v:.4g}")), *notes])
 
 
