@@ -551,3 +551,46 @@ def test_the_example_schedule_s_certificate_holds():
     check = schedule_condition_margin(plant, "m_p", gain.breakpoints, gain.gains, cert.P, rate=1.0, delta=0.05,
                                       decay=gain.certified["decay"])
     assert check["certified"], check
+
+
+def test_design_schedules_the_paper_s_design_on_the_command_line(tmp_path, capsys, arm):
+    """design --schedule: schedule_riccati's table, certified as it runs, written as a schedule file."""
+    path = tmp_path / "riccati.json"
+    argv = ["design", "--model", ARM, "--rho", "1", "--eta", "10", "--schedule", "m", "--breakpoints", "3",
+            "--rate", "1"]
+    assert main([*argv, "--output", str(path)]) == 0
+    out = capsys.readouterr().out
+    gain = sr.load_schedule(path)
+    expected = sr.schedule_riccati(arm, "m", [0.0, 1.0, 2.0], 1.0, 10.0)
+    np.testing.assert_array_equal(gain.gains, expected.gains)
+    assert gain.method == "riccati" and gain.certified["rate"] == 1.0 and gain.certified["measurement_error"] == 0.05
+    cert = sr.schedule_certificate(arm, gain, rate=1.0, measurement_error=0.05)
+    check = schedule_condition_margin(arm, "m", gain.breakpoints, gain.gains, cert.P, rate=1.0, delta=0.05)
+    assert cert.certified and check["certified"] and "certificate: certified" in out
+    decay = float(out.split("guaranteed decay rate: ")[1].split()[0])
+    assert decay == pytest.approx(gain.certified["decay"], rel=1e-3)
+    for extra, message in ((["--output", str(tmp_path / "x.txt")], "`--output` '"),
+                           (["--schedule", "nope"], "`--schedule`"),
+                           (["--breakpoints", "5,1"], "`--breakpoints` must be at least 2 strictly increasing")):
+        assert main([*argv, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+    assert not (tmp_path / "x.txt").exists()
+    assert main(["design", "--model", ARM, "--rho", "1", "--eta", "10", "--rate", "1"]) == 2
+    assert "it goes with --schedule NAME" in capsys.readouterr().err
+
+
+def test_margin_of_a_schedule_file_is_certify_s_searches(tmp_path, capsys, arm):
+    """margin --design SCHEDULE.json: the largest rate, error and decay, as certify --design finds them."""
+    path = tmp_path / "riccati.json"
+    sr.schedule_riccati(arm, "m", [0.0, 1.0, 2.0], 1.0, 10.0).save(path)
+    assert main(["margin", "--model", ARM, "--design", str(path), "--format", "json"]) == 0
+    margins = json.loads(capsys.readouterr().out)
+    assert main(["certify", "--model", ARM, "--design", str(path), "--format", "json"]) == 0
+    certified = json.loads(capsys.readouterr().out)
+    for key in ("largest_rate", "largest_measurement_error", "decay", "rate", "measurement_error"):
+        assert margins[key] == certified[key], key
+    plant = sr.load_plant(ARM)  # no rate bound in the file: any rate
+    assert margins["rate"] is None and margins["decay"] == sr.schedule_decay(plant, sr.load_schedule(path))[0]
+    assert main(["margin", "--model", ARM, "--design", str(path), "--rho", "1"]) == 2
+    assert "`--rho` goes with a fixed gain" in capsys.readouterr().err

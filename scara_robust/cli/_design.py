@@ -16,6 +16,7 @@ from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
 from ._common import add_setup_options, finite_float, screen_table
 from ._parser import COMMAND_HELP
+from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_riccati
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "add_model_options", "run"]
@@ -45,7 +46,8 @@ def add_parser(sub: Any) -> None:
     add_model_options(p)
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="json: a design file (for simulate --design, compare --design) with the certificate")
-    p.add_argument("--output", help="write to this file instead of stdout")
+    p.add_argument("--output", help="write to this file instead of stdout (with --schedule: the schedule file, .json)")
+    add_schedule_options(p, synthesis=True)
     p.set_defaults(func=run)
 
 
@@ -61,6 +63,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     -------
     str
     """
+    if args.schedule is not None:
+        return run_schedule_riccati(args, system)
+    refuse_schedule_options(args, "--schedule NAME")
     model = system.model
     d = design(model, args.rho, args.eta)
     source = system.source(model)

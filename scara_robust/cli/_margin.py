@@ -18,6 +18,7 @@ from ..robustness.parameters import parameter_margin, rate_bracket
 from ..robustness.registry import analysis_methods, get_method
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, method_names, resolve_gain
 from ._parser import COMMAND_HELP
+from ._schedule import is_schedule_file, run_schedule_margin
 from ._system import LoadedSystem
 
 __all__ = ["add_parser", "run"]
@@ -90,6 +91,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--tol` must be > 0, found {args.tol}")
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
+    if is_schedule_file(args.design):
+        given = [o for o, v in (("--range", args.range), ("--rho", args.rho), ("--eta", args.eta)) if v]
+        if given:
+            raise CommandLineError(f"`{given[0]}` goes with a fixed gain; a schedule's margins are its rate, "
+                                   "measurement error and decay (at the plant's rate bound and error; --rate adds nothing)")
+        return run_schedule_margin(args, system)
     plant = system.with_ranges(args.range)
     model = as_model("model", plant)
     d, label = resolve_gain(args, model)

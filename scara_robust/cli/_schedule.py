@@ -21,6 +21,7 @@ from ..robustness.scheduled import (
     max_schedule_rate,
     schedule_certificate,
     schedule_decay,
+    schedule_riccati,
     schedule_sampled_certificate,
     scheduled_parameter,
     synthesize_schedule,
@@ -29,7 +30,8 @@ from ._common import CommandLineError
 from ._system import LoadedSystem
 
 __all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "refuse_schedule_options",
-           "run_schedule_synthesis", "run_schedule_certificate", "run_schedule_export"]
+           "run_schedule_synthesis", "run_schedule_riccati", "run_schedule_certificate", "run_schedule_margin",
+           "run_schedule_export"]
 
 
 def is_schedule_file(path: str | None) -> bool:
@@ -129,6 +131,75 @@ def _table(gain: ScheduledGain) -> list[str]:
     return lines
 
 
+def _option_error(err: ArgumentError) -> CommandLineError:
+    option = {"parameter": "--schedule", "breakpoints": "--breakpoints", "rate": "--rate",
+              "measurement_error": "--measurement-error", "rho": "--rho", "eta": "--eta"}.get(
+        err.argument, f"--{err.argument}")
+    return CommandLineError(f"`{option}` {err.problem}")
+
+
+def _schedule_output(args: argparse.Namespace) -> str | None:
+    """The schedule file ``--output`` names (.json); the command's summary then goes to stdout."""
+    if hasattr(args, "design_output"):  # synthesize
+        output: str | None = args.design_output
+    else:  # design: its --output is the schedule file, not the summary
+        output, args.output = args.output, None
+    if output is not None and not output.lower().endswith(".json"):
+        raise CommandLineError(f"`--output` {output!r}: a schedule file is .json")
+    return output
+
+
+def _save(gain: ScheduledGain, output: str | None) -> list[str]:
+    if output is None:
+        return []
+    try:
+        gain.save(output)
+    except OSError as err:
+        raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
+    return [f"schedule file: {output}"]
+
+
+def run_schedule_riccati(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``design --schedule NAME``: the paper's (ρ, η) design at each breakpoint, its certificate; the summary.
+
+    The gain at each breakpoint is :func:`scara_robust.design` on the plant frozen there
+    (:func:`scara_robust.schedule_riccati`); the table is then certified as it runs
+    (:func:`scara_robust.schedule_certificate`) at the rate and measurement error asked, and
+    the largest decay it guarantees is searched. ``--output`` writes the schedule file, with
+    the certificate recorded when there is one.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    system : LoadedSystem
+
+    Returns
+    -------
+    str
+    """
+    _check_numbers(args)
+    output = _schedule_output(args)
+    plant = _plant(system)
+    try:
+        name = scheduled_parameter(plant, args.schedule)
+        gain = schedule_riccati(plant, name, _breakpoints(args.breakpoints, plant, name), args.rho, args.eta)
+        cert = schedule_certificate(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
+        decay, _ = schedule_decay(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
+    except ArgumentError as err:
+        raise _option_error(err) from err
+    if cert.status == NOT_INSTALLED:
+        raise CommandLineError("a scheduled gain's certificate needs cvxpy: pip install '.[lmi]'")
+    unit = plant.parameter(name).unit
+    if cert.certified:
+        gain = gain.with_certificate(range=list(gain.range), rate=cert.rate, measurement_error=cert.measurement_error,
+                                     decay=decay, plant=plant.name, checked_conditions=cert.verified_on)
+    lines = [f"design: (rho, eta) = ({args.rho:g}, {args.eta:g}) at each breakpoint of {name}, {plant.name}",
+             *_table(gain), *_certificate_lines(cert, unit)]
+    if cert.certified:
+        lines.append(f"guaranteed decay rate: {decay:.4g} 1/s")
+    return "\n".join(lines + _save(gain, output))
+
+
 def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``synthesize --schedule NAME``: the LMI synthesis of a scheduled gain; the summary (and the file written).
 
@@ -142,9 +213,7 @@ def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> st
     str
     """
     _check_numbers(args)
-    output = args.design_output
-    if output is not None and not output.lower().endswith(".json"):
-        raise CommandLineError(f"`--output` {output!r}: a schedule file is .json")
+    output = _schedule_output(args)
     plant = _plant(system)
     try:
         name = scheduled_parameter(plant, args.schedule)
@@ -153,9 +222,7 @@ def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> st
                                      measurement_error=args.measurement_error, decay=args.decay,
                                      gain_bound=args.gain_bound)
     except ArgumentError as err:
-        option = {"parameter": "--schedule", "breakpoints": "--breakpoints", "rate": "--rate",
-                  "measurement_error": "--measurement-error"}.get(err.argument, f"--{err.argument}")
-        raise CommandLineError(f"`{option}` {err.problem}") from err
+        raise _option_error(err) from err
     if result.status == NOT_INSTALLED:
         raise CommandLineError("synthesize needs cvxpy: pip install '.[lmi]'")
     unit = plant.parameter(name).unit
@@ -164,13 +231,7 @@ def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> st
     if result.gain is None or result.certificate is None:
         return "\n".join(lines)
     lines += _table(result.gain) + _certificate_lines(result.certificate, unit)
-    if output is not None:
-        try:
-            result.gain.save(output)
-        except OSError as err:
-            raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
-        lines.append(f"schedule file: {output}")
-    return "\n".join(lines)
+    return "\n".join(lines + _save(result.gain, output))
 
 
 def run_schedule_certificate(args: argparse.Namespace, system: LoadedSystem) -> str:
@@ -185,33 +246,62 @@ def run_schedule_certificate(args: argparse.Namespace, system: LoadedSystem) -> 
     -------
     str
     """
-    _check_numbers(args)
+    return _schedule_answers(args, system, with_certificate=True)
+
+
+def run_schedule_margin(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``margin --design SCHEDULE.json``: the largest rate, measurement error and decay the schedule is certified for.
+
+    At the plant's rate bound and measurement error (each search holds the other at it).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    system : LoadedSystem
+
+    Returns
+    -------
+    str
+    """
+    return _schedule_answers(args, system, with_certificate=False)
+
+
+def _schedule_answers(args: argparse.Namespace, system: LoadedSystem, *, with_certificate: bool) -> str:
+    """The certificate (with `with_certificate`) and the three searches of a schedule file, as text or JSON."""
+    rate_bound = getattr(args, "schedule_rate", None)
+    error_bound = getattr(args, "measurement_error", None)
+    if with_certificate:
+        _check_numbers(args)
     plant = _plant(system)
     gain = read_schedule(args.design)
     try:
-        cert = schedule_certificate(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
-        rate, _ = max_schedule_rate(plant, gain, measurement_error=args.measurement_error)
-        delta, _ = max_measurement_error(plant, gain, rate=args.schedule_rate)
-        decay, _ = schedule_decay(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
+        cert = schedule_certificate(plant, gain, rate=rate_bound, measurement_error=error_bound) \
+            if with_certificate else None
+        rate, _ = max_schedule_rate(plant, gain, measurement_error=error_bound)
+        delta, _ = max_measurement_error(plant, gain, rate=rate_bound)
+        decay, _ = schedule_decay(plant, gain, rate=rate_bound, measurement_error=error_bound)
     except ArgumentError as err:
         raise CommandLineError(f"`--design` {args.design!r}: {err}") from err
-    if cert.status == NOT_INSTALLED:
+    if cert is not None and cert.status == NOT_INSTALLED:
         raise CommandLineError("a scheduled gain's certificate needs cvxpy: pip install '.[lmi]'")
-    unit = plant.parameter(gain.parameter).unit
-    info: dict[str, Any] = {
-        "method": "scheduled", "parameter": gain.parameter, "certified": cert.certified, "status": cert.status,
-        "rate": cert.rate, "measurement_error": cert.measurement_error, "largest_rate": rate,
-        "largest_measurement_error": delta, "decay": decay, "covers": cert.covers, "message": cert.message}
+    param = plant.parameter(gain.parameter)
+    unit = param.unit
+    nu = (math.inf if param.rate is None else float(param.rate)) if rate_bound is None else rate_bound
+    error = param.effective_error if error_bound is None else error_bound
+    info: dict[str, Any] = {"method": "scheduled", "parameter": gain.parameter, "rate": nu, "measurement_error": error,
+                            "largest_rate": rate, "largest_measurement_error": delta, "decay": decay}
+    if cert is not None:
+        info.update(certified=cert.certified, status=cert.status, covers=cert.covers, message=cert.message)
     if args.format == "json":
         return json.dumps({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                            for k, v in info.items()}, indent=2)
-    return "\n".join([f"certificate of the schedule {args.design!r} on {plant.name}", *_table(gain),
-                      *_certificate_lines(cert, unit),
-                      f"largest certified rate: {rate:.4g} {unit}/s (measurement error {cert.measurement_error:g} "
-                      f"{unit})",
-                      f"largest certified measurement error: {delta:.4g} {unit} (rate {cert.rate:g} {unit}/s)",
-                      f"guaranteed decay rate: {decay:.4g} 1/s (rate {cert.rate:g} {unit}/s, measurement error "
-                      f"{cert.measurement_error:g} {unit})"])
+    what = "certificate" if cert is not None else "margins"
+    return "\n".join([f"{what} of the schedule {args.design!r} on {plant.name}", *_table(gain),
+                      *(_certificate_lines(cert, unit) if cert is not None else []),
+                      f"largest certified rate: {rate:.4g} {unit}/s (measurement error {error:g} {unit})",
+                      f"largest certified measurement error: {delta:.4g} {unit} (rate {nu:g} {unit}/s)",
+                      f"guaranteed decay rate: {decay:.4g} 1/s (rate {nu:g} {unit}/s, measurement error "
+                      f"{error:g} {unit})"])
 
 
 def _state_signals(plant: UncertainPlant) -> list[Signal] | None:
