@@ -85,6 +85,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     synthesize_schedule, ScheduleSynthesis, schedule_riccati -- a gain scheduled on a measured parameter
+    synthesize_schedule_rate        -- the scheduled gain certified for the fastest parameter (extra ``lmi``)
     schedule_certificate, ScheduleCertificate, max_schedule_rate, max_measurement_error, schedule_decay -- its
                                     certificate for |ṗ| <= ν and |p̂ − p| <= δ (extra ``lmi``)
     scheduled_parameter, SCHEDULE_POINTS, SCHEDULE_REFINE -- the parameter scheduled on; the grids

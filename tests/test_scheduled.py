@@ -594,3 +594,30 @@ def test_margin_of_a_schedule_file_is_certify_s_searches(tmp_path, capsys, arm):
     assert margins["rate"] is None and margins["decay"] == sr.schedule_decay(plant, sr.load_schedule(path))[0]
     assert main(["margin", "--model", ARM, "--design", str(path), "--rho", "1"]) == 2
     assert "`--rho` goes with a fixed gain" in capsys.readouterr().err
+
+
+def test_the_rate_objective_synthesizes_the_table_certified_for_the_fastest_parameter(oscillator, tmp_path, capsys):
+    """synthesize_schedule_rate: its ν is certified (re-verified apart), and the table's own search agrees."""
+    result = sr.synthesize_schedule_rate(oscillator, np.linspace(1.0, 9.0, 3), decay=0.2, gain_bound=2.0)
+    gain, nu = result.gain, result.rate
+    assert result.status == "certified" and 0 < nu < math.inf and gain.certified["rate"] == nu
+    cert = sr.schedule_certificate(oscillator, gain, rate=nu, decay=0.2)
+    check = schedule_condition_margin(oscillator, "k", gain.breakpoints, gain.gains, cert.P, rate=nu, delta=0.0,
+                                      decay=0.2)
+    assert cert.certified and check["certified"] and gain.max_norm <= 2.0 * (1 + 1e-6)
+    found, _ = sr.max_schedule_rate(oscillator, gain, decay=0.2)
+    assert found >= nu * (1 - 0.05)  # the table's certificate search reaches at least the synthesis' rate
+    # the largest decay of a table certified at that rate is at least 0.2
+    assert sr.schedule_decay(oscillator, gain, rate=nu)[0] >= 0.2 * (1 - 0.02)
+    plant = sr.load_plant(ARM)
+    assert main(["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "3", "--objective", "rate",
+                 "--decay", "0.9", "--gain-bound", "20", "--output", str(tmp_path / "r.json")]) == 0
+    assert "any rate certified at decay 0.9 1/s" in capsys.readouterr().out
+    assert sr.load_schedule(tmp_path / "r.json").certified["rate"] == "inf"
+    assert sr.schedule_certificate(plant, sr.load_schedule(tmp_path / "r.json"), rate=math.inf, decay=0.9).certified
+    for argv, message in ((["--schedule", "m", "--objective", "l2"], "`--objective l2` is not there for a scheduled"),
+                          (["--schedule", "m", "--objective", "rate", "--rate", "1"], "`--objective rate` searches"),
+                          (["--objective", "rate"], "it goes with --schedule NAME")):
+        assert main(["synthesize", "--model", ARM, *argv]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err

@@ -95,7 +95,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         given = [o for o, v in (("--range", args.range), ("--rho", args.rho), ("--eta", args.eta)) if v]
         if given:
             raise CommandLineError(f"`{given[0]}` goes with a fixed gain; a schedule's margins are its rate, "
-                                   "measurement error and decay (at the plant's rate bound and error; --rate adds nothing)")
+                                   "measurement error and decay (at the plant's rate bound and error)")
         return run_schedule_margin(args, system)
     plant = system.with_ranges(args.range)
     model = as_model("model", plant)

@@ -25,6 +25,7 @@ from ..robustness.scheduled import (
     schedule_sampled_certificate,
     scheduled_parameter,
     synthesize_schedule,
+    synthesize_schedule_rate,
 )
 from ._common import CommandLineError
 from ._system import LoadedSystem
@@ -213,21 +214,31 @@ def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> st
     str
     """
     _check_numbers(args)
+    objective = args.objective or "decay"
+    if objective not in ("decay", "rate"):
+        raise CommandLineError(f"`--objective {objective}` is not there for a scheduled gain; it takes 'decay' or "
+                               "'rate'")
+    if objective == "rate" and args.schedule_rate is not None:
+        raise CommandLineError("`--rate` bounds the rate; `--objective rate` searches the largest one")
     output = _schedule_output(args)
     plant = _plant(system)
     try:
         name = scheduled_parameter(plant, args.schedule)
         breakpoints = _breakpoints(args.breakpoints, plant, name)
-        result = synthesize_schedule(plant, breakpoints, parameter=name, rate=args.schedule_rate,
-                                     measurement_error=args.measurement_error, decay=args.decay,
-                                     gain_bound=args.gain_bound)
+        if objective == "rate":
+            result = synthesize_schedule_rate(plant, breakpoints, parameter=name, decay=args.decay or 0.0,
+                                              measurement_error=args.measurement_error, gain_bound=args.gain_bound)
+        else:
+            result = synthesize_schedule(plant, breakpoints, parameter=name, rate=args.schedule_rate,
+                                         measurement_error=args.measurement_error, decay=args.decay,
+                                         gain_bound=args.gain_bound)
     except ArgumentError as err:
         raise _option_error(err) from err
     if result.status == NOT_INSTALLED:
         raise CommandLineError("synthesize needs cvxpy: pip install '.[lmi]'")
     unit = plant.parameter(name).unit
-    lines = [f"synthesize: a gain scheduled on {name} of {plant.name}, ||K_j|| <= {args.gain_bound:g}",
-             f"status: {result.status} ({result.message})"]
+    lines = [f"synthesize: a gain scheduled on {name} of {plant.name}, ||K_j|| <= {args.gain_bound:g}, objective "
+             f"{objective}", f"status: {result.status} ({result.message})"]
     if result.gain is None or result.certificate is None:
         return "\n".join(lines)
     lines += _table(result.gain) + _certificate_lines(result.certificate, unit)

@@ -49,10 +49,11 @@ def add_parser(sub: Any) -> None:
     add_range_option(p, "synthesize for")
     p.add_argument(
         "--objective",
-        choices=OBJECTIVES,
+        choices=(*OBJECTIVES, "rate"),
         default=None,
         help="'l2': smallest worst-case gain from disturbance torque to tracking error (default for PID-structured "
-        "plants); 'decay': fastest certified decay; 'margin': largest scaling of the box one gain certifies",
+        "plants); 'decay': fastest certified decay; 'margin': largest scaling of the box one gain certifies; "
+        "with --schedule, 'decay' (default) or 'rate': the fastest parameter certified at --decay (default 0)",
     )
     p.add_argument("--decay", type=finite_float, default=None,
                    help=f"decay rate α required of the state, 1/s, with dV/dt <= -2αV (>= 0; default: maximized, "
@@ -115,6 +116,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.schedule is not None:
         return run_schedule_synthesis(args, system)
     refuse_schedule_options(args, "--schedule NAME")
+    if args.objective == "rate":
+        raise CommandLineError("`--objective rate` is the fastest parameter a scheduled gain is certified for; it "
+                               "goes with --schedule NAME")
     output = args.design_output
     if output is not None and not output.lower().endswith(".json"):
         raise CommandLineError(f"`--output` {output!r}: a design file is .json")

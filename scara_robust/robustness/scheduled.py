@@ -69,7 +69,8 @@ from .search import bisect
 
 __all__ = ["ScheduleCertificate", "ScheduleSynthesis", "schedule_riccati", "schedule_certificate",
            "schedule_sampled_certificate",
-           "synthesize_schedule", "max_schedule_rate", "max_measurement_error", "schedule_decay",
+           "synthesize_schedule", "synthesize_schedule_rate", "max_schedule_rate", "max_measurement_error",
+           "schedule_decay",
            "scheduled_parameter", "SCHEDULE_POINTS", "SCHEDULE_REFINE"]
 
 Array = NDArray[np.float64]
@@ -543,6 +544,11 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
 # --- searches over the certificate ---------------------------------------------------------
 
 
+#: Rates :func:`max_schedule_rate` probes (halving from one range width per second) when the
+#: frozen parameter's gridded certificate fails.
+RATE_PROBES = 8
+
+
 def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement_error: float | None = None,
                       decay: float = 0.0, rate_max: float | None = None, tol: float = 0.02,
                       **options: Any) -> tuple[float, ScheduleCertificate | None]:
@@ -563,8 +569,9 @@ def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement
     Returns
     -------
     rate : float
-        Largest certified rate (0 with None when not even a frozen parameter is; ``inf``
-        when one P holds for any rate).
+        Largest certified rate (``inf`` when one P holds for any rate; 0 with None when no
+        certificate holds, frozen or at any of :data:`RATE_PROBES` rates halving from one
+        range width per second: a certificate at ν covers the frozen parameter too).
     certificate : ScheduleCertificate or None
         The certificate at that rate.
     """
@@ -577,12 +584,22 @@ def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement
         found[nu] = cert
         return cert.certified
 
-    if not ok(0.0):
-        return 0.0, None
     if ok(math.inf):
         return math.inf, found[math.inf]
-    # a bracket by doubling from one range width per second, then bisection
     lo, hi = 0.0, min(width, cap)
+    if not ok(0.0):
+        # a certificate at ν covers every slower rate, a frozen parameter too (its condition is
+        # affine in ṗ, checked at ±ν); but with ν = 0 nothing bounds P(p)'s slope, and a P found on
+        # the grid can fail the finer check between its points where a bounded slope holds:
+        # probe downward from one range width per second before reporting nothing
+        probes = [hi * 0.5 ** k for k in range(RATE_PROBES)]
+        held = next((nu for nu in probes if ok(nu)), None)
+        if held is None:
+            return 0.0, None
+        lo, hi = held, min(2.0 * held, cap)
+        if held >= cap:
+            return cap, found[cap]
+    # a bracket by doubling from one range width per second, then bisection
     while ok(hi):
         lo = hi
         if hi >= cap:
@@ -902,3 +919,111 @@ def synthesize_schedule(
                              f"decay {alpha:.4g} 1/s certified for the table with |d{name}/dt| <= {nu:g} "
                              f"{param.unit}/s and measurement error {cert.measurement_error:g} {param.unit} "
                              f"({steps} LMI steps, {seconds:.1f} s)")
+
+
+def synthesize_schedule_rate(
+    plant: UncertainPlant,
+    breakpoints: ArrayLike,
+    *,
+    parameter: str | None = None,
+    decay: float = 0.0,
+    measurement_error: float | None = None,
+    gain_bound: float = 1e3,
+    rate_max: float | None = None,
+    tol: float = 0.05,
+    points: int = SCHEDULE_POINTS,
+    refine: int = SCHEDULE_REFINE,
+    solver: str = "CLARABEL",
+    progress: Callable[[float, bool], None] | None = None,
+) -> ScheduleSynthesis:
+    """Synthesize the scheduled gain certified for the fastest parameter: the largest ν at decay α.
+
+    Each step is :func:`synthesize_schedule` at a required decay α and a rate ν, counted
+    only when the table it gives is certified as it runs. Feasibility is monotone in ν
+    (the conditions at ν' < ν are convex combinations of those at ±ν), so the largest ν
+    is bracketed by doubling from one range width per second and then bisected. Any rate
+    (one X for every p) is tried first; when the frozen parameter's table fails its
+    gridded check, slower rates are probed as :func:`max_schedule_rate` does.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+    breakpoints : array_like, shape (N + 1,)
+        Strictly increasing; the first and last at the ends of the parameter's range.
+    parameter : str, optional
+        Default: the plant's one measured parameter.
+    decay : float
+        α >= 0 (1/s) required at every rate.
+    measurement_error : float, optional
+        δ (default the parameter's effective error).
+    gain_bound : float
+        κ > 0, ``‖K_j‖₂ <= κ``.
+    rate_max : float, optional
+        Largest rate tried (default 1e4 range widths per second).
+    tol : float
+        Relative tolerance of the bisection on ν.
+    points, refine : int
+        As :func:`schedule_certificate`.
+    solver : {'CLARABEL', 'SCS'}
+    progress : callable ``progress(rate, ok)``, optional
+
+    Returns
+    -------
+    ScheduleSynthesis
+        The table of the largest certified ν (:attr:`ScheduleSynthesis.rate`; ``inf``: any
+        rate), at decay α; ``status`` ``'infeasible'`` when not even a frozen parameter
+        (ν = 0) nor any probed rate gives one.
+    """
+    start = time.perf_counter()
+    name = scheduled_parameter(plant, parameter)
+    param = plant.parameter(name)
+    alpha = check_real("decay", decay, nonnegative=True)
+    kappa = check_real("gain_bound", gain_bound, positive=True)
+    lo, hi = param.range
+    width = hi - lo
+    cap = 1e4 * width if rate_max is None else check_real("rate_max", rate_max, positive=True)
+    found: dict[float, ScheduleSynthesis] = {}
+    steps = 0
+
+    def ok(nu: float) -> bool:
+        nonlocal steps
+        result = synthesize_schedule(plant, breakpoints, parameter=name, rate=nu, measurement_error=measurement_error,
+                                     decay=alpha, gain_bound=kappa, points=points, refine=refine, solver=solver)
+        steps += result.steps
+        if result.status == NOT_INSTALLED:
+            raise _NotInstalled
+        if progress is not None:
+            progress(nu, result.gain is not None)
+        if result.gain is not None:
+            found[nu] = result
+        return result.gain is not None
+
+    try:
+        if not ok(math.inf):
+            low, high = 0.0, min(width, cap)
+            if not ok(0.0):  # as max_schedule_rate: a table certified at ν covers the frozen parameter too
+                held = next((nu for nu in (high * 0.5 ** k for k in range(RATE_PROBES)) if ok(nu)), None)
+                low, high = (0.0, 0.0) if held is None else (held, min(2.0 * held, cap))
+            while low < high < cap and ok(high):
+                low, high = high, min(2.0 * high, cap)
+            if high > low and not (high >= cap and high in found):
+                bisect(ok, low, high, tol)
+    except _NotInstalled:
+        return ScheduleSynthesis(None, math.nan, None, kappa, math.nan, steps, time.perf_counter() - start,
+                                 NOT_INSTALLED, "cvxpy is not installed (extra `lmi`)")
+    seconds = time.perf_counter() - start
+    if not found:
+        return ScheduleSynthesis(None, math.nan, None, kappa, 0.0, steps, seconds, "infeasible",
+                                 f"no scheduled gain certified at decay {alpha:g} 1/s, even for a frozen {name}")
+    nu = max(found)
+    best = found[nu]
+    what = "any rate" if math.isinf(nu) else f"|d{name}/dt| <= {nu:.4g} {param.unit}/s"
+    capped = " (the largest rate tried)" if nu == cap else ""
+    return ScheduleSynthesis(best.gain, alpha, best.certificate, kappa, nu, steps, seconds, "certified",
+                             f"{what}{capped} certified at decay {alpha:g} 1/s for the table, measurement error "
+                             f"{best.certificate.measurement_error if best.certificate else math.nan:g} "
+                             f"{param.unit} ({steps} LMI steps, {seconds:.1f} s)")
+
+
+class _NotInstalled(Exception):
+    """cvxpy is missing: the search stops."""
