@@ -140,11 +140,8 @@ def _option_error(err: ArgumentError) -> CommandLineError:
 
 
 def _schedule_output(args: argparse.Namespace) -> str | None:
-    """The schedule file ``--output`` names (.json); the command's summary then goes to stdout."""
-    if hasattr(args, "design_output"):  # synthesize
-        output: str | None = args.design_output
-    else:  # design: its --output is the schedule file, not the summary
-        output, args.output = args.output, None
+    """The schedule file ``synthesize --output`` names (.json); the summary goes to stdout."""
+    output: str | None = args.design_output
     if output is not None and not output.lower().endswith(".json"):
         raise CommandLineError(f"`--output` {output!r}: a schedule file is .json")
     return output
@@ -166,8 +163,9 @@ def run_schedule_riccati(args: argparse.Namespace, system: LoadedSystem) -> str:
     The gain at each breakpoint is :func:`scara_robust.design` on the plant frozen there
     (:func:`scara_robust.schedule_riccati`); the table is then certified as it runs
     (:func:`scara_robust.schedule_certificate`) at the rate and measurement error asked, and
-    the largest decay it guarantees is searched. ``--output`` writes the schedule file, with
-    the certificate recorded when there is one.
+    the largest decay it guarantees is searched. ``--format json`` gives the schedule file (to
+    ``--output``, as ``design`` gives a design file), with the certificate recorded when
+    there is one.
 
     Parameters
     ----------
@@ -179,7 +177,6 @@ def run_schedule_riccati(args: argparse.Namespace, system: LoadedSystem) -> str:
     str
     """
     _check_numbers(args)
-    output = _schedule_output(args)
     plant = _plant(system)
     try:
         name = scheduled_parameter(plant, args.schedule)
@@ -196,9 +193,11 @@ def run_schedule_riccati(args: argparse.Namespace, system: LoadedSystem) -> str:
                                      decay=decay, plant=plant.name, checked_conditions=cert.verified_on)
     lines = [f"design: (rho, eta) = ({args.rho:g}, {args.eta:g}) at each breakpoint of {name}, {plant.name}",
              *_table(gain), *_certificate_lines(cert, unit)]
+    if args.format == "json":  # the schedule file
+        return gain.to_json()
     if cert.certified:
         lines.append(f"guaranteed decay rate: {decay:.4g} 1/s")
-    return "\n".join(lines + _save(gain, output))
+    return "\n".join(lines)
 
 
 def run_schedule_synthesis(args: argparse.Namespace, system: LoadedSystem) -> str:

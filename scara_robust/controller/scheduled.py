@@ -127,11 +127,14 @@ class ScheduledGain:
                 "method": self.method, "breakpoints": self.breakpoints.tolist(), "gains": self.gains.tolist(),
                 "certified": {k: _plain(v) for k, v in self.certified.items()}}
 
+    def to_json(self) -> str:
+        """The schedule file's text (:meth:`save` writes it)."""
+        return json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain)
+
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write the schedule as JSON (``K_j`` in the design form's units)."""
-        text = json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain)
         with open(path, "w", encoding="utf-8") as handle:
-            handle.write(text + "\n")
+            handle.write(self.to_json() + "\n")
 
 
 def _plain(value: Any) -> Any:
