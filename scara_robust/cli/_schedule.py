@@ -296,8 +296,7 @@ def _schedule_answers(args: argparse.Namespace, system: LoadedSystem, *, with_ce
         raise CommandLineError("a scheduled gain's certificate needs cvxpy: pip install '.[lmi]'")
     param = plant.parameter(gain.parameter)
     unit = param.unit
-    nu = (math.inf if param.rate is None else float(param.rate)) if rate_bound is None else rate_bound
-    error = param.effective_error if error_bound is None else error_bound
+    nu, error = param.motion_bounds(rate_bound, error_bound)
     info: dict[str, Any] = {"method": "scheduled", "parameter": gain.parameter, "rate": nu, "measurement_error": error,
                             "largest_rate": rate, "largest_measurement_error": delta, "decay": decay}
     if cert is not None:
@@ -351,9 +350,7 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     if name not in plant.names:
         raise CommandLineError(f"`--design` {args.design!r}: schedules {name!r}, which {plant.name!r} does not have")
     param = plant.parameter(name)
-    rate = (math.inf if param.rate is None else float(param.rate)) if args.schedule_rate is None else \
-        args.schedule_rate
-    delta = param.effective_error if args.measurement_error is None else args.measurement_error
+    rate, delta = param.motion_bounds(args.schedule_rate, args.measurement_error)
     certified = gain.certified
     problems = []
     if not certified:

@@ -193,6 +193,34 @@ class Parameter:
         rate = 0.0 if self.rate is None else float(self.rate)
         return float(self.measurement_error) + rate * float(self.measurement_delay)
 
+    def motion_bounds(self, rate: float | None = None,
+                      measurement_error: float | None = None) -> tuple[float, float]:
+        """The rate ν and measurement error δ a scheduled gain's certificate covers.
+
+        Parameters
+        ----------
+        rate : float, optional
+            ν, the parameter's unit per second (default its ``rate``; ``inf`` without one).
+        measurement_error : float, optional
+            δ, its unit (default :attr:`effective_error`).
+
+        Returns
+        -------
+        (float, float)
+            ν and δ.
+
+        Raises
+        ------
+        ArgumentValueError
+            Naming ``rate`` or ``measurement_error`` for a negative or NaN value.
+        """
+        nu = (math.inf if self.rate is None else float(self.rate)) if rate is None else float(rate)
+        if not nu >= 0:
+            raise ArgumentValueError("rate", f"must be >= 0 {self.unit}/s, found {nu}")
+        delta = self.effective_error if measurement_error is None else check_real(
+            "measurement_error", measurement_error, nonnegative=True)
+        return nu, delta
+
     def _check_limits(self, lo: float, hi: float) -> None:
         if self.limits is None:
             limits = (0.0, math.inf) if positive_unit(self.unit) else (-math.inf, math.inf)

@@ -416,11 +416,7 @@ def schedule_certificate(
     n, m = plant.n_design_states, plant.n_inputs
     if gain.shape != (m, n):
         raise ArgumentValueError("gain", f"must hold gains of shape ({m}, {n}) for this plant, found {gain.shape}")
-    nu = (math.inf if param.rate is None else float(param.rate)) if rate is None else float(rate)
-    if not nu >= 0:
-        raise ArgumentValueError("rate", f"must be >= 0 {param.unit}/s, found {nu}")
-    delta = param.effective_error if measurement_error is None else check_real(
-        "measurement_error", measurement_error, nonnegative=True)
+    nu, delta = param.motion_bounds(rate, measurement_error)
     decay = check_real("decay", decay, nonnegative=True)
     points = check_int("points", points, 2)
     refine = check_int("refine", refine, 2)
@@ -532,8 +528,7 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
     """
     name = scheduled_parameter(plant, gain.parameter)
     Ts = check_real("Ts", Ts, positive=True)
-    delta = plant.parameter(name).effective_error if measurement_error is None else check_real(
-        "measurement_error", measurement_error, nonnegative=True)
+    _, delta = plant.parameter(name).motion_bounds(measurement_error=measurement_error)
     n = plant.n_design_states
     fine_points = check_int("refine", refine, 2) * (check_int("points", points, 2) - 1) + 1
     coarse = _sampled_pairs(plant, gain, name, points, False, delta)
@@ -846,9 +841,7 @@ def synthesize_schedule(
     if abs(b[0] - lo) > 1e-9 * max(1.0, abs(lo)) or abs(b[-1] - hi) > 1e-9 * max(1.0, abs(hi)):
         raise ArgumentValueError("breakpoints", f"must start and end at {name}'s range [{lo:g}, {hi:g}] "
                                                 f"{param.unit}, found [{b[0]:g}, {b[-1]:g}]")
-    nu = (math.inf if param.rate is None else float(param.rate)) if rate is None else float(rate)
-    if not nu >= 0:
-        raise ArgumentValueError("rate", f"must be >= 0 {param.unit}/s, found {nu}")
+    nu, _ = param.motion_bounds(rate)
     kappa = check_real("gain_bound", gain_bound, positive=True)
     check_choice("solver", solver, LMI_SOLVERS)
     if not cvxpy_available():

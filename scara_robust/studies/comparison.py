@@ -347,8 +347,7 @@ def compare_schedules(
         raise ArgumentValueError("gains", f"must all schedule one parameter, found {sorted(names)}")
     name = names.pop()
     param = plant.parameter(name)
-    nu = (math.inf if param.rate is None else float(param.rate)) if rate is None else float(rate)
-    delta = param.effective_error if measurement_error is None else float(measurement_error)
+    nu, delta = param.motion_bounds(rate, measurement_error)
     unit = param.unit
     run = plant_schedule_run(plant, t_final) if run is None else run
     moving = _with_rate(plant, name, nu) if math.isfinite(nu) else plant  # the runs move at ν
