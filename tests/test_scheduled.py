@@ -441,6 +441,8 @@ def test_an_arm_runs_a_scheduled_gain(tmp_path, capsys):
         sr.simulate_arm(setup, K, ramp, measurement_bias=0.1)
     with pytest.raises(ValueError, match=r"`K` must schedule gains of shape \(6, 18\)"):
         sr.simulate_arm(setup, sr.ScheduledGain("m_p", "kg", [0.0, 3.0], np.zeros((2, 1, 3))), ramp)
+    with pytest.raises(ValueError, match=r"on its payload m_p, found \(6, 18\) on 'm'"):
+        sr.simulate_arm(setup, sr.ScheduledGain("m", "kg", [0.0, 3.0], np.stack([K, K])), ramp)
 
 
 @pytest.mark.robots

@@ -309,9 +309,9 @@ def simulate_arm(
     n = setup.arm.n_joints
     bias = check_real("measurement_bias [kg]", measurement_bias)
     if isinstance(K, ScheduledGain):
-        if K.shape != (n, 3 * n):
-            raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė], "
-                                          f"found {K.shape}")
+        if K.shape != (n, 3 * n) or K.parameter != "m_p":
+            raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė] on "
+                                          f"its payload m_p, found {K.shape} on {K.parameter!r}")
         gain: Array | ScheduledGain = K
     else:
         if bias != 0.0:
