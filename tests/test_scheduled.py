@@ -66,6 +66,7 @@ def test_schedule_file_round_trip(tmp_path):
     np.testing.assert_array_equal(back.gains, g.gains)
     np.testing.assert_array_equal(back.breakpoints, g.breakpoints)
     assert back.certified == {"rate": "inf", "decay": 0.5} and back.method == "lmi"
+    assert back.recorded("rate") == math.inf and back.recorded("decay") == 0.5 and back.recorded("range") is None
 
 
 @pytest.mark.parametrize(("content", "message"), [

@@ -760,20 +760,14 @@ def _cheap(family: str, capabilities: frozenset[str]) -> tuple[str, ...]:
     return tuple(m.name for m in methods if m.cheap and m.applies_to(capabilities))
 
 
-def _recorded(value: Any) -> float | None:
-    """A number of a schedule file's ``certified`` record (``'inf'`` as written by JSON), or None."""
-    return None if value is None else math.inf if value == "inf" else float(value)
-
-
 def _schedule_check(plant_source: Callable[[], Any] | None, plant: UncertainPlant | None,
                     gain: ScheduledGain) -> Any:
     """:func:`schedule_certificate` of `gain` (stability, decay 0) at its file's recorded rate and error."""
     on = _plant_of(plant_source) if plant_source is not None else plant
     if on is None:
         raise ArgumentValueError("plant", "is needed to certify a scheduled gain")
-    record = gain.certified
-    return schedule_certificate(on, gain, rate=_recorded(record.get("rate")),
-                                measurement_error=_recorded(record.get("measurement_error")))
+    return schedule_certificate(on, gain, rate=gain.recorded("rate"),
+                                measurement_error=gain.recorded("measurement_error"))
 
 
 def _margins(model: UncertainLTVModel, d: Design) -> dict[str, Any]:

@@ -192,8 +192,8 @@ def _recorded_text(gain: Any) -> str:
         return "the file records no certificate"
 
     def number(key: str) -> str:
-        value = record.get(key)
-        return "any" if value in ("inf", math.inf) else f"{float(value):.4g}"
+        value = gain.recorded(key)
+        return "any" if value == math.inf else f"{value:.4g}"
 
     parts = []
     if "range" in record:

@@ -323,10 +323,6 @@ def _state_signals(plant: UncertainPlant) -> list[Signal] | None:
     return None
 
 
-def _number(value: Any) -> float:
-    return math.inf if value in ("inf", None) else float(value)
-
-
 def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``export --design SCHEDULE.json``: a scheduled gain to C or JSON, with its certificates checked first.
 
@@ -356,9 +352,9 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     if not certified:
         problems.append("the schedule file records no certificate")
     else:
-        if rate > _number(certified.get("rate", 0.0)):
+        if rate > (gain.recorded("rate") or 0.0):
             problems.append(f"rate {rate:g} {param.unit}/s asked, {certified.get('rate')} certified")
-        if delta > _number(certified.get("measurement_error", 0.0)):
+        if delta > (gain.recorded("measurement_error") or 0.0):
             problems.append(f"measurement error {delta:g} {param.unit} asked, {certified.get('measurement_error')} "
                             "certified")
     try:

@@ -121,6 +121,11 @@ class ScheduledGain:
         return ScheduledGain(self.parameter, self.unit, self.breakpoints, self.gains, self.method,
                              {**self.certified, **covered})
 
+    def recorded(self, key: str) -> float | None:
+        """A number of :attr:`certified` (its ``'inf'``, as a schedule file writes it, read as ``inf``), or None."""
+        value = self.certified.get(key)
+        return None if value is None else math.inf if value in ("inf", math.inf) else float(value)
+
     def to_dict(self) -> dict[str, Any]:
         """The schedule file's content (JSON-ready)."""
         return {"kind": SCHEDULE_KIND, "version": 1, "parameter": self.parameter, "unit": self.unit,

@@ -544,6 +544,37 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
 RATE_PROBES = 8
 
 
+def _largest_rate(ok: Callable[[float], bool], width: float, cap: float, tol: float,
+                  **bisection: Any) -> float | None:
+    """The largest rate ν <= `cap` with ``ok(ν)`` (``inf`` first), or None when none is found.
+
+    ``ok`` is monotone in ν. Any rate is tried first, then the frozen parameter. A certificate
+    at ν covers every slower rate, a frozen parameter too (its condition is affine in ṗ,
+    checked at ±ν); but with ν = 0 nothing bounds P(p)'s slope, and a P found on the grid can
+    fail the finer check between its points where a bounded slope holds: so rates halving
+    from one range width per second (:data:`RATE_PROBES`) are probed before giving up. Then a
+    bracket by doubling, and bisection (`bisection`: options of
+    :func:`~scara_robust.robustness.search.bisect`).
+    """
+    if ok(math.inf):
+        return math.inf
+    lo, hi = 0.0, min(width, cap)
+    if not ok(0.0):
+        held = next((nu for nu in (hi * 0.5 ** k for k in range(RATE_PROBES)) if ok(nu)), None)
+        if held is None:
+            return None
+        if held >= cap:
+            return cap
+        lo, hi = held, min(2.0 * held, cap)
+    while ok(hi):
+        lo = hi
+        if hi >= cap:
+            return cap
+        hi = min(2.0 * hi, cap)
+    lo, _ = bisect(ok, lo, hi, tol, **bisection)
+    return lo
+
+
 def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement_error: float | None = None,
                       decay: float = 0.0, rate_max: float | None = None, tol: float = 0.02,
                       **options: Any) -> tuple[float, ScheduleCertificate | None]:
@@ -579,29 +610,10 @@ def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement
         found[nu] = cert
         return cert.certified
 
-    if ok(math.inf):
-        return math.inf, found[math.inf]
-    lo, hi = 0.0, min(width, cap)
-    if not ok(0.0):
-        # a certificate at ν covers every slower rate, a frozen parameter too (its condition is
-        # affine in ṗ, checked at ±ν); but with ν = 0 nothing bounds P(p)'s slope, and a P found on
-        # the grid can fail the finer check between its points where a bounded slope holds:
-        # probe downward from one range width per second before reporting nothing
-        probes = [hi * 0.5 ** k for k in range(RATE_PROBES)]
-        held = next((nu for nu in probes if ok(nu)), None)
-        if held is None:
-            return 0.0, None
-        lo, hi = held, min(2.0 * held, cap)
-        if held >= cap:
-            return cap, found[cap]
-    # a bracket by doubling from one range width per second, then bisection
-    while ok(hi):
-        lo = hi
-        if hi >= cap:
-            return cap, found[cap]
-        hi = min(2.0 * hi, cap)
-    lo, _ = bisect(ok, lo, hi, tol, midpoint="eighth", stop=lambda a, h, mid: mid < 1e-12 * cap)
-    return lo, found.get(lo)
+    rate = _largest_rate(ok, width, cap, tol, midpoint="eighth", stop=lambda a, h, mid: mid < 1e-12 * cap)
+    if rate is None:
+        return 0.0, None
+    return rate, found.get(rate)
 
 
 def max_measurement_error(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | None = None,
@@ -936,7 +948,7 @@ def synthesize_schedule_rate(
     (the conditions at ν' < ν are convex combinations of those at ±ν), so the largest ν
     is bracketed by doubling from one range width per second and then bisected. Any rate
     (one X for every p) is tried first; when the frozen parameter's table fails its
-    gridded check, slower rates are probed as :func:`max_schedule_rate` does.
+    gridded check, slower rates are probed (the search of :func:`max_schedule_rate`).
 
     Parameters
     ----------
@@ -992,15 +1004,7 @@ def synthesize_schedule_rate(
         return result.gain is not None
 
     try:
-        if not ok(math.inf):
-            low, high = 0.0, min(width, cap)
-            if not ok(0.0):  # as max_schedule_rate: a table certified at ν covers the frozen parameter too
-                held = next((nu for nu in (high * 0.5 ** k for k in range(RATE_PROBES)) if ok(nu)), None)
-                low, high = (0.0, 0.0) if held is None else (held, min(2.0 * held, cap))
-            while low < high < cap and ok(high):
-                low, high = high, min(2.0 * high, cap)
-            if high > low and not (high >= cap and high in found):
-                bisect(ok, low, high, tol)
+        _largest_rate(ok, width, cap, tol)
     except _NotInstalled:
         return ScheduleSynthesis(None, math.nan, None, kappa, math.nan, steps, time.perf_counter() - start,
                                  NOT_INSTALLED, "cvxpy is not installed (extra `lmi`)")
