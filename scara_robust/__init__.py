@@ -21,6 +21,7 @@ Errors (:mod:`scara_robust.exceptions`)
     ScaraRobustError                -- base of every error raised on purpose
     ArgumentError, ArgumentValueError, ArgumentTypeError -- a bad argument, named by its parameter
     InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
+    MissingToolError                -- a program a command needs (a cross-compiler, an emulator) is not installed
 Model (:mod:`scara_robust.model`)
     UncertainSystem, CAPABILITIES   -- what every uncertain system is, and what it can do (intervals, vertices, ...)
     ScaraParams, PARAM_UNITS, PARAM_LIMITS, paper_params -- robot data (SI, plausible ranges), the paper's by default
@@ -130,6 +131,7 @@ Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
     ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
+    run_on_board, BoardRun, board_inputs, Board, BOARDS, check_toolchain -- the C on an emulated Cortex-M4F
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)
     compare_plant_designs           -- a plant's designs side by side: certificates, margins, a run (``compare``)

@@ -19,6 +19,7 @@ __all__ = [
     "ArgumentError",
     "ArgumentValueError",
     "ArgumentTypeError",
+    "MissingToolError",
     "InputFileError",
     "CampaignSpecError",
 ]
@@ -60,6 +61,11 @@ class ArgumentValueError(ArgumentError, ValueError):
 
 class ArgumentTypeError(ArgumentError, TypeError):
     """An argument of the wrong type."""
+
+
+class MissingToolError(ScaraRobustError, RuntimeError):
+    """An external program a command needs (a cross-compiler, an emulator) is not installed; the
+    message names it and the packages that install it."""
 
 
 class InputFileError(ScaraRobustError, ValueError):

@@ -69,7 +69,18 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: each file keeps its order
 
 
+#: `.ci/run` installs the board's Debian packages and sets this, so that their absence fails the run.
+REQUIRE_BOARD = os.environ.get("SCARA_ROBUST_REQUIRE_BOARD") == "1"
+
+
 def pytest_runtest_setup(item):
+    if item.get_closest_marker("board") is not None:
+        try:
+            sr.check_toolchain("cortex-m4f")
+        except sr.MissingToolError as err:
+            if REQUIRE_BOARD:
+                pytest.fail(f"{err} (SCARA_ROBUST_REQUIRE_BOARD=1 requires it)", pytrace=False)
+            pytest.skip(str(err))
     for extra, module in EXTRAS.items():
         if item.get_closest_marker(extra) is None or _installed(module):
             continue

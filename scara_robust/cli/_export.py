@@ -16,6 +16,7 @@ from ..export._common import check_prefix
 from ..io import load_design
 from ..lyapunov.gain import design
 from ..robustness.sampled import check_sample_time
+from ._board import add_board_options, check_board_options, run_board
 from ._common import (
     CommandLineError,
     add_setup_options,
@@ -77,6 +78,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--precision", choices=PRECISIONS, default="double",
                    help="C floating-point type: double (default) or single, for a single-precision FPU")
     p.add_argument("--output", dest="folder", metavar="DIR", required=True, help="existing, writable folder")
+    add_board_options(p)
     p.set_defaults(func=run)
 
 
@@ -124,6 +126,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     _check_folder(args.folder)  # before any computation
     if args.prefix is not None:
         check_prefix(args.prefix)
+    check_board_options(args)
     if is_schedule_file(args.design):
         changed = _pid_options(args)
         if changed:
@@ -189,12 +192,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                         "without your own analysis.")
     source = system.source(model, sep=" ")
     meta["precision"] = args.precision
+    board = run_board(args, controller, prefix)
+    if board is not None:
+        notes.append(f"Run on an emulated board: {board.message}.")
     # export_controller dispatches through the registry (get_target) and writes the target's files, all or none
     files = export_controller(controller, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
                               precision=args.precision, **signals)
     if isinstance(controller, SampledStateFeedback):
         lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
                  ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
+        lines += [] if board is None else [board.message]
         return "\n".join([*lines, *(f"wrote {f}" for f in files)])
     pid = controller
     lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
@@ -204,5 +211,6 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "
                      + ("off" if not pid.anti_windup else f"T_t = {tt} s"))
+    lines += [] if board is None else [board.message]
     lines += [f"wrote {f}" for f in files]
     return "\n".join(lines)

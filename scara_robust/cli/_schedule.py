@@ -27,6 +27,7 @@ from ..robustness.scheduled import (
     synthesize_schedule,
     synthesize_schedule_rate,
 )
+from ._board import run_board
 from ._common import CommandLineError
 from ._system import LoadedSystem
 
@@ -378,6 +379,9 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
                 "plants": sampled.n_plants, "message": sampled.message},
             "allow_uncertified": bool(problems), "precision": args.precision}
     prefix = args.prefix or f"{system.plant_prefix('plant')}_scheduled"
+    board = run_board(args, SampledScheduledGain(gain, args.ts), prefix)
+    if board is not None:
+        notes.append(f"Run on an emulated board: {board.message}.")
     files = export_controller(SampledScheduledGain(gain, args.ts), args.folder, format=args.format, prefix=prefix,
                               metadata=meta, notes=notes, precision=args.precision, outputs=list(plant.inputs),
                               inputs=_state_signals(plant))
@@ -385,4 +389,5 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
             f"held, {args.precision} precision")
     status = ("WARNING: not certified as asked: " + "; ".join(problems)) if problems else \
         f"certified for rate {rate:g} {param.unit}/s and measurement error {delta:g} {param.unit}"
-    return "\n".join([head, status, sampled.message, *(f"wrote {f}" for f in files)])
+    shown = [] if board is None else [board.message]
+    return "\n".join([head, status, sampled.message, *shown, *(f"wrote {f}" for f in files)])

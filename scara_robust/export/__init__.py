@@ -19,6 +19,12 @@ register_target        -- add a format (``replace=True`` replaces one of the sam
 unregister_target      -- remove a format by name
 export_targets         -- the registered formats' names, in the order registered
 get_target             -- a registered format by name
+run_on_board           -- the exported C cross-compiled and run on an emulated board, against Python
+board_inputs           -- seeded random inputs of the shape a controller's step takes
+check_toolchain        -- a board's cross-compiler and emulator, or an error naming their packages
+Board                  -- one emulated board: compiler flags, QEMU machine, packages, clock
+BoardRun               -- a board run: outputs against Python, instructions per step, flash, RAM
+BOARDS                 -- the boards by name, ``'cortex-m4f'``
 """
 
 # Importing a target module registers its target: `_c` before `_json` gives the order ('c', 'json').
@@ -32,5 +38,7 @@ from ._write import *  # noqa: F403
 from ._write import __all__ as _write_names
 from .registry import *  # noqa: F403
 from .registry import __all__ as _registry_names
+from .board import *  # noqa: F403
+from .board import __all__ as _board_names
 
-__all__ = [*_write_names, *_c_names, *_json_names, *_common_names, *_registry_names]
+__all__ = [*_write_names, *_c_names, *_json_names, *_common_names, *_registry_names, *_board_names]

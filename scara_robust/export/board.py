@@ -1,0 +1,588 @@
+"""Processor-in-the-loop: the exported C, cross-compiled and run on an emulated board.
+
+:func:`run_on_board` writes a controller's C (the ``'c'`` target), compiles it with the
+board's cross-compiler and the flags of its floating-point unit, links it into a small test
+image whose driver reads the inputs from a file and writes the outputs to another over
+semihosting (the emulator's host file access), runs the image in QEMU, and compares the
+outputs with the package's own Python step. It then runs the image again on the first
+``trace_steps`` inputs with QEMU's execution trace, one instruction per translated block,
+and counts the instructions of every call of the step, from its entry to the return into
+the driver (the soft-float routines it calls included). The sizes come from the compiled
+object (``size``), the helpers it pulls from the C and compiler libraries (their sizes in
+the linked image) and the compiler's stack usage (``-fstack-usage``).
+
+QEMU is not cycle-accurate: the time of a step is an estimate, instructions over a stated
+clock (one instruction per cycle; a Cortex-M4 takes two cycles for a load, up to 14 for a
+floating-point division, and flash wait states add more).
+
+Board          -- one emulated board: compiler flags, QEMU machine, Debian packages, clock
+BoardRun       -- outputs against Python, instructions per step, flash and RAM, share of Ts
+BOARDS         -- the boards by name: ``'cortex-m4f'``
+board_inputs   -- seeded random inputs of the shape a controller's step takes
+run_on_board   -- cross-compile, run in the emulator, compare and measure
+check_toolchain -- the board's tools, or an error naming the packages that install them
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._validation import check_array, check_choice, check_instance, check_int, check_real
+from ..controller.discrete import DiscretePID
+from ..controller.scheduled import SampledScheduledGain
+from ..controller.state_feedback import SampledStateFeedback
+from ..exceptions import MissingToolError, ScaraRobustError
+from ._c import single_precision_step
+from ._common import DEFAULT_PREFIX, PRECISIONS, check_prefix
+from .registry import get_target
+
+__all__ = ["Board", "BoardRun", "BOARDS", "board_inputs", "run_on_board", "check_toolchain"]
+
+Controller = DiscretePID | SampledStateFeedback | SampledScheduledGain
+
+
+@dataclass(frozen=True)
+class Board:
+    """One emulated board.
+
+    Attributes
+    ----------
+    name : str
+        The board's name (``'cortex-m4f'``), as ``export --target`` takes it.
+    description : str
+        One line: the core, its floating-point unit and the emulated machine.
+    compiler : str
+        The cross-compiler (``'arm-none-eabi-gcc'``); ``size`` and ``nm`` are found beside it
+        (same prefix).
+    cflags : tuple of str
+        Flags of the core and its FPU.
+    machine : str
+        QEMU's machine (``-M``).
+    emulator : str
+        QEMU's program (``'qemu-system-arm'``).
+    packages : tuple of str
+        The Debian packages that install the compiler, its C library and the emulator.
+    clock_hz : float
+        The clock of the stated time estimate, Hz.
+    """
+
+    name: str
+    description: str
+    compiler: str
+    cflags: tuple[str, ...]
+    machine: str
+    emulator: str
+    packages: tuple[str, ...]
+    clock_hz: float
+
+    def tool(self, name: str) -> str:
+        """The binutils program `name` (``'size'``, ``'nm'``) of the compiler's prefix."""
+        return self.compiler.rsplit("-", 1)[0] + "-" + name
+
+
+#: The boards by name.
+BOARDS: dict[str, Board] = {
+    "cortex-m4f": Board(
+        name="cortex-m4f",
+        description="Arm Cortex-M4 with its single-precision FPU (FPv4-SP), emulated as QEMU's mps2-an386 board",
+        compiler="arm-none-eabi-gcc",
+        cflags=("-mcpu=cortex-m4", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-mthumb"),
+        machine="mps2-an386",
+        emulator="qemu-system-arm",
+        packages=("gcc-arm-none-eabi", "libnewlib-arm-none-eabi", "qemu-system-arm"),
+        clock_hz=168e6,
+    ),
+}
+
+# The test image: a vector table and reset handler (copy .data, zero .bss, enable the FPU, open the
+# semihosting handles, exit with main's code), and its memory map (flash at 0, RAM at 0x20000000).
+_STARTUP = r"""#include <stdint.h>
+extern uint32_t __data_load, __data_start, __data_end, __bss_start, __bss_end, __stack_top;
+extern int main(void);
+extern void initialise_monitor_handles(void);
+extern void exit(int);
+void Reset_Handler(void);
+static void Default_Handler(void) { for (;;) {} }
+__attribute__((section(".vectors"), used)) const void *vectors[16] = {
+    &__stack_top, (void *)Reset_Handler, (void *)Default_Handler, (void *)Default_Handler,
+    (void *)Default_Handler, (void *)Default_Handler, (void *)Default_Handler, 0, 0, 0, 0,
+    (void *)Default_Handler, (void *)Default_Handler, 0, (void *)Default_Handler, (void *)Default_Handler};
+void Reset_Handler(void)
+{
+    uint32_t *src = &__data_load, *dst = &__data_start;
+    while (dst < &__data_end) *dst++ = *src++;
+    for (dst = &__bss_start; dst < &__bss_end;) *dst++ = 0;
+    *(volatile uint32_t *)0xE000ED88 |= (0xFu << 20); /* CPACR: CP10 and CP11 (the FPU) */
+    __asm volatile("dsb\n isb");
+    initialise_monitor_handles();
+    exit(main());
+}
+"""
+
+_LINKER = """MEMORY { FLASH (rx) : ORIGIN = 0x00000000, LENGTH = 4M  RAM (rwx) : ORIGIN = 0x20000000, LENGTH = 4M }
+ENTRY(Reset_Handler)
+SECTIONS {
+  .text : { KEEP(*(.vectors)) *(.text*) *(.rodata*) . = ALIGN(4); } > FLASH
+  .ARM.exidx : { *(.ARM.exidx*) } > FLASH
+  __data_load = LOADADDR(.data);
+  .data : { __data_start = .; *(.data*) . = ALIGN(4); __data_end = .; } > RAM AT > FLASH
+  .bss (NOLOAD) : { __bss_start = .; *(.bss*) *(COMMON) . = ALIGN(4); __bss_end = .; } > RAM
+  end = .; _end = .;
+  __stack_top = ORIGIN(RAM) + LENGTH(RAM);
+}
+"""
+
+# The driver: rows of inputs from in.bin, CHUNK at a time, one step per row, rows of outputs to out.bin.
+_DRIVER = r"""#include <stdio.h>
+#include "{prefix}.h"
+#define CHUNK 64
+static {T} in_rows[CHUNK][{n_in}];
+static {T} out_rows[CHUNK][{n_out}];
+int main(void)
+{{
+    FILE *fi = fopen("in.bin", "rb"), *fo = fopen("out.bin", "wb");
+    size_t n, k;
+{declare}
+    if (fi == NULL || fo == NULL) return 3;
+    while ((n = fread(in_rows, sizeof in_rows[0], CHUNK, fi)) > 0) {{
+        for (k = 0; k < n; ++k) {{
+            {call};
+        }}
+        if (fwrite(out_rows, sizeof out_rows[0], n, fo) != n) return 4;
+    }}
+    fclose(fi);
+    fclose(fo);
+    return 0;
+}}
+"""
+
+
+@dataclass(frozen=True)
+class BoardRun:
+    """A controller's C run on an emulated board, against the package's Python step.
+
+    Attributes
+    ----------
+    board : str
+        The board's name.
+    precision : str
+        ``'double'`` or ``'single'``: the C's floating-point type.
+    kind : str
+        ``'pid'``, ``'state feedback'`` or ``'scheduled'``.
+    Ts : float
+        The controller's sample time, s.
+    u : ndarray, shape (m, n_steps)
+        The board's outputs, in the controller's output units (float32 values in single
+        precision).
+    u_reference : ndarray, shape (m, n_steps)
+        The Python step's outputs on the same inputs: :func:`single_precision_step` (or the
+        float32 step of the other kinds) in single precision, the controller's own ``step``
+        in double.
+    max_abs_difference : float
+        ``max |u − u_reference|``, in the output units.
+    tolerance : float
+        0 in single precision (bit for bit), ``1e-12 · max(1, max |u_reference|)`` in double.
+    instructions : ndarray of int, shape (n_traced,)
+        The instructions executed by each traced call of the step (entry to return, the
+        routines it calls included).
+    flash_bytes : int
+        The controller's code and constants (text and data of its object) and the library
+        routines it calls, bytes.
+    ram_bytes : int
+        Its static data, its state (the PID's) and the step's own stack frame, bytes.
+    stack_bytes : int
+        The step's own stack frame (``-fstack-usage``), bytes.
+    helpers : tuple of str
+        The library routines the controller calls (soft-float arithmetic in double on a
+        single-precision FPU, ``memcpy``...).
+    clock_hz : float
+        The clock of the time estimate, Hz.
+    compiler : str
+        The compiler's version line.
+    """
+
+    board: str
+    precision: str
+    kind: str
+    Ts: float
+    u: NDArray[np.float64]
+    u_reference: NDArray[np.float64]
+    max_abs_difference: float
+    tolerance: float
+    instructions: NDArray[np.int64]
+    flash_bytes: int
+    ram_bytes: int
+    stack_bytes: int
+    helpers: tuple[str, ...]
+    clock_hz: float
+    compiler: str = field(default="")
+
+    @property
+    def agrees(self) -> bool:
+        """Whether the board's outputs are the Python step's within :attr:`tolerance`."""
+        return self.max_abs_difference <= self.tolerance
+
+    @property
+    def n_steps(self) -> int:
+        """The number of steps compared."""
+        return int(self.u.shape[1])
+
+    @property
+    def step_time(self) -> float:
+        """The estimated time of the slowest traced step at :attr:`clock_hz`, one instruction per cycle, s."""
+        return float(self.instructions.max()) / self.clock_hz
+
+    @property
+    def share_of_ts(self) -> float:
+        """:attr:`step_time` over Ts."""
+        return self.step_time / self.Ts
+
+    @property
+    def message(self) -> str:
+        """One paragraph: agreement, instructions, time estimate, flash and RAM."""
+        same = ("bit for bit" if self.tolerance == 0 else f"within {self.tolerance:.1e}") if self.agrees else (
+            f"NOT within {self.tolerance:.1e}")
+        ins = self.instructions
+        return (f"{self.board} ({self.precision} precision): {self.n_steps} steps equal the Python step {same} "
+                f"(max |difference| {self.max_abs_difference:.3g}); {int(ins.min())}-{int(ins.max())} instructions "
+                f"per step (mean {ins.mean():.0f}, {ins.size} steps traced), about {self.step_time * 1e6:.3g} µs at "
+                f"{self.clock_hz / 1e6:g} MHz, one instruction per cycle (QEMU is not cycle-accurate), "
+                f"{100 * self.share_of_ts:.3g} % of Ts = {self.Ts:g} s; flash {self.flash_bytes} B, "
+                f"RAM {self.ram_bytes} B (stack of the step {self.stack_bytes} B)")
+
+    def record(self) -> dict[str, Any]:
+        """The run's figures, JSON-ready (no arrays)."""
+        ins = self.instructions
+        return {"board": self.board, "precision": self.precision, "kind": self.kind, "Ts [s]": self.Ts,
+                "steps": self.n_steps, "agrees": self.agrees, "max |difference|": self.max_abs_difference,
+                "tolerance": self.tolerance, "instructions per step": {"min": int(ins.min()), "mean": float(
+                    ins.mean()), "max": int(ins.max()), "traced": int(ins.size)},
+                "clock [Hz]": self.clock_hz, "step time [s]": self.step_time, "share of Ts": self.share_of_ts,
+                "flash [B]": self.flash_bytes, "RAM [B]": self.ram_bytes, "stack [B]": self.stack_bytes,
+                "helpers": list(self.helpers), "compiler": self.compiler}
+
+
+def _kind(controller: Any) -> str:
+    check_instance("controller", controller, (DiscretePID, SampledStateFeedback, SampledScheduledGain),
+                   "a DiscretePID, SampledStateFeedback or SampledScheduledGain")
+    if isinstance(controller, DiscretePID):
+        return "pid"
+    return "scheduled" if isinstance(controller, SampledScheduledGain) else "state feedback"
+
+
+def _sizes(controller: Controller) -> tuple[int, int]:
+    """(inputs per step, outputs per step) of the driver's rows."""
+    if isinstance(controller, DiscretePID):
+        return 2 * controller.n_joints, controller.n_torques
+    if isinstance(controller, SampledScheduledGain):
+        m, n = controller.gain.shape
+        return n + 1, m
+    return controller.n_states, controller.n_inputs
+
+
+def board_inputs(controller: Controller, n_steps: int, *, seed: int = 0) -> NDArray[np.float64]:
+    """Seeded random inputs for `controller`'s step, one column per step.
+
+    Parameters
+    ----------
+    controller : DiscretePID, SampledStateFeedback or SampledScheduledGain
+    n_steps : int
+        Number of steps (>= 1).
+    seed : int, optional
+        Seed of ``numpy.random.default_rng``.
+
+    Returns
+    -------
+    ndarray, shape (n_in, n_steps)
+        A PID's rows are e (uniform in ±0.05, the errors' units) then ė (±0.5 per s);
+        state feedback's the state x (standard normal); a schedule's x then p̂, uniform
+        over the breakpoints' range widened by 10 % on each side (the edge gain is
+        exercised).
+    """
+    kind = _kind(controller)
+    n_steps = check_int("n_steps", n_steps, 1)
+    rng = np.random.default_rng(seed)
+    n_in, _ = _sizes(controller)
+    if kind == "pid":
+        p = n_in // 2
+        return np.vstack([rng.uniform(-0.05, 0.05, (p, n_steps)), rng.uniform(-0.5, 0.5, (p, n_steps))])
+    if kind == "state feedback":
+        return rng.standard_normal((n_in, n_steps))
+    assert isinstance(controller, SampledScheduledGain)
+    lo, hi = controller.gain.range
+    widen = 0.1 * (hi - lo)
+    return np.vstack([rng.standard_normal((n_in - 1, n_steps)), rng.uniform(lo - widen, hi + widen, (1, n_steps))])
+
+
+def _reference(controller: Controller, inputs: NDArray[Any], precision: str) -> NDArray[np.float64]:
+    """The Python step on every column of `inputs` (float32 operations in the C's order in single)."""
+    n_steps = inputs.shape[1]
+    if isinstance(controller, DiscretePID):
+        p = controller.n_joints
+        if precision == "single":
+            step32 = single_precision_step(controller)
+            rows = [step32(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
+        else:
+            pid = copy.deepcopy(controller)  # the caller's controller keeps its state
+            pid.reset()
+            rows = [pid.step(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
+    elif isinstance(controller, SampledScheduledGain):
+        step = controller.step_single if precision == "single" else controller.step
+        rows = [step(inputs[:-1, k], float(inputs[-1, k]))[0] for k in range(n_steps)]
+    elif precision == "single":  # u_j = -(sum over i in order of K[j][i] x[i]), in float32, as the C's loop
+        K32 = np.asarray(controller.K, dtype=np.float32)
+        x32 = inputs.astype(np.float32)
+        rows = []
+        for k in range(n_steps):
+            u = []
+            for j in range(K32.shape[0]):
+                acc = np.float32(0.0)
+                for i in range(K32.shape[1]):
+                    acc = np.float32(acc + np.float32(K32[j, i] * x32[i, k]))
+                u.append(-acc)
+            rows.append(np.array(u, dtype=np.float32))
+    else:
+        rows = [controller.step(inputs[:, k]) for k in range(n_steps)]
+    return np.asarray(np.array(rows, dtype=float).T, dtype=float)
+
+
+def check_toolchain(board: str = "cortex-m4f") -> Board:
+    """The board `board`, once its compiler, C library, binutils and emulator are found.
+
+    Parameters
+    ----------
+    board : str, optional
+        A name of :data:`BOARDS`.
+
+    Returns
+    -------
+    Board
+
+    Raises
+    ------
+    MissingToolError
+        Naming the programs not found and the Debian packages that install them.
+    """
+    spec = BOARDS[check_choice("board", board, tuple(BOARDS))]
+    missing = [tool for tool in (spec.compiler, spec.tool("size"), spec.tool("nm"), spec.emulator)
+               if shutil.which(tool) is None]
+    if not missing:
+        found = subprocess.run([spec.compiler, "-print-file-name=rdimon.specs"], capture_output=True, text=True,
+                               timeout=60).stdout.strip()
+        if not os.path.isabs(found):
+            missing.append("the C library (newlib: rdimon.specs)")
+    if missing:
+        raise MissingToolError(
+            f"the {spec.name} target needs {', '.join(missing)}: install the Debian packages "
+            f"{' and '.join(spec.packages)} (apt-get install {' '.join(spec.packages)})")
+    return spec
+
+
+def _run(command: Sequence[str], cwd: Path, what: str, timeout: float) -> subprocess.CompletedProcess[str]:
+    try:
+        done = subprocess.run(list(command), cwd=cwd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired as err:
+        raise ScaraRobustError(f"{what} did not finish within {timeout:g} s") from err
+    if done.returncode != 0:
+        last = (done.stderr.strip() or done.stdout.strip()).splitlines()[-1:] or [""]
+        raise ScaraRobustError(f"{what} failed (exit {done.returncode}): {last[0]}")
+    return done
+
+
+def _driver(controller: Controller, prefix: str, ctype: str) -> str:
+    n_in, n_out = _sizes(controller)
+    if isinstance(controller, DiscretePID):
+        p = controller.n_joints
+        declare = f"    {prefix}_state s;\n    {prefix}_init(&s);"
+        call = f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{p}], out_rows[k])"
+    elif isinstance(controller, SampledScheduledGain):
+        declare = ""
+        call = f"(void){prefix}_step(in_rows[k], in_rows[k][{n_in - 1}], out_rows[k])"
+    else:
+        declare = ""
+        call = f"{prefix}_step(in_rows[k], out_rows[k])"
+    return _DRIVER.format(prefix=prefix, T=ctype, n_in=n_in, n_out=n_out, declare=declare, call=call)
+
+
+_TRACE = re.compile(r"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/")
+
+
+def _count_steps(trace: Any, entry: int, main: tuple[int, int]) -> list[int]:
+    """Instructions from each entry to `entry` until the next instruction inside `main` [start, end)."""
+    counts: list[int] = []
+    inside, n = False, 0
+    for line in trace:
+        hit = _TRACE.match(line)
+        if hit is None:
+            continue
+        pc = int(hit.group(1), 16)
+        if inside:
+            if main[0] <= pc < main[1]:
+                counts.append(n)
+                inside = False
+            else:
+                n += 1
+        elif pc == entry:
+            inside, n = True, 1
+    return counts
+
+
+def _symbols(nm: str, path: Path, cwd: Path) -> dict[str, tuple[int, int]]:
+    """Name -> (address, size) of the defined symbols of `path` (Thumb bit cleared)."""
+    out = _run([nm, "-S", "--defined-only", str(path)], cwd, "nm", 60).stdout
+    table: dict[str, tuple[int, int]] = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 4:
+            table[parts[3]] = (int(parts[0], 16) & ~1, int(parts[1], 16))
+    return table
+
+
+def run_on_board(
+    controller: Controller,
+    inputs: Any,
+    *,
+    board: str = "cortex-m4f",
+    precision: str = "single",
+    prefix: str = DEFAULT_PREFIX,
+    trace_steps: int = 100,
+    clock_hz: float | None = None,
+    timeout: float = 600.0,
+    workdir: str | os.PathLike[str] | None = None,
+) -> BoardRun:
+    """Run `controller`'s exported C on an emulated board and compare it with the Python step.
+
+    Parameters
+    ----------
+    controller : DiscretePID, SampledStateFeedback or SampledScheduledGain
+        As :func:`export_controller` takes it. The PID starts from state zero (``init``).
+    inputs : array_like, shape (n_in, n_steps)
+        One column per step, as :func:`board_inputs` makes them: a PID's e then ė, state
+        feedback's x, a schedule's x then p̂. In single precision they are rounded to
+        float32 first (the board and the reference read the same numbers).
+    board : str, optional
+        A name of :data:`BOARDS`.
+    precision : {'single', 'double'}, optional
+        The C's floating-point type. On a Cortex-M4F ``'double'`` runs in the compiler's
+        software floating point.
+    prefix : str, optional
+        The C names' prefix.
+    trace_steps : int, optional
+        The first steps traced to count instructions (>= 1; each traced instruction is a
+        line of QEMU's log, so keep it in the hundreds).
+    clock_hz : float, optional
+        The clock of the time estimate, Hz (default: the board's, 168 MHz for the
+        Cortex-M4F).
+    timeout : float, optional
+        Seconds allowed to each compile and emulator run.
+    workdir : path-like, optional
+        An existing folder to build in and keep (the C, the driver, ``image.elf``, the
+        objects and ``controller.su``); by default a temporary folder, removed.
+
+    Returns
+    -------
+    BoardRun
+
+    Raises
+    ------
+    MissingToolError
+        Where the compiler, its C library or the emulator is missing (naming the packages).
+    ScaraRobustError
+        Where a compile or an emulator run fails.
+    """
+    kind = _kind(controller)
+    spec = BOARDS[check_choice("board", board, tuple(BOARDS))]
+    check_choice("precision", precision, PRECISIONS)
+    check_prefix(prefix)
+    n_in, n_out = _sizes(controller)
+    x = check_array("inputs", inputs, shape=(n_in, None))
+    if x.shape[1] < 1:
+        raise ScaraRobustError("`inputs` must have at least one column (step), found 0")
+    trace_steps = check_int("trace_steps", trace_steps, 1)
+    clock = spec.clock_hz if clock_hz is None else check_real("clock_hz", clock_hz, positive=True)
+    timeout = check_real("timeout", timeout, positive=True)
+    check_toolchain(board)
+    ftype = np.float32 if precision == "single" else np.float64
+    ctype = "float" if precision == "single" else "double"
+    x = x.astype(ftype)
+    reference = _reference(controller, x.astype(float), precision)
+    flags = [*spec.cflags, "-std=c99", "-O2", "-ffp-contract=off", "-ffunction-sections", "-fdata-sections"]
+    if workdir is not None and not Path(workdir).is_dir():
+        raise ScaraRobustError(f"`workdir` {os.fspath(workdir)!r}: no such folder")
+    with (contextlib.nullcontext(os.fspath(workdir)) if workdir is not None
+          else tempfile.TemporaryDirectory(prefix="scara-board-")) as tmp:
+        work = Path(tmp)
+        files = get_target("c").files(controller, prefix=prefix, precision=precision)
+        for name, text in files.items():
+            (work / name).write_text(text)
+        (work / "driver.c").write_text(_driver(controller, prefix, ctype))
+        (work / "startup.c").write_text(_STARTUP)
+        (work / "link.ld").write_text(_LINKER)
+        cc = spec.compiler
+        version = _run([cc, "--version"], work, cc, timeout).stdout.splitlines()[0]
+        _run([cc, *flags, "-Wall", "-Wextra", "-Werror", "-pedantic", "-fstack-usage", "-c", f"{prefix}.c",
+              "-o", "controller.o"], work, f"{cc} (the controller)", timeout)
+        for name in ("driver", "startup"):
+            _run([cc, *flags, "-c", f"{name}.c", "-o", f"{name}.o"], work, f"{cc} (the test image's {name})",
+                 timeout)
+        _run([cc, *spec.cflags, "-nostartfiles", "-T", "link.ld", "--specs=rdimon.specs", "-Wl,--gc-sections",
+              "-o", "image.elf", "startup.o", "driver.o", "controller.o"], work, f"{cc} (linking)", timeout)
+        emulate = [spec.emulator, "-M", spec.machine, "-nographic", "-monitor", "none", "-serial", "none",
+                   "-semihosting-config", "enable=on,target=native", "-kernel", "image.elf"]
+        (work / "in.bin").write_bytes(np.ascontiguousarray(x.T).tobytes())
+        _run(emulate, work, f"{spec.emulator} -M {spec.machine}", timeout)
+        raw = np.frombuffer((work / "out.bin").read_bytes(), dtype=ftype)
+        if raw.size != n_out * x.shape[1]:
+            raise ScaraRobustError(f"the board wrote {raw.size} outputs, expected {n_out * x.shape[1]}")
+        u = raw.reshape(x.shape[1], n_out).T.astype(float)
+        # the instruction count: the first trace_steps rows again, every executed instruction logged
+        (work / "in.bin").write_bytes(np.ascontiguousarray(x[:, :trace_steps].T).tobytes())
+        symbols = _symbols(spec.tool("nm"), work / "image.elf", work)
+        entry = symbols[f"{prefix}_step"][0]
+        main = (symbols["main"][0], symbols["main"][0] + symbols["main"][1])
+        with subprocess.Popen([*emulate, "-singlestep", "-d", "exec,nochain"], cwd=work, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True) as proc:
+            assert proc.stderr is not None
+            counts = _count_steps(proc.stderr, entry, main)
+            code = proc.wait(timeout=timeout)
+        if code != 0 or len(counts) != min(trace_steps, x.shape[1]):
+            raise ScaraRobustError(f"the traced run of {spec.emulator} gave {len(counts)} steps (exit {code}), "
+                                   f"expected {min(trace_steps, x.shape[1])}")
+        flash, ram, stack, helpers = _footprint(spec, work, prefix, symbols, controller, ctype)
+    diff = float(np.max(np.abs(u - reference)))
+    tolerance = 0.0 if precision == "single" else 1e-12 * max(1.0, float(np.max(np.abs(reference))))
+    return BoardRun(board=spec.name, precision=precision, kind=kind, Ts=float(controller.Ts), u=u,
+                    u_reference=reference, max_abs_difference=diff, tolerance=tolerance,
+                    instructions=np.asarray(counts, dtype=np.int64), flash_bytes=flash, ram_bytes=ram,
+                    stack_bytes=stack, helpers=helpers, clock_hz=clock, compiler=version)
+
+
+def _footprint(spec: Board, work: Path, prefix: str, symbols: dict[str, tuple[int, int]], controller: Controller,
+               ctype: str) -> tuple[int, int, int, tuple[str, ...]]:
+    """(flash, RAM, stack of the step, helpers) of the controller, bytes."""
+    size = _run([spec.tool("size"), "controller.o"], work, spec.tool("size"), 60).stdout.splitlines()[-1].split()
+    text, data, bss = (int(v) for v in size[:3])
+    undefined = _run([spec.tool("nm"), "-u", "controller.o"], work, spec.tool("nm"), 60).stdout.split()
+    helpers = sorted({name for name in undefined if name in symbols and name != "U"})
+    by_address = {symbols[name][0]: symbols[name][1] for name in helpers}  # aliases share an address
+    usage = (work / "controller.su").read_text() if (work / "controller.su").exists() else ""
+    stack = max((int(parts[-2]) for line in usage.splitlines()
+                 if (parts := line.split()) and parts[0].endswith(f":{prefix}_step")), default=0)
+    state = 0
+    if isinstance(controller, DiscretePID):
+        nz = controller.matrices()[0].shape[0]
+        state = nz * (4 if ctype == "float" else 8)
+    return text + data + sum(by_address.values()), data + bss + state + stack, stack, tuple(helpers)
