@@ -76,6 +76,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
+    STRUCTURES, decentralized_pattern -- any gain, or one PID per joint (block-diagonal Q and Y)
     input_limit_certificate, InputLimitCertificate -- the initial errors certified within the input limits
     initial_error_vertices, MAX_BOX_CORNERS -- a box of initial errors as its corners; the most enumerated
     peak_inputs                     -- each input's peak |u| of a simulated run
@@ -127,10 +128,13 @@ Files (:mod:`scara_robust.io`)
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
     load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
+    load_pid_controller, PidControllerGains -- a ros2_control pid_controller's YAML (``--design F.yaml``)
+    PID_CONTROLLER_GAINS, PID_CONTROLLER_METHOD, ros2_dof_name -- its per-joint keys, its method, joint names
 Export (:mod:`scara_robust.export`)
-    export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99 or JSON (``export`` command)
+    export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99, JSON, ros2 (``export``)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
     ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
+    pid_controller_parameters, coupling_of -- a per-joint PID as ros2_control's pid_controller parameters
     run_on_board, BoardRun, board_inputs, Board, BOARDS, check_toolchain -- the C on an emulated Cortex-M4F
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)

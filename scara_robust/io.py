@@ -93,6 +93,11 @@ __all__ = [
     "DesignFile",
     "write_design",
     "load_design",
+    "load_pid_controller",
+    "PID_CONTROLLER_GAINS",
+    "PidControllerGains",
+    "PID_CONTROLLER_METHOD",
+    "ros2_dof_name",
 ]
 
 #: Fields of the ``[robot]`` table and their units (those of :class:`~scara_robust.ScaraParams`).
@@ -1041,7 +1046,8 @@ def write_design(path: str | os.PathLike[str], K: Any, P: Any = None, **info: An
 
 
 def load_design(path: str | os.PathLike[str]) -> DesignFile:
-    """Read a design file written by :func:`write_design` (``synthesize --output``).
+    """Read a design file written by :func:`write_design` (``synthesize --output``), or a
+    ros2_control ``pid_controller`` parameter file (``.yaml``, :func:`load_pid_controller`).
 
     Parameters
     ----------
@@ -1060,6 +1066,8 @@ def load_design(path: str | os.PathLike[str]) -> DesignFile:
         matrix, or ``P`` of the wrong size.
     """
     text_path = os.fspath(path)
+    if os.path.splitext(text_path)[1].lower() in (".yaml", ".yml"):
+        return load_pid_controller(text_path).design_file()
     data = read_mapping(text_path, extensions=(".json",))
     if data.get("format") != DESIGN_FORMAT:
         raise InputFileError(f"{text_path!r}: field `format` must be {DESIGN_FORMAT!r}, found "
@@ -1073,3 +1081,226 @@ def load_design(path: str | os.PathLike[str]) -> DesignFile:
         P = _matrix(where, "P", data["P"], (K.shape[1], K.shape[1]))
     info = {k: v for k, v in data.items() if k not in ("format", "K", "P")}
     return DesignFile(text_path, K, P, info)
+
+
+# --- ros2_control's pid_controller parameter files ------------------------------------------------
+
+#: The per-joint keys of ros2_controllers' ``pid_controller`` (``gains.<dof>.<key>``, version 6.9.0
+#: of its parameter definition, ``pid_controller/src/pid_controller.yaml``) and control_toolbox's
+#: ``saturation`` (declared by ``PidROS``), with their types.
+PID_CONTROLLER_GAINS: dict[str, type] = {
+    "p": float, "i": float, "d": float, "u_clamp_max": float, "u_clamp_min": float, "i_clamp_max": float,
+    "i_clamp_min": float, "antiwindup_strategy": str, "tracking_time_constant": float, "error_deadband": float,
+    "feedforward_gain": float, "angle_wraparound": bool, "save_i_term": bool, "activate_state_publisher": bool,
+    "saturation": bool,
+}
+_ANTIWINDUP = ("none", "back_calculation", "conditional_integration")
+
+#: The ``method`` a :class:`DesignFile` read from a pid_controller file records.
+PID_CONTROLLER_METHOD = "ros2_control pid_controller"
+
+
+@dataclass(frozen=True)
+class PidControllerGains:
+    """The per-joint PIDs of a ros2_control ``pid_controller`` parameter file.
+
+    control_toolbox's PID computes, per joint and update period dt (forward Euler, the
+    integral term of the previous update in the command)::
+
+        u_k = clamp(p e_k + I_k + d ė_k, u_clamp_min, u_clamp_max)
+        I_{k+1} = clamp(I_k + dt (i e_k + (u_k − v_k)/tracking_time_constant), i_clamp_min, i_clamp_max)
+
+    (the back-calculation term with ``antiwindup_strategy: back_calculation``), with
+    ``e = reference − state`` and ė the difference of the two velocity interfaces.
+
+    Attributes
+    ----------
+    path : str
+    controller : str
+        The controller's name (the key above ``ros__parameters``).
+    joints : tuple of str
+        ``dof_names``, in the file's order.
+    p, i, d : ndarray, shape (n_joints,)
+        N·m/rad, N·m/(rad·s), N·m·s/rad for an effort command.
+    u_clamp : ndarray, shape (n_joints,)
+        The symmetric output clamp ``|u| <= u_clamp``, N·m (inf: none).
+    i_clamp : ndarray, shape (n_joints,)
+        The symmetric integral-term clamp, N·m (inf: none).
+    antiwindup_strategy : tuple of str
+        Per joint.
+    tracking_time_constant : ndarray, shape (n_joints,)
+        s (0: control_toolbox's default, ``sqrt(d/i)``, or ``p/i`` when d = 0).
+    parameters : dict
+        Every key the file gives per joint, as read.
+    """
+
+    path: str
+    controller: str
+    joints: tuple[str, ...]
+    p: NDArray[np.float64]
+    i: NDArray[np.float64]
+    d: NDArray[np.float64]
+    u_clamp: NDArray[np.float64]
+    i_clamp: NDArray[np.float64]
+    antiwindup_strategy: tuple[str, ...]
+    tracking_time_constant: NDArray[np.float64]
+    parameters: dict[str, dict[str, Any]]
+
+    @property
+    def K(self) -> NDArray[np.float64]:
+        """The gain of ``u = −K x`` on ``x = [∫e, e, ė]``: ``−[diag(i), diag(p), diag(d)]``, shape (n, 3n)."""
+        K = -np.hstack([np.diag(self.i), np.diag(self.p), np.diag(self.d)])
+        K[K == 0.0] = 0.0  # no -0.0 off the diagonal
+        return K
+
+    def tracking_time(self) -> NDArray[np.float64]:
+        """The back-calculation time constant control_toolbox uses, s, shape (n_joints,)."""
+        tt = self.tracking_time_constant.copy()
+        zero = tt == 0.0
+        default = np.where(self.d != 0.0, np.sqrt(np.abs(self.d / np.where(self.i == 0.0, 1.0, self.i))),
+                           self.p / np.where(self.i == 0.0, 1.0, self.i))
+        tt[zero] = default[zero]
+        return tt
+
+    def design_file(self) -> DesignFile:
+        """As a :class:`DesignFile` (K, no P), the file's figures in ``info``."""
+        info = {"method": PID_CONTROLLER_METHOD, "controller": self.controller, "joints": list(self.joints),
+                "u_clamp": [float(v) for v in self.u_clamp], "i_clamp": [float(v) for v in self.i_clamp],
+                "antiwindup_strategy": list(self.antiwindup_strategy),
+                "tracking_time_constant": [float(v) for v in self.tracking_time_constant]}
+        return DesignFile(self.path, self.K, None, info)
+
+
+def ros2_dof_name(output: str) -> str:
+    """The ros2_control joint of a plant's output: an arm's ``q_<joint>`` is ``<joint>``, others as named.
+
+    Parameters
+    ----------
+    output : str
+        A plant output's name (``'q1'``, ``'q_shoulder_pan_joint'``).
+
+    Returns
+    -------
+    str
+    """
+    return output.removeprefix("q_")
+
+
+def load_pid_controller(path: str | os.PathLike[str]) -> PidControllerGains:
+    """Read the per-joint PIDs of a ros2_control ``pid_controller`` parameter file.
+
+    The file holds ``<controller>: ros__parameters:`` with ``dof_names``,
+    ``command_interface: effort``, ``reference_and_state_interfaces: [position, velocity]``
+    and ``gains.<dof>`` (:data:`PID_CONTROLLER_GAINS`); other controllers in the same file
+    are ignored. The package's PID is symmetric in its limit and commands a torque from
+    the measured error rate, so the clamps must be symmetric, the command an effort and
+    the interfaces position and velocity.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.yaml`` or ``.yml`` file.
+
+    Returns
+    -------
+    PidControllerGains
+
+    Raises
+    ------
+    OSError
+        If the file cannot be read.
+    InputFileError
+        Naming the file and the field: not YAML, no or several ``pid_controller``
+        sections, a missing or unknown key, a value of the wrong type (ROS 2 parameters
+        are typed: ``1.0``, not ``1``), asymmetric clamps, an interface the package's PID
+        does not run.
+    """
+    import yaml
+
+    text_path = os.fspath(path)
+    if os.path.isdir(text_path):
+        raise InputFileError(f"{text_path!r} is a directory, not a file")
+    with open(text_path, "rb") as fh:
+        raw = fh.read()
+    try:
+        data = yaml.safe_load(raw.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise InputFileError(f"{text_path!r} is not valid YAML: {err}".replace("\n", " ")) from err
+    where = f"{text_path!r}:"
+    sections = {name: body["ros__parameters"] for name, body in (data or {}).items()
+                if isinstance(body, dict) and isinstance(body.get("ros__parameters"), dict)
+                and "gains" in body["ros__parameters"]} if isinstance(data, dict) else {}
+    if len(sections) != 1:
+        found = "none" if not sections else ", ".join(repr(n) for n in sections)
+        raise InputFileError(f"{where} expected one controller with `ros__parameters` holding `dof_names` and "
+                             f"`gains` (a pid_controller), found {found}")
+    (controller, params), = sections.items()
+    base = f"{controller}.ros__parameters"
+    joints = params.get("dof_names")
+    if (not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints)
+            or len(set(joints)) != len(joints)):
+        raise InputFileError(f"{where} field `{base}.dof_names` must be a list of distinct joint names, found "
+                             f"{describe(joints)}")
+    command = params.get("command_interface")
+    if command != "effort":
+        raise InputFileError(f"{where} field `{base}.command_interface` must be 'effort' (the PID's output is a "
+                             f"torque), found {describe(command)}")
+    interfaces = params.get("reference_and_state_interfaces")
+    if interfaces != ["position", "velocity"]:
+        raise InputFileError(f"{where} field `{base}.reference_and_state_interfaces` must be ['position', "
+                             f"'velocity'] (the PID reads the measured error rate), found {describe(interfaces)}")
+    gains = params["gains"]
+    if not isinstance(gains, dict):
+        raise InputFileError(f"{where} field `{base}.gains` must be a table per joint, found {describe(gains)}")
+    extra = [name for name in gains if name not in joints]
+    if extra:
+        raise InputFileError(f"{where} field `{base}.gains` names {extra[0]!r}, which `dof_names` does not")
+    read: dict[str, dict[str, Any]] = {}
+    for joint in joints:
+        entry = gains.get(joint)
+        field = f"{base}.gains.{joint}"
+        if not isinstance(entry, dict):
+            raise InputFileError(f"{where} field `{field}` (p, i, d...) is missing")
+        for key, value in entry.items():
+            kind = PID_CONTROLLER_GAINS.get(key)
+            if kind is None:
+                raise InputFileError(f"{where} field `{field}.{key}` is not a key of pid_controller's gains (it "
+                                     f"would be ignored); expected one of {', '.join(PID_CONTROLLER_GAINS)}")
+            if kind is float and (isinstance(value, bool) or not isinstance(value, float)):
+                raise InputFileError(f"{where} field `{field}.{key}` must be a float (ROS 2 parameters are typed: "
+                                     f"write 1.0, not 1), found {describe(value)}")
+            if kind is not float and not isinstance(value, kind):
+                raise InputFileError(f"{where} field `{field}.{key}` must be a {kind.__name__}, found "
+                                     f"{describe(value)}")
+        for key in ("p", "i", "d"):
+            if key not in entry:
+                raise InputFileError(f"{where} field `{field}.{key}` is missing")
+            if not math.isfinite(entry[key]):
+                raise InputFileError(f"{where} field `{field}.{key}` must be finite, found {entry[key]}")
+        u_max, u_min = entry.get("u_clamp_max", math.inf), entry.get("u_clamp_min", -math.inf)
+        if entry.get("saturation") is False:
+            u_max, u_min = math.inf, -math.inf
+        if not (u_max > 0 and u_min == -u_max):
+            raise InputFileError(f"{where} fields `{field}.u_clamp_min`, `u_clamp_max` must be -L and L with L > 0 "
+                                 f"(a symmetric torque limit, N·m), found {u_min}, {u_max}")
+        i_max, i_min = entry.get("i_clamp_max", math.inf), entry.get("i_clamp_min", -math.inf)
+        if not (i_max > 0 and i_min == -i_max):
+            raise InputFileError(f"{where} fields `{field}.i_clamp_min`, `i_clamp_max` must be -L and L with L > 0, "
+                                 f"N·m, found {i_min}, {i_max}")
+        strategy = entry.get("antiwindup_strategy", "none")
+        if strategy not in _ANTIWINDUP:
+            raise InputFileError(f"{where} field `{field}.antiwindup_strategy` must be one of "
+                                 f"{', '.join(repr(a) for a in _ANTIWINDUP)}, found {describe(strategy)}")
+        tt = entry.get("tracking_time_constant", 0.0)
+        if not (math.isfinite(tt) and tt >= 0):
+            raise InputFileError(f"{where} field `{field}.tracking_time_constant` must be >= 0 s, found {tt}")
+        read[joint] = dict(entry, u_clamp_max=u_max, u_clamp_min=u_min, i_clamp_max=i_max, i_clamp_min=i_min,
+                           antiwindup_strategy=strategy, tracking_time_constant=tt)
+
+    def column(key: str) -> NDArray[np.float64]:
+        return np.array([read[j][key] for j in joints], dtype=float)
+
+    return PidControllerGains(text_path, str(controller), tuple(joints), column("p"), column("i"), column("d"),
+                              column("u_clamp_max"), column("i_clamp_max"),
+                              tuple(read[j]["antiwindup_strategy"] for j in joints),
+                              column("tracking_time_constant"), read)

@@ -43,7 +43,7 @@ TOY = sr.ExportTarget("toy", ".txt", "<prefix>.txt: the sample time, s", _toy_wr
 
 
 def test_the_built_in_targets_are_the_export_formats():
-    assert sr.export_targets() == sr.EXPORT_FORMATS == ("c", "json")
+    assert sr.export_targets() == sr.EXPORT_FORMATS == ("c", "json", "ros2")
     assert [sr.get_target(n).suffix for n in sr.export_targets()] == [".c", ".json"]
 
 

@@ -231,7 +231,8 @@ def compare_arm(args: argparse.Namespace, system: LoadedSystem, rho: float, eta:
         else:
             notes.append(f"synthesized PID left out: {synth.message}")
     for path in args.design or []:
-        loaded = resolve_design(argparse.Namespace(design=path), (n, 3 * n), f"this arm's PID form ({n} joints)")
+        loaded = resolve_design(argparse.Namespace(design=path), (n, 3 * n), f"this arm's PID form ({n} joints)",
+                                system.joint_names())
         assert loaded is not None
         designs[f"file {path}"] = (loaded.K, loaded.P)
     t_final = 20.0 if t_final is None else t_final

@@ -78,7 +78,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         return run_schedule_certificate(args, system)
     refuse_schedule_options(args, "--design SCHEDULE.json")
     model = system.model
-    d, label = resolve_gain(args, model)
+    d, label = resolve_gain(args, model, system.joint_names())
     table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,
                               methods=args.methods)
     decay = system.decay_rate(d)

@@ -10,13 +10,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import numpy as np
 
 from ..exceptions import ArgumentError, ArgumentValueError, InputFileError
-from ..io import DesignFile, load_design, write_atomic
+from ..io import PID_CONTROLLER_METHOD, DesignFile, load_design, ros2_dof_name, write_atomic
 from ..lyapunov.gain import Design, design
 from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
@@ -408,8 +408,13 @@ def add_design_option(p: argparse.ArgumentParser) -> None:
 
 
 def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
-                   what: str = "the SCARA's PID (x = [∫e, e, ė])") -> DesignFile | None:
+                   what: str = "the SCARA's PID (x = [∫e, e, ė])",
+                   joints: Sequence[str] | None = ("q1", "q2")) -> DesignFile | None:
     """The design file of ``--design``, checked to hold a gain of `shape` (the SCARA's, by default).
+
+    A ros2_control ``pid_controller`` file (``.yaml``) names its joints: its gains are put
+    in the order of `joints` (the system's, :meth:`LoadedSystem.joint_names`), and a file
+    that names other joints is refused.
 
     Parameters
     ----------
@@ -418,6 +423,8 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
         The gain's shape (m, n).
     what : str
         What the gain is for, in the error.
+    joints : sequence of str or None
+        The system's joints, in the order of its gain's rows (default the SCARA's).
 
     Returns
     -------
@@ -427,10 +434,32 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
     if path is None:
         return None
     loaded = load_file("--design", path, load_design)
+    named = loaded.info.get("joints") if loaded.info.get("method") == PID_CONTROLLER_METHOD else None
+    if named is not None:
+        loaded = _in_joint_order(path, loaded, list(named), joints)
     if loaded.K.shape != shape:
         raise CommandLineError(f"`--design` {path!r}: field `K` must have shape {shape} for {what}, found "
                                f"{loaded.K.shape}")
     return loaded
+
+
+def _in_joint_order(path: str, loaded: DesignFile, named: list[str], joints: Sequence[str] | None) -> DesignFile:
+    """A pid_controller file's gain with its rows (and each block's columns) in the order of `joints`.
+
+    A ``dof_names`` entry names the output of its row, or a URDF joint (an arm's output is ``q_<joint>``).
+    """
+    outputs = list(joints or [])
+    by_dof = {ros2_dof_name(output): output for output in outputs}
+    dof = {name: name if name in outputs else by_dof.get(name, name) for name in named}
+    if joints is None or sorted(dof.values()) != sorted(outputs):
+        system = "this system names no joints" if joints is None else f"the system's joints are {outputs}"
+        raise CommandLineError(f"`--design` {path!r}: its dof_names are {named}; {system}")
+    order = [list(dof.values()).index(j) for j in outputs]
+    m = len(order)
+    columns = [block * m + k for block in range(loaded.K.shape[1] // m) for k in order]
+    info = {key: ([value[k] for k in order] if isinstance(value, list) and len(value) == m else value)
+            for key, value in loaded.info.items()}
+    return DesignFile(loaded.path, loaded.K[np.ix_(order, columns)], None, info)
 
 
 def check_gain_options(args: argparse.Namespace) -> str | None:
@@ -459,7 +488,8 @@ def check_gain_options(args: argparse.Namespace) -> str | None:
     return path
 
 
-def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel) -> tuple[Design, str]:
+def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel,
+                 joints: Sequence[str] | None = None) -> tuple[Design, str]:
     """The gain analysed: designed at ``--rho``/``--eta``, or your own from ``--design FILE.json``.
 
     A design file's K is taken as it is (:meth:`~scara_robust.Design.from_gain`), with the
@@ -471,6 +501,8 @@ def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicM
         With ``rho``, ``eta`` and ``design``.
     model : UncertainLTVModel or PolytopicModel
         The design-form model.
+    joints : sequence of str, optional
+        The system's joints (:meth:`LoadedSystem.joint_names`), for a pid_controller file.
 
     Returns
     -------
@@ -482,7 +514,7 @@ def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicM
     if path is None:
         d = design(model, args.rho, args.eta)
         return d, f"K(rho={d.rho:g}, eta={d.eta:g})"
-    loaded = resolve_design(args, (model.n_inputs, model.n_states), "this plant's design form")
+    loaded = resolve_design(args, (model.n_inputs, model.n_states), "this plant's design form", joints)
     assert loaded is not None
     try:
         d = Design.from_gain(model, loaded.K, loaded.P)

@@ -195,7 +195,8 @@ def _compare_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
             notes.append(f"synthesized PID left out: {synth.message}")
     n = plant.n_design_states
     for path in args.design or []:
-        loaded = resolve_design(argparse.Namespace(design=path), (plant.n_inputs, n), "this plant's design form")
+        loaded = resolve_design(argparse.Namespace(design=path), (plant.n_inputs, n), "this plant's design form",
+                                system.joint_names())
         assert loaded is not None
         designs[f"file {os.path.basename(path)}"] = (loaded.K, loaded.P)
     t_final = 20.0 if args.t_final == PAPER_T_FINAL else args.t_final
@@ -261,7 +262,8 @@ def _compare_schedule(args: argparse.Namespace, system: LoadedSystem) -> str:
     notes: list[str] = []
     fixed_K: np.ndarray | None
     if others:
-        loaded = resolve_design(argparse.Namespace(design=others[0]), shape, f"{plant.name}'s design form")
+        loaded = resolve_design(argparse.Namespace(design=others[0]), shape, f"{plant.name}'s design form",
+                                system.joint_names())
         assert loaded is not None
         fixed_K, fixed_name = loaded.K, f"fixed gain {os.path.basename(others[0])}"
     else:

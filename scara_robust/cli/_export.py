@@ -5,15 +5,16 @@ from __future__ import annotations
 import argparse
 import os
 import tempfile
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
-from ..export import DEFAULT_PREFIX, PRECISIONS, export_controller, export_targets
+from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_controller, export_targets
 from ..export._common import check_prefix
-from ..io import load_design
+from ..io import PID_CONTROLLER_METHOD, load_design
 from ..lyapunov.gain import design
 from ..robustness.sampled import check_sample_time
 from ._board import add_board_options, check_board_options, run_board
@@ -24,6 +25,7 @@ from ._common import (
     finite_float,
     load_file,
     per_joint_values,
+    resolve_design,
     resolve_gain,
 )
 from ._parser import COMMAND_HELP
@@ -58,7 +60,9 @@ def add_parser(sub: Any) -> None:
                    "table, refused beyond the rate and measurement error it was certified for")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--ts", type=finite_float, required=True, help="sample time, s (> 0)")
-    p.add_argument("--integrator", choices=INTEGRATOR_METHODS, default="tustin", help="discretization of the integral")
+    p.add_argument("--integrator", choices=INTEGRATOR_METHODS, default=None,
+                   help="discretization of the integral (default tustin; forward with --format ros2, as "
+                   "pid_controller integrates)")
     p.add_argument("--derivative", choices=DERIVATIVE_MODES, default="measured",
                    help="measured edot, or a filtered difference of e (no joint velocity needed)")
     p.add_argument("--filter-n", type=finite_float, default=100.0, help="derivative filter bandwidth N, 1/s (> 0)")
@@ -96,12 +100,53 @@ def _check_folder(folder: str) -> None:
 
 def _pid_options(args: argparse.Namespace) -> list[str]:
     """The PID's options given with other than their defaults (for a controller that has none of them)."""
-    return [o for o, v, default in (("--integrator", args.integrator, "tustin"),
+    return [o for o, v, default in (("--integrator", args.integrator, None),
                                     ("--derivative", args.derivative, "measured"),
                                     ("--filter-n", args.filter_n, 100.0),
                                     ("--torque-limit", args.torque_limit, None),
                                     ("--tracking-time", args.tracking_time, None),
                                     ("--no-anti-windup", args.no_anti_windup, False)) if v != default]
+
+
+def _check_ros2_options(args: argparse.Namespace, system: LoadedSystem) -> None:
+    """``--format ros2``: a PID per joint as pid_controller runs it (forward Euler, measured ė, double)."""
+    if system.state_feedback:
+        raise CommandLineError(f"`--format ros2` writes a pid_controller (a PID per joint); --model {system.file!r} "
+                               "is in the state form")
+    if args.integrator not in (None, "forward"):
+        raise CommandLineError(f"`--integrator {args.integrator}`: pid_controller (control_toolbox) integrates by "
+                               "forward Euler; --format ros2 certifies and writes that")
+    if args.derivative != "measured":
+        raise CommandLineError("`--derivative filtered`: pid_controller reads the error rate from the velocity "
+                               "interfaces (measured)")
+    if args.precision != "double":
+        raise CommandLineError("`--precision` is the C's floating-point type; --format ros2 writes YAML")
+    rate = 1.0 / args.ts if args.ts > 0 else 0.0
+    if rate < 1 or abs(rate - round(rate)) > 1e-9 * rate:
+        raise CommandLineError(f"`--ts` {args.ts:g} s: pid_controller updates every 1/update_rate, a whole number of "
+                               f"Hz; found {rate:.6g} Hz")
+
+
+def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> dict[str, Any]:
+    """The torque limit and anti-windup of a pid_controller file (``--design F.yaml``), unless given as options."""
+    strategies = set(info["antiwindup_strategy"])
+    if "conditional_integration" in strategies:
+        raise CommandLineError(f"`--design` {args.design!r}: antiwindup_strategy 'conditional_integration' is not the "
+                               "package's PID (back_calculation or none)")
+    clamp = np.array(info["u_clamp"], dtype=float)
+    out: dict[str, Any] = {}
+    if args.torque_limit is None and np.isfinite(clamp).any():
+        if not np.isfinite(clamp).all():
+            raise CommandLineError(f"`--design` {args.design!r}: u_clamp is given for some joints only; the PID "
+                                   "limits all of them or none (give --torque-limit)")
+        out["torque_limit"] = clamp
+        if strategies == {"none"}:
+            out["anti_windup"] = False
+        elif args.tracking_time is None:
+            tt = np.array(info["tracking_time_constant"], dtype=float)
+            if (tt > 0).all():
+                out["tracking_time"] = tt
+    return out
 
 
 def run(args: argparse.Namespace, system: LoadedSystem) -> str:
@@ -135,11 +180,14 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         return run_schedule_export(args, system)
     refuse_schedule_options(args, "--design SCHEDULE.json")
     check_gain_options(args)
+    ros2 = args.format == "ros2"
+    if ros2:
+        _check_ros2_options(args, system)
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)
     signals: dict[str, Any] = system.signal_names()
-    options = {"integrator": args.integrator, "derivative": args.derivative, "N": args.filter_n,
-               "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
+    options = {"integrator": args.integrator or ("forward" if ros2 else "tustin"), "derivative": args.derivative,
+               "N": args.filter_n, "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
                "anti_windup": not args.no_anti_windup}
     if system.state_feedback:
         physical = system.physical
@@ -152,7 +200,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         if changed:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {system.file!r} is in the state "
                                    "form, whose controller is u = -K x(t_k) held")
-        d, gain = resolve_gain(args, model)
+        d, gain = resolve_gain(args, model, system.joint_names())
         controller: DiscretePID | SampledStateFeedback = SampledStateFeedback(d.K, args.ts)
         signals = {"outputs": physical.inputs}  # the controller's outputs are the plant's inputs; it reads x0..
         gain = f"static state feedback, {gain}"
@@ -167,6 +215,11 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             raise CommandLineError(
                 f"`--design` {args.design!r}: field `K` must have shape ({model.n_states // 3}, {model.n_states}) "
                 f"for this plant's PID (x = [∫e, e, ė]), found {loaded.K.shape}")
+        if loaded.info.get("method") == PID_CONTROLLER_METHOD:  # its joints in the plant's order, its clamps
+            ordered = resolve_design(args, loaded.K.shape, "this plant's PID", system.joint_names())
+            assert ordered is not None
+            loaded = ordered
+            options.update(_pid_controller_options(args, loaded.info))
         p = m
         controller = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
         gain = f"gain of {args.design!r}"
@@ -178,15 +231,30 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
         decay = system.decay_rate(d)
+    if ros2:
+        assert isinstance(controller, DiscretePID)
+        coupled = coupling_of(controller)
+        if coupled is not None:
+            raise CommandLineError(f"`--format ros2` writes one PID per joint (pid_controller), and this gain is "
+                                   f"coupled ({coupled}); synthesize --structure decentralized gives a per-joint PID")
     plants, check, set_name = system.sampled()
     result = check_sample_time(plants, controller, check=check, set_name=set_name)
     if not result.certified and not args.allow_uncertified:
-        raise CommandLineError(f"`--ts` {result.message}; nothing written (--allow-uncertified writes it anyway)")
+        which = " (pid_controller's forward Euler)" if ros2 else ""
+        raise CommandLineError(f"`--ts` {result.message}{which}; nothing written (--allow-uncertified writes it "
+                               "anyway)")
+    own = None
+    if ros2:  # the package's own (Tustin) PID at the same Ts, reported beside pid_controller's
+        assert isinstance(controller, DiscretePID)
+        own = check_sample_time(plants, replace(controller, integrator="tustin"), check=check, set_name=set_name)
     meta["certificate"] = result.record()
     meta["plant_file"] = system.file
     meta["decay_rate"] = {"rate [1/s]": decay.rate if decay.certified else None, "from": decay.source,
                           "set": decay.set_name}
     notes = [f"Sampled-data certificate: {result.message}.", f"Continuous-time loop: {decay.message}."]
+    if own is not None:
+        notes[0] = f"Sampled-data certificate of pid_controller (forward Euler): {result.message}."
+        notes.insert(1, f"The same gain with the package's Tustin integrator: {own.message}.")
     if not result.certified:
         notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
                         "without your own analysis.")
@@ -205,8 +273,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         return "\n".join([*lines, *(f"wrote {f}" for f in files)])
     pid = controller
     lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
-             f"{args.precision} precision",
-             ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
+             + ("ros2_control pid_controller" if ros2 else f"{args.precision} precision"),
+             ("" if result.certified else "WARNING: not certified; ") + ("pid_controller (forward Euler): " if ros2
+                                                                          else "") + result.message]
+    if own is not None:
+        lines.append(f"the package's Tustin PID at the same Ts: {own.message}")
+    lines.append(decay.message)
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "

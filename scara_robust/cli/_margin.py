@@ -99,7 +99,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         return run_schedule_margin(args, system)
     plant = system.with_ranges(args.range)
     model = as_model("model", plant)
-    d, label = resolve_gain(args, model)
+    d, label = resolve_gain(args, model, system.joint_names())
     if not system.capabilities.element_margins:
         return _margin_arm(args, system, system.require_physical("the arm has no physical parameters", plant), d, label)
     rated = None

@@ -75,7 +75,8 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
         raise CommandLineError("`--measurement-bias` is the error of a scheduled gain's measurement; it goes with "
                                "--design SCHEDULE.json")
     check_gain_options(args)
-    loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), what)
+    loaded = resolve_design(args, (plant.n_inputs, plant.n_design_states), what,
+                            tuple(signal.name for signal in plant.outputs))
     if loaded is not None:
         return loaded.K, f"gain of {loaded.path!r}"
     d = design(as_model("model", plant), args.rho, args.eta)

@@ -14,7 +14,7 @@ from ..model.plant import as_model
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
-from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, Synthesis, synthesize
+from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, STRUCTURES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
 from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_synthesis
@@ -58,6 +58,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--decay", type=finite_float, default=None,
                    help=f"decay rate α required of the state, 1/s, with dV/dt <= -2αV (>= 0; default: maximized, "
                    f"{L2_DECAY:g} for the l2 objective)")
+    p.add_argument("--structure", choices=STRUCTURES, default="full",
+                   help="'full': any gain (default); 'decentralized': one PID per joint, each torque from its own "
+                   "joint's error only (what ros2_control's pid_controller runs; export --format ros2)")
     p.add_argument("--gain-bound", type=finite_float, default=GAIN_BOUND,
                    help=f"bound on ||K||_2 (default {GAIN_BOUND:g})")
     p.add_argument("--within-limits", action="store_true",
@@ -75,7 +78,8 @@ def add_parser(sub: Any) -> None:
 
 
 def _text(result: Synthesis, what: str, margin: str) -> str:
-    lines = [f"synthesize: {what}", f"status: {result.status} ({result.message})"]
+    lines = [f"synthesize: {what}" + ("" if result.structure == "full" else f", structure {result.structure}"),
+             f"status: {result.status} ({result.message})"]
     if result.K is None or result.design is None:
         return "\n".join(lines)
     lines += ["K (u = -K x) =", np.array2string(result.K, precision=4, suppress_small=True, max_line_width=120)]
@@ -114,6 +118,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.decay is not None and args.decay < 0:
         raise CommandLineError(f"`--decay` must be >= 0 1/s, found {args.decay:g}")
     if args.schedule is not None:
+        if args.structure != "full":
+            raise CommandLineError("`--structure` restricts a fixed PID gain; a schedule's gains are full")
         return run_schedule_synthesis(args, system)
     refuse_schedule_options(args, "--schedule NAME")
     if args.objective == "rate":
@@ -142,13 +148,14 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         if objective == "margin":
             raise CommandLineError("`--objective margin` scales an interval box; it goes with --set box")
         result = synthesize(physical.plants, objective=objective, decay=args.decay, gain_bound=args.gain_bound,
-                            check=physical.check, nominal=physical.nominal)
+                            check=physical.check, nominal=physical.nominal, structure=args.structure)
         what = f"{physical.description}, objective {objective}"
     else:
         assert model is not None
         structured = model.B.shape[0] == 3 * model.B.shape[1]
         objective = args.objective or ("l2" if structured else "decay")
-        result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound, **limits)
+        result = synthesize(model, objective=objective, decay=args.decay, gain_bound=args.gain_bound,
+                            structure=args.structure, **limits)
         kind = model.kind
         what = f"the {kind} of {model.name}, objective {objective}"
     if result.status == NOT_INSTALLED:
@@ -167,7 +174,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             margin = f"robustness margin with this P (vertex test): theta = {m.theta:.4g} ({m.message})"
             margin_value = {"margin_theta": m.theta}
     info: dict[str, Any] = {
-        "method": "synthesize", "set": uncertainty_set, "objective": objective, "status": result.status,
+        "method": "synthesize", "set": uncertainty_set, "objective": objective, "structure": args.structure,
+        "status": result.status,
         "certified": result.certified, "message": result.message, "decay": result.decay,
         "verified_decay": result.verified_decay, "check_decay": result.check_decay, "gamma": result.gamma,
         "check_gamma": result.check_gamma, "theta": result.theta, "gain_norm": result.gain_norm,

@@ -378,6 +378,16 @@ class LoadedSystem:
         physical = self.physical
         return {} if physical is None else {"outputs": physical.outputs, "inputs": physical.inputs}
 
+    def joint_names(self) -> tuple[str, ...] | None:
+        """The joints of the gain's rows: the plant's outputs (an arm's are ``q_<URDF joint>``); None for a set.
+
+        Returns
+        -------
+        tuple of str or None
+        """
+        physical = self.physical
+        return None if physical is None else tuple(signal.name for signal in physical.outputs)
+
     def source(self, model: UncertainLTVModel | PolytopicModel, sep: str = ": ") -> str:
         """How a header names the system: ``model: NAME`` or ``bounds: paper``.
 

@@ -23,9 +23,9 @@ from .registry import export_targets, get_target
 __all__ = ["EXPORT_FORMATS", "export_controller"]
 
 #: The built-in formats of :func:`export_controller`: ``'c'`` writes ``<prefix>.h`` and
-#: ``<prefix>.c``, ``'json'`` writes ``<prefix>.json``; :func:`export_targets` lists them
+#: ``<prefix>.c``, ``'json'`` writes ``<prefix>.json``, ``'ros2'`` ``<prefix>.yaml``; :func:`export_targets` lists them
 #: and any format registered since.
-EXPORT_FORMATS = ("c", "json")
+EXPORT_FORMATS = ("c", "json", "ros2")
 
 
 def export_controller(

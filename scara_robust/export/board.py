@@ -330,6 +330,7 @@ def board_inputs(controller: Controller, n_steps: int, *, seed: int = 0) -> NDAr
 def _reference(controller: Controller, inputs: NDArray[Any], precision: str) -> NDArray[np.float64]:
     """The Python step on every column of `inputs` (float32 operations in the C's order in single)."""
     n_steps = inputs.shape[1]
+    rows: list[Any]
     if isinstance(controller, DiscretePID):
         p = controller.n_joints
         if precision == "single":

@@ -54,7 +54,8 @@ from .lmi import (
 )
 from .search import bisect
 
-__all__ = ["Synthesis", "synthesize", "GAIN_BOUND", "OBJECTIVES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES"]
+__all__ = ["Synthesis", "synthesize", "GAIN_BOUND", "OBJECTIVES", "STRUCTURES", "LIMIT_MARGIN", "MAX_LIMIT_VERTICES",
+           "decentralized_pattern"]
 
 Array = NDArray[np.float64]
 
@@ -71,6 +72,37 @@ L2_DECAY = 0.5
 
 #: The synthesis objectives.
 OBJECTIVES = ("decay", "l2", "margin")
+
+#: The gain structures of :func:`synthesize`: any K, or one PID per joint.
+STRUCTURES = ("full", "decentralized")
+
+
+def decentralized_pattern(n: int, m: int) -> tuple[Array, Array]:
+    """The zero pattern of a decentralized PID: ``(S_Q (n, n), S_Y (m, n))`` of zeros and ones.
+
+    In the PID form ``x = [∫e, e, ė]`` (n = 3m) state ``a`` belongs to joint ``a mod m``;
+    ``S_Q[a, b] = 1`` when a and b belong to the same joint, ``S_Y[i, b] = 1`` when b belongs
+    to joint i. With Q and Y zero outside them, ``K = Y Q⁻¹`` is zero outside ``S_Y``: torque
+    i reads joint i's ``∫e_i, e_i, ė_i`` only.
+
+    Parameters
+    ----------
+    n : int
+        States (3m).
+    m : int
+        Torques, one per joint.
+
+    Returns
+    -------
+    S_Q : ndarray, shape (n, n)
+    S_Y : ndarray, shape (m, n)
+    """
+    if m < 1 or n != 3 * m:
+        raise ArgumentValueError("structure", f"'decentralized' needs the PID form (n = 3m states, one torque per "
+                                              f"joint), found n = {n}, m = {m}")
+    joint = np.arange(n) % m
+    return (joint[:, None] == joint[None, :]).astype(float), (np.arange(m)[:, None] == joint[None, :]).astype(float)
+
 
 #: Largest scaling θ searched by the ``'margin'`` objective.
 MARGIN_CAP = 1e3
@@ -166,6 +198,8 @@ class Synthesis(AnalysisResult):
         With ``input_limits``: numpy's check that the initial errors lie in an invariant
         ellipsoid of P on which every input stays within its limit (certified only then);
         P is scaled so that ellipsoid is ``{xᵀPx <= 1}``. None without limits.
+    structure : str
+        ``'full'`` or ``'decentralized'`` (a PID per joint), as asked.
     """
 
     status: str
@@ -189,6 +223,7 @@ class Synthesis(AnalysisResult):
     decay_floor: float = math.nan
     input_limits: Array | None = None
     input_limit: InputLimitCertificate | None = None
+    structure: str = "full"
 
     @property
     def verdict(self) -> str:
@@ -250,12 +285,14 @@ _DECAY_LMI_SLACK = 1e-6
 
 def _solve(
     A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None,
-    limits: tuple[Array, Array] | None = None,
+    limits: tuple[Array, Array] | None = None, pattern: tuple[Array, Array] | None = None,
 ) -> tuple[str, Array | None, Array | None, float]:
     """One LMI: decay ``alpha`` and ``‖K‖ <= κ``; with ``l2 = (B_w, C)`` also minimize γ.
 
     With ``limits = (ū (m,), V (k, n))`` also ``[[1, v_jᵀ], [v_j, Q]] ⪰ 0`` for every point
-    and ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` for every finite ū_i.
+    and ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` for every finite ū_i. With ``pattern = (S_Q (n, n),
+    S_Y (m, n))`` of zeros and ones, Q and Y are zero where the pattern is (the solver's
+    residue there, at its tolerance, is set to exactly zero before Q and Y are returned).
 
     Returns the solver status, Q, Y and γ (NaN without `l2`).
     """
@@ -277,6 +314,9 @@ def _solve(
         for k in np.flatnonzero(np.isfinite(u_max)).tolist():
             row = Y[k:k + 1, :]
             constraints.append(cp.bmat([[np.full((1, 1), u_max[k] ** 2), row], [row.T, Q]]) >> 0)  # type: ignore[attr-defined]
+    if pattern is not None:
+        constraints += [cp.multiply(1.0 - pattern[0], Q) == 0,  # type: ignore[attr-defined]
+                        cp.multiply(1.0 - pattern[1], Y) == 0]  # type: ignore[attr-defined]
     gamma = cp.Variable(nonneg=True) if l2 is not None else None
     for i, (A_i, B_i) in enumerate(zip(A, B)):
         AQ = A_i @ Q - B_i @ Y
@@ -304,12 +344,15 @@ def _solve(
     if Q.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         return str(problem.status), None, None, math.nan
     g = math.nan if gamma is None else float(np.asarray(gamma.value))
-    return str(problem.status), np.array(Q.value, dtype=float), np.array(Y.value, dtype=float), g
+    Q_value, Y_value = np.array(Q.value, dtype=float), np.array(Y.value, dtype=float)
+    if pattern is not None:  # exact zeros: K = Y Q⁻¹ then has the structure (numpy verifies these Q, Y)
+        Q_value, Y_value = Q_value * pattern[0], Y_value * pattern[1]
+    return str(problem.status), Q_value, Y_value, g
 
 
 def _solve_by_cuts(
     A: Array, B: Array, alpha: float, kappa: float, solver: str, active: list[NDArray[np.int64]],
-    limits: tuple[Array, Array] | None = None,
+    limits: tuple[Array, Array] | None = None, pattern: tuple[Array, Array] | None = None,
 ) -> tuple[str, Array | None, Array | None, float]:
     """:func:`_solve` (no L2 term) by cutting planes over the plants: the same answer, on a few of them at a time.
 
@@ -319,6 +362,8 @@ def _solve_by_cuts(
     the last active set, carried from one solve of a search to the next (plants indexed alike).
     """
     extra = {} if limits is None else {"limits": limits}  # without limits, _solve is called as before
+    if pattern is not None:
+        extra["pattern"] = pattern
 
     def solve(idx: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, float] | None]:
         status, Q, Y, g = _solve(A[idx], B[idx], alpha, kappa, solver, **extra)
@@ -452,6 +497,7 @@ def synthesize(
     solver: str = "CLARABEL",
     input_limits: ArrayLike | None = None,
     initial_errors: ArrayLike | None = None,
+    structure: str = "full",
 ) -> Synthesis:
     """Synthesize ``u = −Kx`` and its common Lyapunov matrix over an uncertainty set.
 
@@ -499,6 +545,13 @@ def synthesize(
         Half-widths of a box of initial errors (state units; zeros allowed) or its points
         (at most :data:`MAX_LIMIT_VERTICES`), as for
         :func:`~scara_robust.input_limit_certificate`. Needs `input_limits`.
+    structure : {'full', 'decentralized'}
+        ``'full'``: any K. ``'decentralized'``: a PID per joint, each torque from its own
+        joint's ``∫e, e, ė`` only (the PID form, n = 3m, one torque per joint; what
+        ros2_control's ``pid_controller`` runs). A convex restriction: Q and Y are
+        block-diagonal per joint (state ``a`` belongs to joint ``a mod m``), so
+        ``K = Y Q⁻¹`` is too; it gives up the coupled gain and a Lyapunov function that
+        couples the joints, so its decay is at most the full synthesis's.
 
     Returns
     -------
@@ -542,6 +595,8 @@ def synthesize(
         if A.shape[1] != A.shape[2] or B.shape[:2] != A.shape[:2]:
             raise ArgumentValueError("model", f"must hold A (k, n, n) and B (k, n, m), found {A.shape}, {B.shape}")
     n, m = A.shape[1], B.shape[2]
+    check_choice("structure", structure, STRUCTURES)
+    pattern = None if structure == "full" else decentralized_pattern(n, m)
     kappa = check_real("gain_bound", gain_bound, positive=True)
     tol = check_real("tol", tol, positive=True)
     check_choice("solver", solver, LMI_SOLVERS)
@@ -593,10 +648,13 @@ def synthesize(
 
     # without limits, _solve is called exactly as before
     extra: dict[str, tuple[Array, Array]] = {} if lim is None else {"limits": lim}
+    if pattern is not None:
+        extra["pattern"] = pattern
 
     def empty(status: str, search: str = "") -> Synthesis:
         return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
-                         time.perf_counter() - start, None, objective=objective, search=search, input_limits=u_lim)
+                         time.perf_counter() - start, None, objective=objective, search=search, input_limits=u_lim,
+                         structure=structure)
 
     if not cvxpy_available():
         return empty(NOT_INSTALLED)
@@ -678,7 +736,8 @@ def synthesize(
     return Synthesis(verdict, K, P, alpha, verified, checked,
                      float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status,
                      objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta,
-                     search=searched, decay_floor=floor_rate, input_limits=u_lim, input_limit=limit_cert)
+                     search=searched, decay_floor=floor_rate, input_limits=u_lim, input_limit=limit_cert,
+                     structure=structure)
 
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:

@@ -1,0 +1,210 @@
+"""ros2_control in and out: a pid_controller parameter file read as a gain, a decentralized gain written as one.
+
+Independent checks: the files written are validated against a copy of pid_controller's own
+parameter definition (``tests/data/pid_controller.yaml``, ros2_controllers 6.9.0: keys, types,
+``one_of`` validators); control_toolbox's PID, re-implemented from its documentation in
+``tests/control_toolbox_pid.py`` (which reproduces control_toolbox's own unit tests here), equals
+the package's forward-Euler :class:`~scara_robust.DiscretePID` on the SCARA, clamp and
+back-calculation included.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+import yaml
+from control_toolbox_pid import CtPid
+
+import scara_robust as sr
+from scara_robust.cli import main
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DEFINITION = os.path.join(HERE, "data", "pid_controller.yaml")
+HAND_WRITTEN = os.path.join(os.path.dirname(HERE), "examples", "scara-pid-controller.yaml")
+_TYPES = {"double": float, "string": str, "bool": bool, "string_array": list}
+
+
+@pytest.fixture(scope="module")
+def definition():
+    return yaml.safe_load(open(DEFINITION, encoding="utf-8"))["pid_controller"]
+
+
+def validate(parameters: dict, definition: dict) -> None:
+    """Every key of a written pid_controller section is declared by the definition, with its type and validators."""
+    for key, value in parameters.items():
+        if key == "gains":
+            continue
+        spec = definition[key]
+        assert isinstance(value, _TYPES[spec["type"]]), key
+        if spec["type"] == "string_array":
+            assert all(isinstance(v, str) for v in value) and value, key
+            if "size_lt<>" in spec.get("validation", {}):
+                assert spec["validation"]["size_gt<>"] < len(value) < spec["validation"]["size_lt<>"]
+        if "not_empty<>" in spec.get("validation", {}):
+            assert value, key
+    per_dof = definition["gains"]["__map_dof_names"]
+    assert sorted(parameters["gains"]) == sorted(parameters["dof_names"])
+    for joint, gains in parameters["gains"].items():
+        for key, value in gains.items():
+            spec = per_dof[key]  # KeyError: a key pid_controller does not declare (it would be ignored)
+            kind = _TYPES[spec["type"]]
+            assert isinstance(value, kind) and not (kind is float and isinstance(value, bool)), (joint, key)
+            one_of = spec.get("validation", {}).get("one_of<>")
+            if one_of:
+                assert value in one_of[0], (joint, key)
+
+
+def test_the_package_s_keys_are_the_definition_s(definition):
+    per_dof = definition["gains"]["__map_dof_names"]
+    declared = {key: _TYPES[spec["type"]] for key, spec in per_dof.items()}
+    ours = dict(sr.PID_CONTROLLER_GAINS)
+    assert ours.pop("saturation") is bool  # declared by control_toolbox's PidROS, not by the definition
+    assert ours == declared
+
+
+def test_control_toolbox_reimplementation_reproduces_its_unit_tests():
+    """control_toolbox's test/pid_tests.cpp expected values (dt = 1 s): the one-sample lag of the integral."""
+    pid = CtPid(0, 1, 0, u_clamp_max=5, u_clamp_min=-5)
+    assert [pid.compute_command(e, 0.0, 1.0) for e in (-0.5, -0.5, 0.0, 0.0, 1.0, 0.0)] == \
+        [0.0, -0.5, -1.0, -1.0, -1.0, 0.0]
+    pid = CtPid(0, 1, 0, 10, -10, 5, -5, "back_calculation", tracking_time_constant=1.0)
+    assert [pid.compute_command(e, 0.0, 1.0) for e in (1, 2, 3, 1, 2, -1, 1)] == [0, 1, 3, 5, 5, 5, 4]
+    pid = CtPid(1, 1, 1, i_clamp_max=10, i_clamp_min=-10, u_clamp_max=5, u_clamp_min=-5)
+    assert [pid.compute_command(e, None, 1.0) for e in (-0.5, -0.5, 0.0)] == [-1.0, -1.0, -0.5]
+
+
+def test_hand_written_file_is_read_and_certified(capsys):
+    gains = sr.load_pid_controller(HAND_WRITTEN)
+    assert gains.joints == ("q1", "q2") and gains.controller == "scara_pid_controller"
+    np.testing.assert_array_equal(gains.K, -np.array([[400, 0, 200, 0, 30, 0], [0, 300, 0, 150, 0, 20]], float))
+    np.testing.assert_allclose(gains.tracking_time(), np.sqrt([30 / 400, 20 / 300]))  # control_toolbox's default
+    assert main(["certify", "--design", HAND_WRITTEN, "--format", "json"]) == 0
+    rows = {row["method"]: row for row in json.loads(capsys.readouterr().out)}
+    assert rows["lmi-physical"]["certified"] is True and rows["lmi-physical"]["decay_rate [1/s]"] > 0
+    assert rows["falsifier-box"]["certified"] is False  # the published box is not: the robot's own set is
+
+
+def test_joints_are_matched_by_name(tmp_path, capsys):
+    text = open(HAND_WRITTEN, encoding="utf-8").read().replace("dof_names: [q1, q2]", "dof_names: [q2, q1]")
+    swapped = tmp_path / "swapped.yaml"
+    swapped.write_text(text)
+    assert main(["certify", "--design", HAND_WRITTEN, "--method", "lmi-physical", "--format", "json"]) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert main(["certify", "--design", str(swapped), "--method", "lmi-physical", "--format", "json"]) == 0
+    second = json.loads(capsys.readouterr().out)
+    # the file's gains belong to the joints they are under: q2's are under q2 whatever dof_names' order
+    assert first[0]["decay_rate [1/s]"] == pytest.approx(second[0]["decay_rate [1/s]"], rel=1e-6)
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text(text.replace("dof_names: [q2, q1]", "dof_names: [q1, elbow]").replace("q2: {", "elbow: {"))
+    assert main(["certify", "--design", str(wrong)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "['q1', 'elbow']" in err and "['q1', 'q2']" in err
+
+
+@pytest.mark.lmi
+def test_decentralized_synthesis_round_trips_through_ros2(tmp_path, capsys, definition):
+    design = tmp_path / "decentralized.json"
+    assert main(["synthesize", "--structure", "decentralized", "--objective", "decay", "--output", str(design)]) == 0
+    text = capsys.readouterr().out
+    assert "structure decentralized" in text and "status: certified" in text
+    K = np.array(json.loads(design.read_text())["K"])
+    off = K.copy()
+    for block in range(3):
+        off[:, 2 * block:2 * block + 2] -= np.diag(np.diag(K[:, 2 * block:2 * block + 2]))
+    assert np.count_nonzero(off) == 0  # each torque reads its own joint only
+    assert main(["export", "--design", str(design), "--ts", "0.001", "--torque-limit", "50", "--format", "ros2",
+                 "--output", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "pid_controller (forward Euler): Ts = 0.001 s is certified" in out
+    assert "the package's Tustin PID at the same Ts: Ts = 0.001 s is certified" in out
+    written = yaml.safe_load((tmp_path / "scara_pid.yaml").read_text())
+    assert written["controller_manager"]["ros__parameters"]["update_rate"] == 1000
+    validate(written["scara_pid"]["ros__parameters"], definition)
+    back = sr.load_pid_controller(tmp_path / "scara_pid.yaml")  # YAML out, YAML in: the same gain
+    np.testing.assert_array_equal(back.K, K)
+    np.testing.assert_array_equal(back.u_clamp, [50.0, 50.0])
+    # the file is an analysis command's gain again
+    assert main(["certify", "--design", str(tmp_path / "scara_pid.yaml"), "--method", "lmi-physical"]) == 0
+    assert "certified" in capsys.readouterr().out
+
+
+def test_full_synthesis_certifies_at_least_the_decentralized_decay():
+    """The restriction gives up decay, never gains it: full >= decentralized, on the robot's own set."""
+    samples = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 13), n_masses=3)
+    plants = (samples.A, samples.B)
+    full = sr.synthesize(plants, objective="decay")
+    per_joint = sr.synthesize(plants, objective="decay", structure="decentralized")
+    assert full.certified and per_joint.certified and per_joint.structure == "decentralized"
+    assert per_joint.verified_decay <= full.verified_decay * (1 + 1e-6) + 1e-9
+    sq, sy = sr.decentralized_pattern(6, 2)
+    assert np.all(per_joint.K[sy == 0] == 0)  # the pattern holds exactly
+    assert np.all(per_joint.P[sq == 0] == 0) or np.abs(per_joint.P[sq == 0]).max() < 1e-12 * np.abs(per_joint.P).max()
+
+
+def test_coupled_gain_is_refused_on_format_ros2(tmp_path, capsys):
+    assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.001", "--format", "ros2",
+                 "--output", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "coupled (K_" in err and "synthesize --structure decentralized" in err
+    assert os.listdir(tmp_path) == []
+    pid = sr.design(sr.paper_model(), 3, 90).discretize(1e-3, integrator="forward")
+    with pytest.raises(sr.ArgumentValueError, match="structure='decentralized'"):
+        sr.export_controller(pid, tmp_path, format="ros2")
+
+
+def test_control_toolbox_pid_is_the_forward_euler_discrete_pid():
+    """control_toolbox's equations, run joint by joint, against DiscretePID(integrator='forward') on the SCARA's
+    hand-written gains, with the 8 N·m clamp active part of the time and back-calculation."""
+    gains = sr.load_pid_controller(HAND_WRITTEN)
+    dt, limit = 1e-3, 8.0
+    pid = sr.DiscretePID(dt, np.diag(gains.i), np.diag(gains.p), np.diag(gains.d), integrator="forward",
+                         torque_limit=limit, tracking_time=gains.tracking_time())
+    pid.reset()
+    ours = [CtPid(gains.p[j], gains.i[j], gains.d[j], u_clamp_max=limit, u_clamp_min=-limit,
+                  antiwindup_strategy="back_calculation", tracking_time_constant=0.0) for j in range(2)]
+    assert [c.tracking_time_constant for c in ours] == pytest.approx(list(gains.tracking_time()), rel=1e-15)
+    rng = np.random.default_rng(3)
+    e = np.cumsum(rng.normal(0, 2e-3, (5000, 2)), axis=0)
+    edot = rng.normal(0, 0.05, (5000, 2))
+    u_pkg = np.array([pid.step(e[k], edot[k]) for k in range(len(e))])
+    u_ct = np.array([[ours[j].compute_command(e[k, j], edot[k, j], dt) for j in range(2)] for k in range(len(e))])
+    assert 0.05 < np.mean(np.abs(u_ct) >= limit) < 0.95  # the clamp and its anti-windup are exercised
+    assert np.abs(u_pkg - u_ct).max() <= 1e-12 * limit
+
+
+@pytest.mark.parametrize("change, words", [
+    (("p: 200.0", "p: 200"), "must be a float (ROS 2 parameters are typed"),
+    (("u_clamp_min: -50.0", "u_clamp_min: -40.0"), "symmetric torque limit"),
+    (('antiwindup_strategy: "back_calculation", tracking_time_constant: 0.0}\n      q2',
+      'antiwindup_strategy: "clamp", tracking_time_constant: 0.0}\n      q2'), "must be one of"),
+    (("command_interface: effort", "command_interface: velocity"), "must be 'effort'"),
+    (("d: 30.0,", "d: 30.0, kd: 1.0,"), "not a key of pid_controller's gains"),
+])
+def test_bad_pid_controller_file_is_one_line(tmp_path, capsys, change, words):
+    old, new = change
+    text = open(HAND_WRITTEN, encoding="utf-8").read()
+    assert old in text
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(old, new, 1))
+    assert main(["certify", "--design", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err and "bad.yaml" in err
+
+
+def test_ros2_options_are_refused_in_one_line_writing_nothing(tmp_path, capsys):
+    for extra, words in ((["--integrator", "tustin"], "integrates by forward Euler"),
+                         (["--derivative", "filtered"], "velocity interfaces"),
+                         (["--precision", "single"], "writes YAML"),
+                         (["--ts", "0.0015"], "a whole number of Hz")):
+        argv = ["export", "--design", HAND_WRITTEN, "--format", "ros2", "--output", str(tmp_path)]
+        argv += extra if "--ts" in extra else ["--ts", "0.001", *extra]
+        assert main(argv) == 2, extra
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err, (extra, err)
+        assert os.listdir(tmp_path) == []
+    assert math.isfinite(sr.load_pid_controller(HAND_WRITTEN).tracking_time()[0])
