@@ -372,3 +372,36 @@ def test_arm6_compiled_vs_lsoda_20s(benchmark, arm6_file_setup, method):
     benchmark.extra_info.update(_ARM6_ERRORS[t_final], integrator="bdf" if method == "compiled" else "")
     assert run.success and run.t[-1] == pytest.approx(t_final)
     assert _ARM6_ERRORS[t_final]["max_abs_error_difference [rad]"] <= 1e-6
+
+
+@pytest.fixture(scope="module")
+def board_pids():
+    """The SCARA's PID at (3, 90) with an 8 N·m limit and the 6-joint arm's at (1000, 3), both at Ts = 1 ms."""
+    import os
+
+    pytest.importorskip("pinocchio")
+    try:
+        sr.check_toolchain("cortex-m4f")
+    except sr.MissingToolError as err:
+        pytest.skip(str(err))
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "robot-arm6.toml")
+    arm = sr.design(sr.load_arm(path).plant.interval_model(), 1000, 3).discretize(1e-3)
+    return {"scara": sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=8.0), "arm6": arm}
+
+
+@pytest.mark.parametrize("robot", ["scara", "arm6"])
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_board_pid_step(benchmark, board_pids, robot, precision):
+    """The exported PID on the emulated Cortex-M4F (QEMU mps2-an386): 10⁴ random steps against Python, the
+    instructions of 100 traced steps, flash and RAM. The time measured is the whole round trip (cross-compile,
+    two emulator runs); the board's own figures are in extra_info."""
+    benchmark.group = "board: Cortex-M4F PID step"
+    pid = board_pids[robot]
+    inputs = sr.board_inputs(pid, 10_000)
+    run = benchmark.pedantic(sr.run_on_board, (pid, inputs), {"precision": precision}, rounds=2)
+    assert run.agrees
+    ins = run.instructions
+    benchmark.extra_info.update({
+        "instructions min": int(ins.min()), "instructions mean": float(ins.mean()), "instructions max": int(ins.max()),
+        "flash [B]": run.flash_bytes, "RAM [B]": run.ram_bytes, "share of Ts": run.share_of_ts,
+        "clock [Hz]": run.clock_hz, "max |difference|": run.max_abs_difference})

@@ -177,7 +177,8 @@ SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "cer
 def _command_param(page: str, line: str) -> object:
     words = shlex.split(line)
     slow = (ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
-    return pytest.param(line, id=f"{_page_id(page)}: " + " ".join(words[2:5]), marks=[pytest.mark.slow] if slow else [])
+    marks = ([pytest.mark.slow] if slow else []) + ([pytest.mark.board] if "--target" in words else [])
+    return pytest.param(line, id=f"{_page_id(page)}: " + " ".join(words[2:5]), marks=marks)
 
 
 @pytest.mark.parametrize("line", [_command_param(page, c) for page, c in COMMANDS])

@@ -108,7 +108,7 @@ class DecayRate(AnalysisResult):
                          else f"a common P by LMI: none ({self.lmi_status})")
         if not self.certified:
             return f"no decay rate certified on {self.set_name} ({'; '.join(other)})"
-        return f"decay rate α = {self.rate:.4g} 1/s ({self.source}; {'; '.join(other)}) on {self.set_name}"
+        return f"decay rate α = {self.rate:.4g} 1/s ({'; '.join([self.source, *other])}) on {self.set_name}"
 
     def to_pandas(self) -> pd.DataFrame:
         """One row: rate, source, own, lmi, set."""
