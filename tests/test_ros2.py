@@ -88,6 +88,12 @@ def test_hand_written_file_is_read_and_certified(capsys):
     assert rows["falsifier-box"]["certified"] is False  # the published box is not: the robot's own set is
 
 
+def test_the_file_s_clamp_is_the_run_s_torque_limit(capsys):
+    assert main(["simulate", "--design", HAND_WRITTEN, "--t-final", "6.5", "--format", "json"]) == 0
+    run = json.loads(capsys.readouterr().out)
+    assert run["status"] == "tracking" and run["metrics"]["peak_torque"] == pytest.approx(50.0)
+
+
 def test_joints_are_matched_by_name(tmp_path, capsys):
     text = open(HAND_WRITTEN, encoding="utf-8").read().replace("dof_names: [q1, q2]", "dof_names: [q2, q1]")
     swapped = tmp_path / "swapped.yaml"

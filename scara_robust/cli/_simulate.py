@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -11,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import ArgumentError
+from ..io import PID_CONTROLLER_METHOD
 from ..lyapunov.gain import design
 from ..model.initial import SCENARIOS
 from ..model.robot import ConstantPayload, paper_payload
@@ -196,8 +198,12 @@ def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
                 f"`--design` is a PID gain; it goes with --controller pid or pid-sampled, found {controller!r}"
             )
         K: np.ndarray | None = None
+        torque_limit = args.torque_limit
         if loaded is not None:
             K = loaded.K
+            clamp = loaded.info.get("u_clamp") if loaded.info.get("method") == PID_CONTROLLER_METHOD else None
+            if torque_limit is None and clamp is not None and all(math.isfinite(v) for v in clamp):
+                torque_limit = list(clamp)  # a pid_controller file's output clamp, unless --torque-limit
         elif pid_like:
             K = design(system.model, *PAPER_DESIGN_POINT).K
         _announce_compilation(args.method)
@@ -206,7 +212,7 @@ def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
             setup.initial or SCENARIOS["large"],
             payload_on=payload == "on",
             t_final=PAPER_T_FINAL if args.t_final is None else args.t_final,
-            torque_limit=args.torque_limit,
+            torque_limit=torque_limit,
             method=args.method,
             K=K,
             tracking_tolerance=tolerance,
