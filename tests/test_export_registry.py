@@ -44,7 +44,7 @@ TOY = sr.ExportTarget("toy", ".txt", "<prefix>.txt: the sample time, s", _toy_wr
 
 def test_the_built_in_targets_are_the_export_formats():
     assert sr.export_targets() == sr.EXPORT_FORMATS == ("c", "json", "ros2")
-    assert [sr.get_target(n).suffix for n in sr.export_targets()] == [".c", ".json"]
+    assert [sr.get_target(n).suffix for n in sr.export_targets()] == [".c", ".json", ".yaml"]
 
 
 @pytest.mark.parametrize("name", ["c", "json"])
@@ -65,7 +65,7 @@ def test_a_second_target_of_a_registered_name_is_refused(restored, name):
 def test_something_other_than_a_target_is_refused(restored, target):
     with pytest.raises(TypeError, match=r"`target` must be an ExportTarget\(name, suffix, description, write\)"):
         sr.register_target(target)
-    assert sr.export_targets() == ("c", "json")
+    assert sr.export_targets() == ("c", "json", "ros2")
 
 
 def test_replace_must_be_a_bool(restored):
@@ -79,16 +79,16 @@ def test_replace_must_be_a_bool(restored):
     ids=["jsn", "C", "cc", "rust"],
 )
 def test_an_unknown_name_is_refused_listing_the_targets(name, hint):
-    message = rf"`name` must be a registered export target \('c', 'json'\), found '{name}'"
+    message = rf"`name` must be a registered export target \('c', 'json', 'ros2'\), found '{name}'"
     with pytest.raises(ValueError, match=message + (rf"{hint}\?$" if hint else "$")):
         sr.get_target(name)
 
 
 def test_an_unknown_name_is_refused_by_unregister_too(restored):
-    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json'\), found 'jason'; "
+    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), found 'jason'; "
                        r"did you mean 'json'\?"):
         sr.unregister_target("jason")
-    assert sr.export_targets() == ("c", "json")
+    assert sr.export_targets() == ("c", "json", "ros2")
 
 
 def test_a_name_that_is_not_a_str_is_refused():
@@ -128,28 +128,28 @@ def test_a_write_that_returns_no_text_is_refused(pids, written):
 
 def test_a_registered_target_works_through_the_registry_and_can_be_removed(restored, pids, tmp_path):
     assert sr.register_target(TOY) is TOY
-    assert sr.export_targets() == ("c", "json", "toy")
+    assert sr.export_targets() == ("c", "json", "ros2", "toy")
     assert sr.get_target("toy") is TOY
     assert TOY.files(pids["plain"], prefix="arm", notes=["a"]) == {"arm.txt": "arm: Ts = 0.001 s, double, 1 note(s)\n"}
 
     paths = sr.export_controller(pids["plain"], tmp_path, format="toy", prefix="arm", precision="single")
     assert paths == [tmp_path / "arm.txt"]
     assert (tmp_path / "arm.txt").read_text() == "arm: Ts = 0.001 s, single, 0 note(s)\n"
-    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'toy'\), "
+    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2', 'toy'\), "
                        r"found 'tyo'; did you mean 'toy'\?"):
         sr.get_target("tyo")
 
     assert sr.unregister_target("toy") is TOY
-    assert sr.export_targets() == ("c", "json")
-    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json'\), found 'toy'"):
+    assert sr.export_targets() == ("c", "json", "ros2")
+    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), found 'toy'"):
         sr.get_target("toy")
-    with pytest.raises(ValueError, match=r"`format` must be one of 'c', 'json', found 'toy'"):
+    with pytest.raises(ValueError, match=r"`format` must be one of 'c', 'json', 'ros2', found 'toy'"):
         sr.export_controller(pids["plain"], tmp_path, format="toy")
 
 
 def test_the_fixture_put_the_registry_back():
     # runs after the test above (file order): nothing it registered or removed is left
-    assert sr.export_targets() == ("c", "json")
+    assert sr.export_targets() == ("c", "json", "ros2")
     assert "toy" not in sr.export_targets()
 
 
@@ -157,11 +157,11 @@ def test_replace_keeps_the_place_and_a_removed_target_comes_back_last(restored, 
     c_target = sr.get_target("c")
     shout = sr.ExportTarget("c", ".txt", "replaces C", lambda controller, **options: "C\n")
     sr.register_target(shout, replace=True)
-    assert sr.export_targets() == ("c", "json") and sr.get_target("c") is shout
+    assert sr.export_targets() == ("c", "json", "ros2") and sr.get_target("c") is shout
     assert sr.export_controller(pids["plain"], tmp_path, prefix="x") == [tmp_path / "x.txt"]
     sr.register_target(c_target, replace=True)
     sr.register_target(sr.unregister_target("c"))
-    assert sr.export_targets() == ("json", "c")
+    assert sr.export_targets() == ("json", "ros2", "c")
 
 
 def test_a_target_with_several_files_writes_them_in_its_order(restored, pids, tmp_path):
@@ -179,11 +179,11 @@ def test_the_command_line_offers_every_registered_target(restored, tmp_path, cap
 
     with pytest.raises(SystemExit, match=r"^0$"):
         main(["export", "--help"])
-    assert "--format {c,json}" in capsys.readouterr().out
+    assert "--format {c,json,ros2}" in capsys.readouterr().out
     sr.register_target(TOY)
     with pytest.raises(SystemExit, match=r"^0$"):
         main(["export", "--help"])
-    assert "--format {c,json,toy}" in capsys.readouterr().out
+    assert "--format {c,json,ros2,toy}" in capsys.readouterr().out
     assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.001", "--format", "toy", "--prefix", "arm",
                  "--output", str(tmp_path)]) == 0
     assert (tmp_path / "arm.txt").read_text() == "arm: Ts = 0.001 s, double, 2 note(s)\n"

@@ -229,7 +229,7 @@ def export_targets() -> tuple[str, ...]:
     --------
     >>> import scara_robust as sr
     >>> sr.export_targets()
-    ('c', 'json')
+    ('c', 'json', 'ros2')
     """
     return tuple(_TARGETS)
 
