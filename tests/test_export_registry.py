@@ -85,8 +85,8 @@ def test_an_unknown_name_is_refused_listing_the_targets(name, hint):
 
 
 def test_an_unknown_name_is_refused_by_unregister_too(restored):
-    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), found 'jason'; "
-                       r"did you mean 'json'\?"):
+    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), "
+                       r"found 'jason'; did you mean 'json'\?"):
         sr.unregister_target("jason")
     assert sr.export_targets() == ("c", "json", "ros2")
 
@@ -141,7 +141,8 @@ def test_a_registered_target_works_through_the_registry_and_can_be_removed(resto
 
     assert sr.unregister_target("toy") is TOY
     assert sr.export_targets() == ("c", "json", "ros2")
-    with pytest.raises(ValueError, match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), found 'toy'"):
+    with pytest.raises(ValueError,
+                       match=r"`name` must be a registered export target \('c', 'json', 'ros2'\), found 'toy'"):
         sr.get_target("toy")
     with pytest.raises(ValueError, match=r"`format` must be one of 'c', 'json', 'ros2', found 'toy'"):
         sr.export_controller(pids["plain"], tmp_path, format="toy")
