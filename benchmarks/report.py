@@ -113,8 +113,8 @@ def main(argv: list[str]) -> int:
                 lines.append(
                     f"| Cortex-M4F (QEMU mps2-an386), {label}, {precision}: {b['instructions mean']:.0f} instructions "
                     f"per step ({b['instructions min']}-{b['instructions max']}), {b['share of Ts']:.2%} of Ts = 1 ms "
-                    f"(slowest step) at {b['clock [Hz]'] / 1e6:g} MHz, flash {b['flash [B]']} B, RAM {b['RAM [B]']} B; the time: "
-                    f"compile and emulate 10⁴ steps | {mean[name]:.3g} | | |")
+                    f"(slowest step) at {b['clock [Hz]'] / 1e6:g} MHz, flash {b['flash [B]']} B, "
+                    f"RAM {b['RAM [B]']} B; the time: compile and emulate 10⁴ steps | {mean[name]:.3g} | | |")
     print("\n".join(lines))
     return 0
 
