@@ -148,3 +148,20 @@ def test_board_run_record_is_json(scara_pid):
         sr.run_on_board(scara_pid, np.zeros((3, 5)))
     with pytest.raises(sr.ArgumentValueError, match="`board`"):
         sr.run_on_board(scara_pid, np.zeros((4, 5)), board="avr")
+
+
+def test_export_target_runs_a_schedule_and_state_feedback_of_plant_files(tmp_path, capsys):
+    """Every kind the command exports goes on the board: a scheduled gain and static state feedback."""
+    root = os.path.dirname(HERE)
+    plant = sr.load_plant(os.path.join(root, "examples", "plant-arm-payload.toml"))
+    schedule = tmp_path / "schedule.json"
+    sr.schedule_riccati(plant, "m", np.linspace(0, 2, 3), 1.0, 10.0).save(schedule)
+    assert main(["export", "--model", os.path.join(root, "examples", "plant-arm-payload.toml"), "--design",
+                 str(schedule), "--ts", "0.001", "--allow-uncertified", "--precision", "single", "--target",
+                 "cortex-m4f", "--output", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "cortex-m4f (single precision): 10000 steps equal the Python step bit for bit" in out
+    assert main(["export", "--model", os.path.join(root, "examples", "plant-zoh-benchmark.toml"), "--rho", "1",
+                 "--eta", "2", "--ts", "0.01", "--allow-uncertified", "--target", "cortex-m4f",
+                 "--output", str(tmp_path)]) == 0
+    assert "cortex-m4f (double precision): 10000 steps equal the Python step within" in capsys.readouterr().out
