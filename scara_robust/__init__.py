@@ -129,7 +129,8 @@ Files (:mod:`scara_robust.io`)
     load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
     load_pid_controller, PidControllerGains -- a ros2_control pid_controller's YAML (``--design F.yaml``)
-    PID_CONTROLLER_GAINS, PID_CONTROLLER_METHOD, ros2_dof_name -- its per-joint keys, its method, joint names
+    PID_CONTROLLER_GAINS, PID_CONTROLLER_KEYS, PID_CONTROLLER_TYPE -- its per-joint keys, its keys, its type
+    PID_CONTROLLER_METHOD, ros2_dof_name -- the method a design file read from it records; a joint's ROS name
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99, JSON, ros2 (``export``)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches

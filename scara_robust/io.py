@@ -97,6 +97,8 @@ __all__ = [
     "PID_CONTROLLER_GAINS",
     "PidControllerGains",
     "PID_CONTROLLER_METHOD",
+    "PID_CONTROLLER_KEYS",
+    "PID_CONTROLLER_TYPE",
     "ros2_dof_name",
 ]
 
@@ -1096,6 +1098,12 @@ PID_CONTROLLER_GAINS: dict[str, type] = {
 }
 _ANTIWINDUP = ("none", "back_calculation", "conditional_integration")
 
+#: The controller-level keys of ``pid_controller``'s ``ros__parameters`` (version 6.9.0).
+PID_CONTROLLER_KEYS = ("dof_names", "reference_and_state_dof_names", "command_interface",
+                       "reference_and_state_interfaces", "set_current_state_as_first_setpoint",
+                       "use_external_measured_states", "gains")
+PID_CONTROLLER_TYPE = "pid_controller/PidController"
+
 #: The ``method`` a :class:`DesignFile` read from a pid_controller file records.
 PID_CONTROLLER_METHOD = "ros2_control pid_controller"
 
@@ -1132,6 +1140,9 @@ class PidControllerGains:
         s (0: control_toolbox's default, ``sqrt(d/i)``, or ``p/i`` when d = 0).
     parameters : dict
         Every key the file gives per joint, as read.
+    update_rate : int or None
+        The ``controller_manager``'s ``update_rate``, Hz (dt = 1/update_rate), when the file
+        has one.
     """
 
     path: str
@@ -1145,6 +1156,7 @@ class PidControllerGains:
     antiwindup_strategy: tuple[str, ...]
     tracking_time_constant: NDArray[np.float64]
     parameters: dict[str, dict[str, Any]]
+    update_rate: int | None = None
 
     @property
     def K(self) -> NDArray[np.float64]:
@@ -1167,7 +1179,10 @@ class PidControllerGains:
         info = {"method": PID_CONTROLLER_METHOD, "controller": self.controller, "joints": list(self.joints),
                 "u_clamp": [float(v) for v in self.u_clamp], "i_clamp": [float(v) for v in self.i_clamp],
                 "antiwindup_strategy": list(self.antiwindup_strategy),
-                "tracking_time_constant": [float(v) for v in self.tracking_time_constant]}
+                "tracking_time_constant": [float(v) for v in self.tracking_time_constant],
+                "feedforward_gain": [float(self.parameters[j].get("feedforward_gain", 0.0)) for j in self.joints],
+                "angle_wraparound": [bool(self.parameters[j].get("angle_wraparound", False)) for j in self.joints],
+                "update_rate": self.update_rate}
         return DesignFile(self.path, self.K, None, info)
 
 
@@ -1236,6 +1251,11 @@ def load_pid_controller(path: str | os.PathLike[str]) -> PidControllerGains:
                              f"`gains` (a pid_controller), found {found}")
     (controller, params), = sections.items()
     base = f"{controller}.ros__parameters"
+    unknown = [key for key in params if key not in PID_CONTROLLER_KEYS]
+    if unknown:
+        raise InputFileError(f"{where} field `{base}.{unknown[0]}` is not a parameter of pid_controller (it would be "
+                             f"ignored); expected one of {', '.join(PID_CONTROLLER_KEYS)}")
+    update_rate = _update_rate(where, data, str(controller))
     joints = params.get("dof_names")
     if (not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints)
             or len(set(joints)) != len(joints)):
@@ -1303,4 +1323,27 @@ def load_pid_controller(path: str | os.PathLike[str]) -> PidControllerGains:
     return PidControllerGains(text_path, str(controller), tuple(joints), column("p"), column("i"), column("d"),
                               column("u_clamp_max"), column("i_clamp_max"),
                               tuple(read[j]["antiwindup_strategy"] for j in joints),
-                              column("tracking_time_constant"), read)
+                              column("tracking_time_constant"), read, update_rate)
+
+
+def _update_rate(where: str, data: dict[str, Any], controller: str) -> int | None:
+    """The ``controller_manager``'s ``update_rate`` (Hz) when the file has one, its entry for `controller` checked."""
+    manager = data.get("controller_manager")
+    if manager is None:
+        return None
+    params = manager.get("ros__parameters") if isinstance(manager, dict) else None
+    if not isinstance(params, dict):
+        raise InputFileError(f"{where} field `controller_manager.ros__parameters` must be a table, found "
+                             f"{describe(params)}")
+    entry = params.get(controller)
+    if entry is not None and (not isinstance(entry, dict) or entry.get("type") != PID_CONTROLLER_TYPE):
+        found = entry.get("type") if isinstance(entry, dict) else entry
+        raise InputFileError(f"{where} field `controller_manager.ros__parameters.{controller}.type` must be "
+                             f"{PID_CONTROLLER_TYPE!r}, found {describe(found)}")
+    rate = params.get("update_rate")
+    if rate is None:
+        return None
+    if isinstance(rate, bool) or not isinstance(rate, int) or rate < 1:
+        raise InputFileError(f"{where} field `controller_manager.ros__parameters.update_rate` must be a whole number "
+                             f"of Hz >= 1, found {describe(rate)}")
+    return rate

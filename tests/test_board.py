@@ -85,7 +85,7 @@ def test_instruction_count_is_the_disassembly_of_a_branch_free_step(tmp_path):
     """A 1x3 static state feedback compiles to straight-line code: every call executes each
     instruction of its disassembly once, which the trace must count."""
     feedback = sr.SampledStateFeedback([[1.25, -2.5, 0.75]], 1e-3)
-    run = sr.run_on_board(feedback, sr.board_inputs(feedback, 50), prefix="k3", workdir=tmp_path)
+    run = sr.run_on_board(feedback, sr.board_inputs(feedback, 50), precision="single", prefix="k3", workdir=tmp_path)
     dump = subprocess.run(["arm-none-eabi-objdump", "-d", "--no-show-raw-insn", str(tmp_path / "image.elf")],
                           capture_output=True, text=True, check=True).stdout
     body = dump.split("<k3_step>:\n", 1)[1].split("\n\n", 1)[0]

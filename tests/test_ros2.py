@@ -190,6 +190,11 @@ def test_control_toolbox_pid_is_the_forward_euler_discrete_pid():
       'antiwindup_strategy: "clamp", tracking_time_constant: 0.0}\n      q2'), "must be one of"),
     (("command_interface: effort", "command_interface: velocity"), "must be 'effort'"),
     (("d: 30.0,", "d: 30.0, kd: 1.0,"), "not a key of pid_controller's gains"),
+    (("command_interface: effort", "command_interface: effort\n    enable_feedforward: true"),
+     "`scara_pid_controller.ros__parameters.enable_feedforward` is not a parameter of pid_controller"),
+    (("type: pid_controller/PidController", "type: pid_controller/PidControler"),
+     "must be 'pid_controller/PidController'"),
+    (("update_rate: 1000  # Hz", "update_rate: 1000.0  # Hz"), "update_rate` must be a whole number of Hz"),
 ])
 def test_bad_pid_controller_file_is_one_line(tmp_path, capsys, change, words):
     old, new = change
@@ -200,6 +205,21 @@ def test_bad_pid_controller_file_is_one_line(tmp_path, capsys, change, words):
     assert main(["certify", "--design", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and words in err and "bad.yaml" in err
+
+
+def test_what_the_package_s_pid_would_drop_is_refused_on_export(tmp_path, capsys):
+    text = open(HAND_WRITTEN, encoding="utf-8").read()
+    for old, new, name in (("d: 30.0,", "d: 30.0, i_clamp_max: 10.0, i_clamp_min: -10.0,", "i_clamp"),
+                           ("d: 20.0,", "d: 20.0, feedforward_gain: 1.0,", "feedforward_gain"),
+                           ("d: 20.0,", "d: 20.0, angle_wraparound: true,", "angle_wraparound")):
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(text.replace(old, new))
+        assert sr.load_pid_controller(path).K.shape == (2, 6)  # read for analysis ...
+        out = tmp_path / name
+        out.mkdir()
+        assert main(["export", "--design", str(path), "--ts", "0.001", "--format", "ros2", "--output", str(out)]) == 2
+        err = capsys.readouterr().err.strip()  # ... but not written back without it
+        assert len(err.splitlines()) == 1 and f"{name} is set" in err and os.listdir(out) == []
 
 
 def test_ros2_options_are_refused_in_one_line_writing_nothing(tmp_path, capsys):

@@ -31,7 +31,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--design", metavar="FILE.json",
                    help="certify your own gain instead: a design file with `K` on the plant's design form (and "
                    "optionally `P`; without it, P solves the nominal loop's Lyapunov equation), or a schedule file "
-                   "of synthesize --schedule (its certificate for a moving, mis-measured parameter)")
+                   "of synthesize --schedule (its certificate for a moving, mis-measured parameter), or a ros2_control "
+                   "pid_controller file (.yaml: its per-joint p, i, d, matched to the joints by name)")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--methods", type=method_names("certificate", "--methods", many=True), metavar="NAME[,NAME...]",
                    help="the rows to run, by registered name (default: every default row; e.g. 'l2-rate-bounded', "

@@ -404,7 +404,8 @@ def add_design_option(p: argparse.ArgumentParser) -> None:
     p : argparse.ArgumentParser
     """
     p.add_argument("--design", metavar="FILE.json",
-                   help="a PID gain from a design file (written by synthesize --output)")
+                   help="a PID gain from a design file (written by synthesize --output), or a ros2_control "
+                   "pid_controller file (.yaml: its per-joint p, i, d and output clamp, matched to the joints by name)")
 
 
 def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),

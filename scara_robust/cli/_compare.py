@@ -59,7 +59,8 @@ def add_parser(sub: Any) -> None:
     add_schedule_options(p, synthesis=False)
     add_arm_run_options(p)
     p.add_argument("--design", metavar="FILE.json", action="append",
-                   help="add rows for the PID gain of a design file (written by synthesize --output); repeatable. "
+                   help="add rows for the PID gain of a design file (written by synthesize --output, or a ros2_control "
+                   "pid_controller .yaml); repeatable. "
                    "A schedule file (synthesize --schedule --output) is compared instead with the best fixed gain of "
                    "its gain bound (synthesize's, or a second --design file's): certified range, decay, rate and "
                    "measurement error, runs with the payload (parameter) moving at the rate bound")

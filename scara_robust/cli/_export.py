@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import tempfile
 from dataclasses import replace
@@ -55,8 +56,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rho", type=finite_float, help="design parameter rho > 0 (or --design)")
     p.add_argument("--eta", type=finite_float, help="design parameter eta >= 1 (or --design)")
     p.add_argument("--design", metavar="FILE.json",
-                   help="export the PID gain of a design file (design --output, synthesize --output) instead, or a "
-                   "schedule file (synthesize --schedule --output): PREFIX_step(x, p_hat, u) with its breakpoint "
+                   help="export the PID gain of a design file (design --output, synthesize --output; or a ros2_control "
+                   "pid_controller .yaml, its clamp and anti-windup as --torque-limit and --tracking-time) instead, "
+                   "or a schedule file (synthesize --schedule --output): PREFIX_step(x, p_hat, u) with its breakpoint "
                    "table, refused beyond the rate and measurement error it was certified for")
     add_setup_options(p, scenario="signals", model=True)
     p.add_argument("--ts", type=finite_float, required=True, help="sample time, s (> 0)")
@@ -133,6 +135,12 @@ def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> d
     if "conditional_integration" in strategies:
         raise CommandLineError(f"`--design` {args.design!r}: antiwindup_strategy 'conditional_integration' is not the "
                                "package's PID (back_calculation or none)")
+    dropped = [name for name, kept in (("i_clamp", all(math.isinf(v) for v in info["i_clamp"])),
+                                       ("feedforward_gain", not any(info["feedforward_gain"])),
+                                       ("angle_wraparound", not any(info["angle_wraparound"]))) if not kept]
+    if dropped:
+        raise CommandLineError(f"`--design` {args.design!r}: {dropped[0]} is set, and the package's PID has no such "
+                               "term: the export would drop it (remove it from the file, or keep your file)")
     clamp = np.array(info["u_clamp"], dtype=float)
     out: dict[str, Any] = {}
     if args.torque_limit is None and np.isfinite(clamp).any():
@@ -278,6 +286,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                                                                           else "") + result.message]
     if own is not None:
         lines.append(f"the package's Tustin PID at the same Ts: {own.message}")
+        if pid.torque_limit is None:
+            lines.append("no output clamp: u_clamp is ±inf and antiwindup_strategy 'none' (give --torque-limit, N·m)")
     lines.append(decay.message)
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]

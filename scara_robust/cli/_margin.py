@@ -40,7 +40,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--design", metavar="FILE.json",
                    help="the margins of your own gain instead: a design file with `K` on the plant's design form "
                    "(and optionally `P`, which Theorem 1 and the vertex test use; without it, P solves the nominal "
-                   "loop's Lyapunov equation)")
+                   "loop's Lyapunov equation), or a ros2_control pid_controller file (.yaml: its per-joint p, i, d)")
     add_setup_options(p, scenario=None, model=True)
     p.add_argument("--elements", choices=("all", "A", "B"), default="all", help="elements scaled and varying")
     p.add_argument("--anchor", choices=ANCHORS, default="lower",

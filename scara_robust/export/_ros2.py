@@ -127,14 +127,18 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
 
 def _ros2_file(controller: Any, *, prefix: str, notes: Sequence[str], metadata: Mapping[str, Any] | None,
                outputs: Sequence[Signal] | None, inputs: Sequence[Signal] | None, precision: str) -> str:
-    """``write`` of the ros2 target: ``<prefix>.yaml`` (`inputs`, `metadata` and `precision` are not used)."""
+    """``write`` of the ros2 target: ``<prefix>.yaml`` (`metadata` and `precision` are not used)."""
     import yaml
 
     check_instance("controller", controller, DiscretePID,
                    "a DiscretePID: pid_controller runs a PID per joint, not state feedback or a schedule")
     parameters = pid_controller_parameters(controller, prefix, outputs)
+    errors, torques = signal_names(controller, outputs, inputs)
+    e, u = errors[0].unit, torques[0].unit
     head = [f"{prefix}.yaml: ros2_control parameters of pid_controller (ros2_controllers), one PID per joint,",
             f"updated every dt = {controller.Ts:g} s (update_rate), forward Euler as control_toolbox integrates.",
+            f"Units: p in {u}/{e}, i in {u}/({e}·s), d in {u}·s/{e}, u_clamp and i_clamp in {u}, "
+            "tracking_time_constant in s.",
             *notes]
     comment = "".join(f"# {line}\n" for line in head)
     return comment + str(yaml.safe_dump(parameters, sort_keys=False, default_flow_style=False, allow_unicode=True))

@@ -12,8 +12,8 @@ object (``size``), the helpers it pulls from the C and compiler libraries (their
 the linked image) and the compiler's stack usage (``-fstack-usage``).
 
 QEMU is not cycle-accurate: the time of a step is an estimate, instructions over a stated
-clock (one instruction per cycle; a Cortex-M4 takes two cycles for a load, up to 14 for a
-floating-point division, and flash wait states add more).
+clock, a lower bound (one cycle per instruction; a Cortex-M4 takes two cycles for a load, up
+to 14 for a floating-point division, and flash wait states add more).
 
 Board          -- one emulated board: compiler flags, QEMU machine, Debian packages, clock
 BoardRun       -- outputs against Python, instructions per step, flash and RAM, share of Ts
@@ -242,7 +242,7 @@ class BoardRun:
 
     @property
     def step_time(self) -> float:
-        """The estimated time of the slowest traced step at :attr:`clock_hz`, one instruction per cycle, s."""
+        """A lower bound on the slowest traced step's time at :attr:`clock_hz`: one cycle per instruction, s."""
         return float(self.instructions.max()) / self.clock_hz
 
     @property
@@ -258,8 +258,8 @@ class BoardRun:
         ins = self.instructions
         return (f"{self.board} ({self.precision} precision): {self.n_steps} steps equal the Python step {same} "
                 f"(max |difference| {self.max_abs_difference:.3g}); {int(ins.min())}-{int(ins.max())} instructions "
-                f"per step (mean {ins.mean():.0f}, {ins.size} steps traced), about {self.step_time * 1e6:.3g} µs at "
-                f"{self.clock_hz / 1e6:g} MHz, one instruction per cycle (QEMU is not cycle-accurate), "
+                f"per step (mean {ins.mean():.0f}, {ins.size} steps traced), at least {self.step_time * 1e6:.3g} µs at "
+                f"{self.clock_hz / 1e6:g} MHz (one cycle per instruction; QEMU is not cycle-accurate), "
                 f"{100 * self.share_of_ts:.3g} % of Ts = {self.Ts:g} s; flash {self.flash_bytes} B, "
                 f"RAM {self.ram_bytes} B (stack of the step {self.stack_bytes} B)")
 
@@ -457,7 +457,7 @@ def run_on_board(
     inputs: Any,
     *,
     board: str = "cortex-m4f",
-    precision: str = "single",
+    precision: str = "double",
     prefix: str = DEFAULT_PREFIX,
     trace_steps: int = 100,
     clock_hz: float | None = None,
@@ -476,9 +476,9 @@ def run_on_board(
         float32 first (the board and the reference read the same numbers).
     board : str, optional
         A name of :data:`BOARDS`.
-    precision : {'single', 'double'}, optional
-        The C's floating-point type. On a Cortex-M4F ``'double'`` runs in the compiler's
-        software floating point.
+    precision : {'double', 'single'}, optional
+        The C's floating-point type (default double, as :func:`export_controller`). On a
+        Cortex-M4F ``'double'`` runs in the compiler's software floating point.
     prefix : str, optional
         The C names' prefix.
     trace_steps : int, optional
