@@ -234,3 +234,43 @@ def test_ros2_options_are_refused_in_one_line_writing_nothing(tmp_path, capsys):
         assert len(err.splitlines()) == 1 and words in err, (extra, err)
         assert os.listdir(tmp_path) == []
     assert math.isfinite(sr.load_pid_controller(HAND_WRITTEN).tracking_time()[0])
+
+
+@pytest.mark.lmi
+@pytest.mark.robots
+def test_an_arm_s_per_joint_pid_goes_out_with_its_urdf_joint_names(tmp_path, capsys):
+    """The 6-joint arm on a coarse grid: a decentralized synthesis at a required decay, written for
+    pid_controller under the URDF's joint names, read back (in another dof order) as the same gain."""
+    import re
+
+    root = os.path.dirname(HERE)
+    text = open(os.path.join(root, "examples", "robot-arm6.toml"), encoding="utf-8").read()
+    text = text.replace('urdf = "arm6.urdf"', f'urdf = "{os.path.join(root, "examples", "arm6.urdf")}"')
+    text = re.sub(r"^reference_samples = \d+", "reference_samples = 13", text, flags=re.M)
+    text = re.sub(r"^payload_samples = \d+", "payload_samples = 3", text, flags=re.M)
+    robot = tmp_path / "arm.toml"
+    robot.write_text(text, encoding="utf-8")
+    design = tmp_path / "arm-pid.json"
+    assert main(["synthesize", "--robot", str(robot), "--structure", "decentralized", "--gain-bound", "300",
+                 "--decay", "0.5", "--output", str(design)]) == 0
+    assert "status: certified" in capsys.readouterr().out
+    K = np.array(json.loads(design.read_text())["K"])
+    assert main(["export", "--design", str(design), "--robot", str(robot), "--ts", "0.0005", "--torque-limit", "150",
+                 "--format", "ros2", "--prefix", "arm6_pid", "--output", str(tmp_path)]) == 0
+    assert "pid_controller (forward Euler): Ts = 0.0005 s is certified" in capsys.readouterr().out
+    written = yaml.safe_load((tmp_path / "arm6_pid.yaml").read_text())
+    assert written["controller_manager"]["ros__parameters"]["update_rate"] == 2000
+    joints = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+              "wrist_3_joint"]
+    assert written["arm6_pid"]["ros__parameters"]["dof_names"] == joints
+    back = sr.load_pid_controller(tmp_path / "arm6_pid.yaml")
+    np.testing.assert_array_equal(back.K, K)
+    # another order of dof_names: the gains follow their joints' names into the arm's order
+    params = written["arm6_pid"]["ros__parameters"]
+    params["dof_names"] = joints[::-1]
+    shuffled = tmp_path / "shuffled.yaml"
+    shuffled.write_text(yaml.safe_dump(written, sort_keys=False))
+    assert main(["certify", "--design", str(shuffled), "--robot", str(robot), "--methods", "lmi-physical",
+                 "--format", "json"]) == 0
+    row = json.loads(capsys.readouterr().out)[0]
+    assert row["certified"] is True
