@@ -136,6 +136,7 @@ Export (:mod:`scara_robust.export`)
     PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
     ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
     pid_controller_parameters, coupling_of -- a per-joint PID as ros2_control's pid_controller parameters
+    update_rate_of                  -- pid_controller's update rate for a Ts (a whole number of Hz)
     run_on_board, BoardRun, board_inputs, Board, BOARDS, check_toolchain -- the C on an emulated Cortex-M4F
 Studies (:mod:`scara_robust.studies`)
     compare_controllers, COMPARISON_COLUMNS, COMPARED_CONTROLLERS -- the PID vs sliding-mode table (``compare`` command)

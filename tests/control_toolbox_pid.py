@@ -5,7 +5,6 @@ Independent of scara_robust: it reads nothing of the package (tests/test_ros2.py
 (``test/pid_tests.cpp`` at the commit below: integralOnly, derivativeOnly, completePID,
 backCalculationPID, conditionalIntegrationPID, integrationAntiwindup), checked in tests/test_ros2.py.
 
-
 Written from the documentation and source of ros-controls/control_toolbox:
 
   * CtPid        -> master @ e274281b41eb1c3f4817b2226c4ddbc6863b5d66 (package 6.3.0;
@@ -16,11 +15,6 @@ Written from the documentation and source of ros-controls/control_toolbox:
                     (ros2_controllers.rolling.repos -> control_toolbox "master").
                     antiwindup_strategy in {"none", "back_calculation",
                     "conditional_integration"}.
-                    Optionally antiwindup_strategy="legacy" (+ antiwindup=bool)
-                    reproduces the *jazzy* branch (4.11.0,
-                    05de3c67f1acfda6547db3f5e0f9d4b7b263a382), where "legacy" still exists.
-  * CtPidHumble  -> humble branch (3.7.0, 01a3ded61176121f1112f46eba6e7cab0209a090),
-                    src/pid.cpp Pid::computeCommand with the boolean `antiwindup`.
 
 Doc sentences (quoted from pid.hpp @ master) are given next to the code that
 implements them.  No ROS dependency; dt is in seconds.
@@ -35,7 +29,7 @@ import numpy as np
 EPS = float(np.finfo(np.float64).eps)  # std::numeric_limits<double>::epsilon()
 INF = float("inf")
 
-_VALID_STRATEGIES = ("none", "back_calculation", "conditional_integration", "legacy")
+_VALID_STRATEGIES = ("none", "back_calculation", "conditional_integration")
 
 
 def is_zero(value: float, tolerance: float = EPS) -> bool:
@@ -89,14 +83,13 @@ class CtPid:
         antiwindup_strategy: str = "none",
         tracking_time_constant: float = 0.0,
         error_deadband: float = EPS,
-        antiwindup: bool = False,
     ):
         # "\throws An std::invalid_argument exception is thrown if u_min >= u_max."
         if u_clamp_min >= u_clamp_max:
             raise ValueError("received u_min >= u_max")
         self.set_gains(
             p, i, d, i_clamp_max, i_clamp_min, u_clamp_max, u_clamp_min,
-            antiwindup_strategy, tracking_time_constant, error_deadband, antiwindup,
+            antiwindup_strategy, tracking_time_constant, error_deadband,
         )
         self.i_term = 0.0
         self.cmd_unsat = 0.0
@@ -107,7 +100,6 @@ class CtPid:
         self,
         p, i, d, i_clamp_max=INF, i_clamp_min=-INF, u_clamp_max=INF, u_clamp_min=-INF,
         antiwindup_strategy="none", tracking_time_constant=0.0, error_deadband=EPS,
-        antiwindup=False,
     ):
         """Pid::set_gains + Gains::validate + AntiWindupStrategy::validate.
 
@@ -155,7 +147,6 @@ class CtPid:
         self.antiwindup_strategy = strat
         self.tracking_time_constant = tt
         self.error_deadband = float(error_deadband)
-        self.legacy_antiwindup = bool(antiwindup)  # only used by "legacy" (jazzy branch)
         return True
 
     # ------------------------------------------------------------------ state
@@ -228,9 +219,6 @@ class CtPid:
         # "Error deadband is used to stop integration when the error is within the given range."
         in_deadband = is_zero(error, self.error_deadband)
 
-        if self.antiwindup_strategy == "legacy":
-            return self._legacy_jazzy(error, p_term, d_term, dt, in_deadband)
-
         # "command = p_term + i_term + d_term"  -- i_term from previous steps
         self.cmd_unsat = p_term + self.i_term + d_term
 
@@ -259,80 +247,4 @@ class CtPid:
 
         # i_clamp ("Upper/Lower integral clamp") always applied to the integral *term*
         self.i_term = _std_clamp(self.i_term, self.i_min, self.i_max)
-        return self.cmd
-
-    def _legacy_jazzy(self, error, p_term, d_term, dt, in_deadband):
-        """AntiWindupStrategy::LEGACY as in control_toolbox jazzy (4.11.0) pid.cpp.
-
-        Integration happens BEFORE the command is formed (current error included).
-        antiwindup=True : "Prevent i_term_ from climbing higher than permitted by i_max_/i_min_"
-        antiwindup=False: "Limit i_term so that the limit is meaningful in the output"
-        """
-        if not in_deadband:
-            if self.legacy_antiwindup:
-                self.i_term = _std_clamp(
-                    self.i_term + self.i_gain * dt * error, self.i_min, self.i_max)
-            else:
-                self.i_term += self.i_gain * dt * error
-        if not self.legacy_antiwindup:
-            self.cmd_unsat = p_term + _std_clamp(self.i_term, self.i_min, self.i_max) + d_term
-        else:
-            self.cmd_unsat = p_term + self.i_term + d_term
-        if math.isfinite(self.u_min) or math.isfinite(self.u_max):
-            self.cmd = _std_clamp(self.cmd_unsat, self.u_min, self.u_max)
-        else:
-            self.cmd = self.cmd_unsat
-        # jazzy pid.cpp clamps i_term_ to antiwindup_strat_.i_min/i_max for every strategy
-        self.i_term = _std_clamp(self.i_term, self.i_min, self.i_max)
-        return self.cmd
-
-
-class CtPidHumble:
-    r"""control_toolbox humble branch (3.7.0) Pid::computeCommand (ros2_controllers humble).
-
-    Doc (include/control_toolbox/pid.hpp @ humble):
-      "command = p_term + i_term + d_term
-       p_term = p_gain * p_error
-       i_term = i_term + \int{i_gain * p_error * dt}
-       d_term = d_gain * d_error
-       d_error = (p_error - p_error_last) / dt
-       \param i_clamp Min/max bounds for the integral windup, the clamp is applied to the i_term"
-    Source: the *error* is integrated (i_error += dt*error) and multiplied by i_gain
-    afterwards; antiwindup=True clamps i_error to i_clamp/i_gain, antiwindup=False clamps
-    only the i_term contribution (i_error keeps growing). No output clamp exists.
-    """
-
-    def __init__(self, p, i, d, i_clamp_max=0.0, i_clamp_min=0.0, antiwindup=False):
-        if i_clamp_min > i_clamp_max:
-            raise ValueError("received i_min > i_max")
-        self.p_gain, self.i_gain, self.d_gain = float(p), float(i), float(d)
-        self.i_max, self.i_min = float(i_clamp_max), float(i_clamp_min)
-        self.antiwindup = bool(antiwindup)
-        self.reset()
-
-    def reset(self):
-        self.p_error_last = self.p_error = self.i_error = self.d_error = self.cmd = 0.0
-
-    def compute_command(self, error, error_dot, dt):
-        """dt in seconds (upstream takes uint64 nanoseconds; dt == 0 returns 0.0)."""
-        error, dt = float(error), float(dt)
-        if error_dot is None:
-            if dt == 0 or not math.isfinite(error):
-                return 0.0
-            error_dot = (error - self.p_error_last) / dt
-            self.p_error_last = error
-        error_dot = float(error_dot)
-        self.p_error, self.d_error = error, error_dot
-        if dt == 0 or not math.isfinite(error) or not math.isfinite(error_dot):
-            return 0.0
-        p_term = self.p_gain * error
-        self.i_error += dt * error  # "Calculate the integral of the position error"
-        if self.antiwindup and self.i_gain != 0:
-            lo, hi = sorted((self.i_min / self.i_gain, self.i_max / self.i_gain))
-            self.i_error = _std_clamp(self.i_error, lo, hi)
-        i_term = self.i_gain * self.i_error
-        if not self.antiwindup:
-            i_term = _std_clamp(i_term, self.i_min, self.i_max)
-        d_term = self.d_gain * error_dot
-        self.cmd = p_term + i_term + d_term
         return self.cmd

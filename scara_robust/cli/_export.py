@@ -13,9 +13,10 @@ import numpy as np
 
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..controller.state_feedback import SampledStateFeedback
-from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_controller, export_targets
+from ..exceptions import ArgumentValueError
+from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_controller, export_targets, update_rate_of
 from ..export._common import check_prefix
-from ..io import PID_CONTROLLER_METHOD, load_design
+from ..io import PID_CONTROLLER_METHOD
 from ..lyapunov.gain import design
 from ..robustness.sampled import check_sample_time
 from ._board import add_board_options, check_board_options, run_board
@@ -24,7 +25,6 @@ from ._common import (
     add_setup_options,
     check_gain_options,
     finite_float,
-    load_file,
     per_joint_values,
     resolve_design,
     resolve_gain,
@@ -123,10 +123,10 @@ def _check_ros2_options(args: argparse.Namespace, system: LoadedSystem) -> None:
                                "interfaces (measured)")
     if args.precision != "double":
         raise CommandLineError("`--precision` is the C's floating-point type; --format ros2 writes YAML")
-    rate = 1.0 / args.ts if args.ts > 0 else 0.0
-    if rate < 1 or abs(rate - round(rate)) > 1e-9 * rate:
-        raise CommandLineError(f"`--ts` {args.ts:g} s: pid_controller updates every 1/update_rate, a whole number of "
-                               f"Hz; found {rate:.6g} Hz")
+    try:
+        update_rate_of(args.ts)
+    except ArgumentValueError as err:
+        raise CommandLineError(f"`--ts` {err.problem}") from err
 
 
 def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> dict[str, Any]:
@@ -217,16 +217,15 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         meta["model"] = model.name
         decay = system.decay_rate(d)
     elif args.design is not None:
-        loaded = load_file("--design", args.design, load_design)
+        # a pid_controller file's joints come in the plant's order
+        loaded = resolve_design(args, (model.n_states // 3, model.n_states), "this plant's PID (x = [∫e, e, ė])",
+                                system.joint_names())
+        assert loaded is not None
         m, n = loaded.K.shape
-        if n != model.n_states or n != 3 * m:
-            raise CommandLineError(
-                f"`--design` {args.design!r}: field `K` must have shape ({model.n_states // 3}, {model.n_states}) "
-                f"for this plant's PID (x = [∫e, e, ė]), found {loaded.K.shape}")
-        if loaded.info.get("method") == PID_CONTROLLER_METHOD:  # its joints in the plant's order, its clamps
-            ordered = resolve_design(args, loaded.K.shape, "this plant's PID", system.joint_names())
-            assert ordered is not None
-            loaded = ordered
+        if n != 3 * m:
+            raise CommandLineError(f"`--design` {args.design!r}: field `K` must have shape (p, 3p) for a PID "
+                                   f"(x = [∫e, e, ė]), found {loaded.K.shape}")
+        if loaded.info.get("method") == PID_CONTROLLER_METHOD:  # its clamps and anti-windup
             options.update(_pid_controller_options(args, loaded.info))
         p = m
         controller = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)

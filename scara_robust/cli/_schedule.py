@@ -379,10 +379,11 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
                 "plants": sampled.n_plants, "message": sampled.message},
             "allow_uncertified": bool(problems), "precision": args.precision}
     prefix = args.prefix or f"{system.plant_prefix('plant')}_scheduled"
-    board = run_board(args, SampledScheduledGain(gain, args.ts), prefix)
+    controller = SampledScheduledGain(gain, args.ts)
+    board = run_board(args, controller, prefix)
     if board is not None:
         notes.append(f"Run on an emulated board: {board.message}.")
-    files = export_controller(SampledScheduledGain(gain, args.ts), args.folder, format=args.format, prefix=prefix,
+    files = export_controller(controller, args.folder, format=args.format, prefix=prefix,
                               metadata=meta, notes=notes, precision=args.precision, outputs=list(plant.inputs),
                               inputs=_state_signals(plant))
     head = (f"gain scheduled on {name} of {args.design!r}, {plant.name}, Ts = {args.ts:g} s, u = -K(p_hat) x(t_k) "

@@ -94,3 +94,28 @@ class SampledStateFeedback:
         """
         x = check_array("x", x, shape=(self.n_states,))
         return np.asarray(-self.K @ x, dtype=float)
+
+    def step_single(self, x: ArrayLike) -> NDArray[np.float32]:
+        """:meth:`step` in float32, as the single-precision C computes it.
+
+        ``u_j = −Σ_i K_ji x_i``, each product and sum rounded to float32 in the order of the
+        C's loop (no contraction).
+
+        Parameters
+        ----------
+        x : array_like, shape (n,)
+            The sampled state (rounded to float32).
+
+        Returns
+        -------
+        ndarray of float32, shape (m,)
+        """
+        xs = check_array("x", x, shape=(self.n_states,)).astype(np.float32)
+        K = self.K.astype(np.float32)
+        u = np.zeros(K.shape[0], dtype=np.float32)
+        for j in range(K.shape[0]):
+            acc = np.float32(0.0)
+            for i in range(K.shape[1]):
+                acc = np.float32(acc + np.float32(K[j, i] * xs[i]))
+            u[j] = -acc
+        return u

@@ -30,7 +30,32 @@ from ..model.plant import Signal
 from ._common import signal_names
 from .registry import ExportTarget, register_target
 
-__all__ = ["pid_controller_parameters", "coupling_of"]
+__all__ = ["pid_controller_parameters", "coupling_of", "update_rate_of"]
+
+
+def update_rate_of(Ts: float) -> int:
+    """pid_controller's ``update_rate`` for a sample time: 1/Ts, which must be a whole number of Hz.
+
+    Parameters
+    ----------
+    Ts : float
+        Sample time, s.
+
+    Returns
+    -------
+    int
+        Hz.
+
+    Raises
+    ------
+    ArgumentValueError
+        Naming ``Ts`` when 1/Ts is not a whole number of Hz (>= 1).
+    """
+    rate = 1.0 / Ts if Ts > 0 else 0.0
+    if rate < 1 or abs(rate - round(rate)) > 1e-9 * rate:
+        raise ArgumentValueError("Ts", f"must be 1/update_rate, a whole number of Hz; found Ts = {Ts:g} s "
+                                       f"({rate:.6g} Hz)")
+    return int(round(rate))
 
 
 def coupling_of(pid: DiscretePID) -> str | None:
@@ -87,7 +112,7 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
     ArgumentValueError
         For a coupled gain (naming its largest off-diagonal entry and the way to a
         decentralized one), another integrator or derivative, or a Ts whose rate is not
-        a whole number of Hz.
+        a whole number of Hz (:func:`update_rate_of`).
     """
     check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
     coupled = coupling_of(pid)
@@ -98,10 +123,7 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
         raise ArgumentValueError("pid", f"must integrate by forward Euler with the measured error rate, as "
                                         f"control_toolbox does (discretize(Ts, integrator='forward')), found "
                                         f"integrator {pid.integrator!r}, derivative {pid.derivative!r}")
-    rate = 1.0 / pid.Ts
-    if abs(rate - round(rate)) > 1e-9 * rate or round(rate) < 1:
-        raise ArgumentValueError("pid", f"must have Ts = 1/update_rate with a whole update rate in Hz, found Ts = "
-                                        f"{pid.Ts:g} s ({rate:.6g} Hz)")
+    rate = update_rate_of(pid.Ts)
     joints, _ = signal_names(pid, outputs, None)
     limit = None if pid.torque_limit is None else [float(v) for v in pid.torque_limit]
     windup = limit is not None and pid.anti_windup
@@ -117,7 +139,7 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
                                  "feedforward_gain": 0.0}
         gains[ros2_dof_name(joint.name)] = entry
     return {
-        "controller_manager": {"ros__parameters": {"update_rate": int(round(rate)),
+        "controller_manager": {"ros__parameters": {"update_rate": rate,
                                                    controller: {"type": "pid_controller/PidController"}}},
         controller: {"ros__parameters": {"dof_names": list(gains), "command_interface": "effort",
                                          "reference_and_state_interfaces": ["position", "velocity"],

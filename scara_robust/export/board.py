@@ -188,9 +188,9 @@ class BoardRun:
         The board's outputs, in the controller's output units (float32 values in single
         precision).
     u_reference : ndarray, shape (m, n_steps)
-        The Python step's outputs on the same inputs: :func:`single_precision_step` (or the
-        float32 step of the other kinds) in single precision, the controller's own ``step``
-        in double.
+        The Python step's outputs on the same inputs: :func:`single_precision_step` for the PID,
+        the controller's ``step_single`` for the other kinds in single precision; the
+        controller's own ``step`` in double.
     max_abs_difference : float
         ``max |u − u_reference|``, in the output units.
     tolerance : float
@@ -341,22 +341,11 @@ def _reference(controller: Controller, inputs: NDArray[Any], precision: str) -> 
             pid.reset()
             rows = [pid.step(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
     elif isinstance(controller, SampledScheduledGain):
-        step = controller.step_single if precision == "single" else controller.step
-        rows = [step(inputs[:-1, k], float(inputs[-1, k]))[0] for k in range(n_steps)]
-    elif precision == "single":  # u_j = -(sum over i in order of K[j][i] x[i]), in float32, as the C's loop
-        K32 = np.asarray(controller.K, dtype=np.float32)
-        x32 = inputs.astype(np.float32)
-        rows = []
-        for k in range(n_steps):
-            u = []
-            for j in range(K32.shape[0]):
-                acc = np.float32(0.0)
-                for i in range(K32.shape[1]):
-                    acc = np.float32(acc + np.float32(K32[j, i] * x32[i, k]))
-                u.append(-acc)
-            rows.append(np.array(u, dtype=np.float32))
+        scheduled = controller.step_single if precision == "single" else controller.step
+        rows = [scheduled(inputs[:-1, k], float(inputs[-1, k]))[0] for k in range(n_steps)]
     else:
-        rows = [controller.step(inputs[:, k]) for k in range(n_steps)]
+        fixed = controller.step_single if precision == "single" else controller.step
+        rows = [fixed(inputs[:, k]) for k in range(n_steps)]
     return np.asarray(np.array(rows, dtype=float).T, dtype=float)
 
 
@@ -577,7 +566,7 @@ def _footprint(spec: Board, work: Path, prefix: str, symbols: dict[str, tuple[in
     size = _run([spec.tool("size"), "controller.o"], work, spec.tool("size"), 60).stdout.splitlines()[-1].split()
     text, data, bss = (int(v) for v in size[:3])
     undefined = _run([spec.tool("nm"), "-u", "controller.o"], work, spec.tool("nm"), 60).stdout.split()
-    helpers = sorted({name for name in undefined if name in symbols and name != "U"})
+    helpers = sorted({name for name in undefined if name in symbols})  # nm's "U" markers are no symbols
     by_address = {symbols[name][0]: symbols[name][1] for name in helpers}  # aliases share an address
     usage = (work / "controller.su").read_text() if (work / "controller.su").exists() else ""
     stack = max((int(parts[-2]) for line in usage.splitlines()
