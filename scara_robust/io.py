@@ -1180,6 +1180,7 @@ class PidControllerGains:
                 "u_clamp": [float(v) for v in self.u_clamp], "i_clamp": [float(v) for v in self.i_clamp],
                 "antiwindup_strategy": list(self.antiwindup_strategy),
                 "tracking_time_constant": [float(v) for v in self.tracking_time_constant],
+                "tracking_time": [float(v) for v in self.tracking_time()],
                 "feedforward_gain": [float(self.parameters[j].get("feedforward_gain", 0.0)) for j in self.joints],
                 "angle_wraparound": [bool(self.parameters[j].get("angle_wraparound", False)) for j in self.joints],
                 "update_rate": self.update_rate}

@@ -222,6 +222,28 @@ def test_what_the_package_s_pid_would_drop_is_refused_on_export(tmp_path, capsys
         assert len(err.splitlines()) == 1 and f"{name} is set" in err and os.listdir(out) == []
 
 
+@pytest.mark.parametrize("d", [(30.0, 20.0), (0.0, 0.0)])
+def test_export_uses_control_toolbox_s_tracking_time_where_the_file_says_0(tmp_path, capsys, d):
+    """tracking_time_constant 0 is control_toolbox's default, sqrt(d/i) or, for a PI, p/i: the C exported
+    from the file has that back-calculation, not the package's own default (1 s for a PI)."""
+    text = open(HAND_WRITTEN, encoding="utf-8").read().replace("p: 150.0", "p: 120.0")
+    text = text.replace("d: 30.0", f"d: {d[0]}").replace("d: 20.0", f"d: {d[1]}")
+    path = tmp_path / "pid.yaml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["export", "--design", str(path), "--ts", "0.001", "--allow-uncertified", "--prefix", "pid",
+                 "--output", str(out)]) == 0
+    capsys.readouterr()
+    code = (out / "pid.c").read_text()
+    written = [float(v) for v in code.split("AW[2] = {")[1].split("}")[0].split(",")]
+    expected = [0.001 / CtPid(p, i, dj, u_clamp_max=50.0, u_clamp_min=-50.0, antiwindup_strategy="back_calculation",
+                              tracking_time_constant=0.0).tracking_time_constant
+                for p, i, dj in ((200.0, 400.0, d[0]), (120.0, 300.0, d[1]))]
+    assert written == pytest.approx(expected, rel=1e-15)
+    assert expected[0] != pytest.approx(expected[1])  # per joint, not one value
+
+
 def test_ros2_options_are_refused_in_one_line_writing_nothing(tmp_path, capsys):
     for extra, words in ((["--integrator", "tustin"], "integrates by forward Euler"),
                          (["--derivative", "filtered"], "velocity interfaces"),

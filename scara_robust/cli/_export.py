@@ -151,8 +151,9 @@ def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> d
         if strategies == {"none"}:
             out["anti_windup"] = False
         elif args.tracking_time is None:
-            tt = np.array(info["tracking_time_constant"], dtype=float)
-            if (tt > 0).all():
+            # control_toolbox's own time constant: the file's, or where it is 0 its default from p, i, d
+            tt = np.array(info["tracking_time"], dtype=float)
+            if (tt > 0).all() and np.isfinite(tt).all():
                 out["tracking_time"] = tt
     return out
 
