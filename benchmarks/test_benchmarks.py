@@ -374,6 +374,23 @@ def test_arm6_compiled_vs_lsoda_20s(benchmark, arm6_file_setup, method):
     assert _ARM6_ERRORS[t_final]["max_abs_error_difference [rad]"] <= 1e-6
 
 
+def test_arm6_sampled_lmi_solve(benchmark, arm6_file_setup):
+    """One solve of the sampled-data LMI at Ts = 1 ms on the 6-joint arm's coarse plants (`export`'s certificate).
+
+    The floor of the arm's `certify --max-ts`, `compare` and `export` with cvxpy + Clarabel: the
+    solver's iterations and seconds go into the record (docs/performance.md).
+    """
+    pytest.importorskip("cvxpy")
+    setup, _ = arm6_file_setup
+    benchmark.group = "arm: 6 joints, sampled-data LMI at 1 ms, one solve"
+    points = setup.plant.coarse_points() if not benchmark.disabled else {"t_ref": 5, "m_p": 2}
+    plants = setup.plant.samples(points)
+    pid = sr.design(setup.plant, 1000, 3).discretize(0.001)
+    cert = benchmark.pedantic(sr.sampled_certificate, ((plants.A, plants.B), pid), rounds=1)
+    benchmark.extra_info.update(plants=int(plants.A.shape[0]), states=int(cert.P.shape[0]), rate=cert.rate)
+    assert cert.certified and cert.n_plants == plants.A.shape[0]
+
+
 @pytest.fixture(scope="module")
 def board_pids():
     """The SCARA's PID at (3, 90) with an 8 N·m limit and the 6-joint arm's at (1000, 3), both at Ts = 1 ms."""
