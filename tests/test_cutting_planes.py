@@ -84,7 +84,11 @@ def test_cutting_planes_reach_the_optimum_of_the_solve_on_every_loop(paper, pape
     inactive = np.setdiff1d(np.arange(len(loops)), cut.active)
     assert worst[inactive].max() <= -1 + lmi.OPTIMUM_RTOL
     assert worst[cut.active].max() <= -1 + 10 * SOLVER_RTOL * _objective(cut.P)
-    assert cut.decay_rate == pytest.approx(whole.decay_rate, rel=1e-4)
+    # the rate λmax(ĀᵀP + PĀ)/(2λmax(P)) is fixed by the objective, so it is unique; the exact rate of each P
+    # (a generalized eigenvalue, what decay_rate reports) is at least that, and the optimal P is not unique
+    bound_cut, bound_whole = (sr.verify_lyapunov(loops, P)[1] for P in (cut.P, whole.P))
+    assert bound_cut == pytest.approx(bound_whole, rel=1e-4)
+    assert cut.decay_rate >= bound_cut and whole.decay_rate >= bound_whole
 
 
 @pytest.mark.lmi
@@ -108,7 +112,9 @@ def test_a_check_loop_the_solve_misses_joins_the_active_set(fresh):
     assert sr.verify_lyapunov(check, alone.P)[1] <= 0  # the P of the main loops fails the check loop
     both = sr.lmi_certificate(main, check=[check])
     assert both.certified and 2 in both.active
-    assert sr.verify_lyapunov(np.concatenate([main, check]), both.P)[1] == pytest.approx(both.decay_rate)
+    every = np.concatenate([main, check])
+    assert both.decay_rate == sr.decay_rate(every, both.P)  # the exact rate of this P on every loop
+    assert 0 < sr.verify_lyapunov(every, both.P)[1] <= both.decay_rate  # above the cruder bound λmax/(2λmax(P))
 
 
 @pytest.mark.lmi

@@ -101,6 +101,23 @@ def test_margin_and_compare_on_the_arm_print_no_negative_mass(capsys):
     assert "-0.45" not in out
 
 
+@pytest.mark.lmi
+def test_a_lower_bound_that_fails_at_the_nominal_point_certifies_no_range(capsys):
+    """At (1, 2) the arm's Theorem 1 fails even at the nominal payload: its row has no range (not [1, 1] kg),
+    and compare's certified high is NaN, while the LMI's row certifies a range."""
+    arm = sr.load_plant(ARM)
+    table = sr.parameter_margin(arm, sr.design(arm, 1, 2), ["theorem1", "lmi-physical"]).set_index("method")
+    assert table.loc["theorem1", ["scale", "m low [kg]", "m high [kg]"]].isna().all()
+    assert "no range certified" in table.loc["theorem1", "message"]
+    assert "not even at the nominal point" in table.loc["theorem1", "message"]
+    assert table.loc["lmi-physical", "scale"] > 1 and table.loc["lmi-physical", "m high [kg]"] > 2.0
+    assert main(["compare", "--model", ARM, "--rho", "1", "--eta", "2", "--no-synthesis", "--t-final", "7",
+                 "--format", "json"]) == 0
+    compared = json.loads(capsys.readouterr().out)
+    records = compared if isinstance(compared, list) else compared["designs"]
+    assert math.isnan(records[0]["m certified high [kg]"]) or records[0]["m certified high [kg]"] is None
+
+
 def test_the_motor_frozen_bound_names_the_upper_end_and_its_routh_hurwitz_value():
     motor = sr.load_plant(MOTOR)
     d = sr.design(motor, 1, 10)
@@ -199,6 +216,30 @@ def test_certify_compare_export_and_the_page_report_one_decay_rate(capsys, tmp_p
 
 
 @pytest.mark.lmi
+@pytest.mark.lmi
+@pytest.mark.parametrize("model", [MOTOR, ARM, ZOH])
+def test_the_lmi_row_and_the_decay_line_give_one_rate_for_one_p(capsys, model):
+    """certify's ``lmi-box`` row and its decay line ask the same question of the same P: one number,
+    the exact rate of that P (a generalized eigenvalue), not a cruder bound of it."""
+    setup = ["--model", model] + (["--design", ZOH_GAIN] if model == ZOH else ["--rho", "1", "--eta", "10"])
+    rows = _certify_json(capsys, setup)
+    line = rows["decay-rate"]
+    assert line["set"].startswith("the interval box")  # the same loops as the lmi-box row
+    if line["from"] == "a common P by LMI":
+        assert line["decay_rate [1/s]"] == pytest.approx(rows["lmi-box"]["decay_rate [1/s]"], rel=1e-12)
+    else:
+        said = line["detail"].split("a common P by LMI: ")[1].split(" 1/s")[0]
+        assert f"{rows['lmi-box']['decay_rate [1/s]']:.4g}" == said
+    plant = sr.load_plant(model)
+    K = sr.load_design(ZOH_GAIN).K if model == ZOH else sr.design(plant, 1, 10).K
+    loops = plant.interval_model().vertex_closed_loops(K)
+    found = sr.lmi_certificate(loops)
+    Li = np.linalg.inv(np.linalg.cholesky(found.P))
+    exact = min(-np.linalg.eigvalsh(Li @ (A.T @ found.P + found.P @ A) @ Li.T).max() / 2 for A in loops)
+    assert found.decay_rate == pytest.approx(exact, rel=1e-9)
+    assert rows["lmi-box"]["decay_rate [1/s]"] == pytest.approx(exact, rel=1e-9)
+
+
 def test_certify_export_and_the_page_bracket_the_sample_time_alike(capsys, tmp_path):
     """The own-gain guide's ZOH benchmark: certify --max-ts and export beyond the limit give one bracket."""
     rows = _certify_json(capsys, ["--model", ZOH, "--design", ZOH_GAIN, "--max-ts"])

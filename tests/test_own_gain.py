@@ -83,6 +83,8 @@ def test_export_your_static_state_feedback(tmp_path, capsys):
     source = (tmp_path / "zoh_state_feedback.c").read_text(encoding="utf-8")
     assert "void zoh_state_feedback_step(const double x[ZOH_STATE_FEEDBACK_NX]" in header
     assert "u[0] = force [N]" in header and "3.75" in source and "11.5" in source
+    # the plant's outputs are its state (no C): the controller reads them by name and unit
+    assert "x[0] = position [m]" in header and "x[1] = velocity [m/s]" in header
     refused(capsys, ["export", "--model", PLANT, "--design", GAIN, "--ts", "1.8", "--output", str(tmp_path / "x")],
             "`--output`")
     (tmp_path / "x").mkdir()

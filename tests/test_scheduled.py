@@ -313,7 +313,7 @@ def test_sampled_certificate_of_the_schedule_brackets_ts(arm):
     assert not slow.certified
 
 
-def test_export_of_a_schedule_is_refused_beyond_its_certificate(tmp_path, capsys):
+def test_export_of_a_schedule_is_refused_beyond_its_certificate(tmp_path, capsys, arm):
     schedule = tmp_path / "s.json"
     assert main(["synthesize", "--model", ARM, "--schedule", "m", "--breakpoints", "3", "--rate", "1",
                  "--gain-bound", "20", "--output", str(schedule)]) == 0
@@ -321,21 +321,38 @@ def test_export_of_a_schedule_is_refused_beyond_its_certificate(tmp_path, capsys
     out = tmp_path / "c"
     out.mkdir()
     base = ["export", "--model", ARM, "--design", str(schedule), "--ts", "0.001", "--output", str(out)]
-    for extra, why in ((["--rate", "2"], "rate 2 kg/s asked, 1.0 certified"),
-                       (["--rate", "1", "--measurement-error", "0.1"], "measurement error 0.1 kg asked, 0.05"),
-                       (["--rate", "1", "--ts", "1.0"], "a frozen sampled loop is unstable")):
-        argv = base + extra if "--ts" not in extra else [*base[:-4], *extra, "--output", str(out)]
-        assert main(argv) == 2
-        err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and why in err[0] and "nothing written" in err[0], err
-        assert list(out.iterdir()) == []
-    assert main([*base, "--rate", "1"]) == 0
+    # a Ts the sampled-data certificate refuses
+    assert main([*base[:-4], "--rate", "1", "--ts", "1.0", "--output", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a frozen sampled loop is unstable" in err[0] and "nothing written" in err[0], err
+    assert list(out.iterdir()) == []
+    assert main([*base, "--rate", "1"]) == 0  # what the file's certificate covers
     header = (out / "arm_pid_scheduled.h").read_text()
     assert "int arm_pid_scheduled_step(const double x[ARM_PID_SCHEDULED_NX], double p_hat" in header
     assert "WARNING" not in header and "measurement_error = 0.05" in header and "x[1] = angle error [rad]" in header
-    assert main([*base, "--rate", "2", "--allow-uncertified", "--precision", "single"]) == 0
-    header = (out / "arm_pid_scheduled.h").read_text()
-    assert "WARNING: NOT CERTIFIED as asked (rate 2 kg/s asked" in header and "float p_hat" in header
+    # beyond the file's record (rate 1 kg/s, 0.05 kg) the certificate certify gives is computed: here it holds
+    gain = sr.load_schedule(schedule)
+    for rate, error in ((2.0, 0.05), (1.0, 0.1)):
+        assert sr.schedule_certificate(arm, gain, rate=rate, measurement_error=error).certified
+        assert main([*base, "--rate", f"{rate:g}", "--measurement-error", f"{error:g}"]) == 0
+        said = capsys.readouterr().out
+        assert f"certified for rate {rate:g} kg/s and measurement error {error:g} kg" in said
+        assert "WARNING" not in (out / "arm_pid_scheduled.h").read_text()
+    # a schedule no P certifies (positive feedback at the heavy end): refused, or written with a warning
+    bad = sr.ScheduledGain("m", "kg", gain.breakpoints, np.concatenate([gain.gains[:-1], -gain.gains[-1:]]))
+    bad_file = tmp_path / "bad.json"
+    bad.save(bad_file)
+    empty = tmp_path / "e"
+    empty.mkdir()
+    argv = ["export", "--model", ARM, "--design", str(bad_file), "--ts", "0.001", "--rate", "1", "--output", str(empty)]
+    assert not sr.schedule_certificate(arm, bad, rate=1.0, measurement_error=0.05).certified
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "at rate 1 kg/s and measurement error 0.05 kg" in err[0] and "nothing written" in err[0]
+    assert list(empty.iterdir()) == []
+    assert main([*argv, "--allow-uncertified", "--precision", "single"]) == 0
+    header = (empty / "arm_pid_scheduled.h").read_text()
+    assert "WARNING: NOT CERTIFIED as asked (at rate 1 kg/s" in header and "float p_hat" in header
 
 
 def test_simulate_runs_a_schedule_file_with_a_measurement_bias(tmp_path, capsys, arm):
@@ -623,3 +640,20 @@ def test_the_rate_objective_synthesizes_the_table_certified_for_the_fastest_para
         assert main(["synthesize", "--model", ARM, *argv]) == 2
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, err
+
+
+@pytest.mark.lmi
+def test_what_one_p_certifies_at_any_rate_is_certified_at_every_rate_bound(arm):
+    """A fixed gain at the edge of its decay: the rate-0 LMI's P(p) fails numpy's check on the finer grid,
+    yet one P for all p holds, so the certificate at ν = 0 (a frozen payload) and at ν = 1 kg/s says certified,
+    as it does at any rate."""
+    coarse, fine = arm.samples(arm.coarse_points()), arm.samples()
+    best = sr.synthesize((coarse.A, coarse.B), objective="decay", gain_bound=20.0, check=(fine.A, fine.B))
+    fixed = sr.ScheduledGain("m", "kg", np.linspace(0.0, 2.0, 5), np.stack([best.K] * 5), "fixed")
+    anyrate = sr.schedule_certificate(arm, fixed, rate=math.inf, decay=0.9)
+    assert anyrate.certified and anyrate.margin < 0
+    for rate in (0.0, 1.0):
+        cert = sr.schedule_certificate(arm, fixed, rate=rate, decay=0.9)
+        assert cert.certified, (rate, cert.message)
+        assert cert.margin < 0 and min(np.linalg.eigvalsh(Pj)[0] for Pj in cert.P) > 0
+    assert sr.max_schedule_rate(arm, fixed, decay=0.9)[0] == math.inf

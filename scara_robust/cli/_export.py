@@ -211,7 +211,11 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                                    "form, whose controller is u = -K x(t_k) held")
         d, gain = resolve_gain(args, model, system.joint_names())
         controller: DiscretePID | SampledStateFeedback = SampledStateFeedback(d.K, args.ts)
-        signals = {"outputs": physical.inputs}  # the controller's outputs are the plant's inputs; it reads x0..
+        # the controller's outputs are the plant's inputs; it reads the state: the plant's outputs when they are
+        # the state (no C), else x0..
+        signals = {"outputs": physical.inputs}
+        if physical.C is None and len(physical.outputs) == d.K.shape[1]:
+            signals["inputs"] = physical.outputs
         gain = f"static state feedback, {gain}"
         meta: dict[str, Any] = ({"design_file": args.design} if args.design is not None else
                                 {"rho": d.rho, "eta": d.eta})

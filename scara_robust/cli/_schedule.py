@@ -328,8 +328,9 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``export --design SCHEDULE.json``: a scheduled gain to C or JSON, with its certificates checked first.
 
     Refused (nothing written) unless ``--allow-uncertified``, which the header records: a
-    rate or measurement error asked beyond what the schedule file was certified for, and a
-    Ts the sampled-data certificate does not hold at.
+    rate or measurement error the schedule is not certified for (the file's certificate, or
+    where it is asked beyond it, :func:`scara_robust.schedule_certificate` as ``certify``
+    computes it), and a Ts the sampled-data certificate does not hold at.
 
     Parameters
     ----------
@@ -348,16 +349,18 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--design` {args.design!r}: schedules {name!r}, which {plant.name!r} does not have")
     param = plant.parameter(name)
     rate, delta = param.motion_bounds(args.schedule_rate, args.measurement_error)
-    certified = gain.certified
     problems = []
-    if not certified:
-        problems.append("the schedule file records no certificate")
-    else:
-        if rate > (gain.recorded("rate") or 0.0):
-            problems.append(f"rate {rate:g} {param.unit}/s asked, {certified.get('rate')} certified")
-        if delta > (gain.recorded("measurement_error") or 0.0):
-            problems.append(f"measurement error {delta:g} {param.unit} asked, {certified.get('measurement_error')} "
-                            "certified")
+    covered = bool(gain.certified) and rate <= (gain.recorded("rate") or 0.0) \
+        and delta <= (gain.recorded("measurement_error") or 0.0)
+    if not covered:
+        # beyond what the file records: the certificate `certify` gives, at the rate and error asked
+        try:
+            now = schedule_certificate(plant, gain, rate=rate, measurement_error=delta)
+        except ArgumentError as err:
+            raise CommandLineError(f"`--design` {args.design!r}: {err}") from err
+        if not now.certified:
+            problems.append(f"at rate {rate:g} {param.unit}/s and measurement error {delta:g} {param.unit}: "
+                            f"{now.message}")
     try:
         sampled = schedule_sampled_certificate(plant, gain, args.ts, measurement_error=delta)
     except ArgumentError as err:

@@ -51,9 +51,10 @@ def add_parser(sub: Any) -> None:
         "--objective",
         choices=(*OBJECTIVES, "rate"),
         default=None,
-        help="'l2': smallest worst-case gain from disturbance torque to tracking error (default for PID-structured "
-        "plants); 'decay': fastest certified decay; 'margin': largest scaling of the box one gain certifies; "
-        "with --schedule, 'decay' (default) or 'rate': the fastest parameter certified at --decay (default 0)",
+        help="'l2': smallest worst-case gain from a disturbance at the inputs (a torque on a robot) to the tracking "
+        "error (default for PID-structured plants); 'decay': fastest certified decay; 'margin': largest scaling "
+        "of the box one gain certifies; with --schedule, 'decay' (default) or 'rate': the fastest parameter "
+        "certified at --decay (default 0)",
     )
     p.add_argument("--decay", type=finite_float, default=None,
                    help=f"decay rate α required of the state, 1/s, with dV/dt <= -2αV (>= 0; default: maximized, "
@@ -77,7 +78,18 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _text(result: Synthesis, what: str, margin: str) -> str:
+def _l2_unit(system: LoadedSystem) -> str:
+    """The L2 gain's unit, tracking error per input disturbance (``rad/(N·m)`` for a robot, ``rad/A`` for a motor)."""
+    signals = system.signal_names()
+    outputs = {s.unit for s in signals.get("outputs", ())}
+    inputs = {s.unit for s in signals.get("inputs", ())}
+    if len(outputs) != 1 or len(inputs) != 1:
+        return "(error unit)/(input unit)" if signals else "rad/(N·m)"
+    out, inp = outputs.pop(), inputs.pop()
+    return f"{out}/({inp})" if any(c in inp for c in "·*/ ") else f"{out}/{inp}"
+
+
+def _text(result: Synthesis, what: str, margin: str, l2_unit: str = "rad/(N·m)") -> str:
     lines = [f"synthesize: {what}" + ("" if result.structure == "full" else f", structure {result.structure}"),
              f"status: {result.status} ({result.message})"]
     if result.K is None or result.design is None:
@@ -93,7 +105,7 @@ def _text(result: Synthesis, what: str, margin: str) -> str:
     if result.search:
         lines.append(f"search: {result.search}")
     if result.objective == "l2":
-        lines.append(f"worst-case L2 gain (disturbance torque -> error) <= {result.gamma:.4g} rad/(N·m)")
+        lines.append(f"worst-case L2 gain (input disturbance -> tracking error) <= {result.gamma:.4g} {l2_unit}")
     if result.objective == "margin":
         lines.append(f"certified scaling of the box: theta = {result.theta:.4g}")
     lines.append(f"||K||_2 = {result.gain_norm:.4g} (bound {result.gain_bound:g}); {result.seconds:.1f} s")
@@ -139,7 +151,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         if physical_plant is None or physical_plant.input_limits is None or box is None or model is None:
             raise CommandLineError("`--within-limits` needs a plant file in the PID form (or --initial-error) whose "
                                    "[[inputs]] give a `limit`, and --set box")
-        limits = {"input_limits": physical_plant.input_limits, "initial_errors": box}
+        limits = {"input_limits": physical_plant.input_limits, "initial_errors": box,
+                  "inputs": physical_plant.inputs}
     elif args.initial_error is not None:
         raise CommandLineError("`--initial-error` goes with --within-limits")
     if uncertainty_set == "physical":  # the SCARA's physical set, or an arm's samples
@@ -195,9 +208,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             write_design(output, result.K, result.P, **info)
         except OSError as err:
             raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
-        return _text(result, what, margin) + f"\ndesign file: {output}"
+        return _text(result, what, margin, _l2_unit(system)) + f"\ndesign file: {output}"
     if args.format == "json":
         if result.K is None:
             return json.dumps(info, indent=2)
         return json.dumps(design_record(result.K, result.P, **info), indent=2)
-    return _text(result, what, margin)
+    return _text(result, what, margin, _l2_unit(system))

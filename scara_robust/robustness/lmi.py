@@ -162,8 +162,9 @@ class LMICertificate(AnalysisResult):
     max_vertex_eig : float
         numpy's ``max_v λmax(Ā_vᵀP + PĀ_v)`` (NaN without P).
     decay_rate : float
-        Verified decay rate α of the state, 1/s (``V̇ <= −2αV``): ``−max_vertex_eig /
-        (2 λmax(P))`` when P is positive definite, else NaN. Positive means certified.
+        Verified decay rate α of ``V = xᵀPx``, 1/s (``V̇ <= −2αV``): :func:`decay_rate` of P on
+        every loop, ``min_v −λmax(P^{-1/2}(Ā_vᵀP + PĀ_v)P^{-1/2}) / 2`` (``-inf`` when P is not
+        positive definite, NaN without P). Positive means certified.
     n_vertices : int
     floor : float
         The smallest decay rate reported as certified (:func:`decay_floor`), 1/s.
@@ -503,8 +504,9 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
         return LMICertificate("infeasible" if unstable is not None else status, solver, None, np.nan, np.nan,
                               n_loops, active=active, unstable_loop=unstable)
     P_val.setflags(write=False)
-    max_vertex_eig, margin = verify_lyapunov(A_v, P_val)
-    return LMICertificate(status, solver, P_val, max_vertex_eig, float(margin), n_loops, floor, active=active)
+    max_vertex_eig, _ = verify_lyapunov(A_v, P_val)
+    # the exact rate of V = xᵀPx on the loops, as decay_rate reports it for any P (one question, one number)
+    return LMICertificate(status, solver, P_val, max_vertex_eig, decay_rate(A_v, P_val), n_loops, floor, active=active)
 
 
 #: The two forms of the common-P LMI, by the question they answer: ``'decay'`` minimizes λ with

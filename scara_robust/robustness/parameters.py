@@ -209,7 +209,8 @@ def parameter_margin(
     -------
     pandas.DataFrame
         One row per method: ``method``, ``kind`` ('lower' or 'upper'), ``scale`` (s; 1 is the
-        plant's own box), ``bracket`` (the s where the answer changes), then for each varying
+        plant's own box; NaN, and NaN ranges, for a lower bound that fails at the nominal
+        point), ``bracket`` (the s where the answer changes), then for each varying
         parameter ``NAME low [UNIT]`` and ``NAME high [UNIT]`` (its range at s), ``seconds``
         and ``message``.
 
@@ -257,7 +258,8 @@ def parameter_margin(
         # an upper bound tests eigenvalues only: cheap, so bisected to 1e-9 on a finer scan
         upper = kind == "upper"
         lo, hi, note = _search(ok, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
-        scale = lo if kind == "lower" else hi
+        # a lower bound that fails at the nominal point certifies no range, not the nominal point alone
+        scale = (math.nan if hi == 0.0 else lo) if kind == "lower" else hi
         end = ""
         if upper and math.isfinite(hi):
             end, where = frozen_end(plant, K, hi)
@@ -266,7 +268,7 @@ def parameter_margin(
         elif upper:
             message = "no unstable frozen plant"
         else:
-            message = "certified up to lo, not at hi"
+            message = "certified up to lo, not at hi" if hi > 0.0 else "no range certified"
         if note:
             message = f"{message}; {note}"
         stops = _at_limits(varying, scale)

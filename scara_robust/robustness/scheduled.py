@@ -478,10 +478,11 @@ def schedule_certificate(
         return result(verdict, P, coarse.A.shape[0], int(active.size), fine.A.shape[0], margin, message)
 
     found = attempt(nu, "P(p)" if moving else "P")
-    if found.certified or not moving:
+    if found.certified or math.isinf(nu):
         return found
     # One P for every p is a P(p) with no slope, and its LMI is better conditioned: where the
-    # P(p) solve fails (numerically, or infeasible on the grid), it may still hold
+    # P(p) solve fails (numerically, or infeasible on the grid), it may still hold; what holds at
+    # any rate holds at every bound on it, a frozen parameter (ν = 0) included
     common = attempt(math.inf, "one P for all p")
     return common if common.certified else found
 

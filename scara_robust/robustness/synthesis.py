@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_array, check_choice, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
-from ..model.plant import ModelLike, as_model, is_model
+from ..model.plant import ModelLike, Signal, as_model, is_model
 from ..results import AnalysisResult
 from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
@@ -498,6 +498,7 @@ def synthesize(
     input_limits: ArrayLike | None = None,
     initial_errors: ArrayLike | None = None,
     structure: str = "full",
+    inputs: Sequence[Signal] | None = None,
 ) -> Synthesis:
     """Synthesize ``u = −Kx`` and its common Lyapunov matrix over an uncertainty set.
 
@@ -552,6 +553,9 @@ def synthesize(
         block-diagonal per joint (state ``a`` belongs to joint ``a mod m``), so
         ``K = Y Q⁻¹`` is too; it gives up the coupled gain and a Lyapunov function that
         couples the joints, so its decay is at most the full synthesis's.
+    inputs : sequence of Signal, optional
+        The inputs' names and units in the input-limit certificate's message (default: the
+        model's own, for a plant with named inputs).
 
     Returns
     -------
@@ -581,6 +585,7 @@ def synthesize(
     """
     start = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)
+    named = inputs if inputs is not None else getattr(model, "inputs", None)  # a plant's, before its interval model
     if is_model(model):
         model = as_model("model", model)
         A, B = model.vertex_matrices()
@@ -726,7 +731,8 @@ def synthesize(
     limit_cert = None
     if u_lim is not None and points is not None:
         loops = A - B @ K if A_chk is None or B_chk is None else np.concatenate([A - B @ K, A_chk - B_chk @ K])
-        limit_cert = input_limit_certificate(K, P, u_lim, points, closed_loops=loops)
+        limit_cert = input_limit_certificate(K, P, u_lim, points, closed_loops=loops,
+                                             inputs=named if named is not None and len(named) == m else None)
         ok = ok and limit_cert.certified
     verdict = "not verified"
     if ok:
