@@ -944,9 +944,11 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
                   title: str | None = None) -> Any:
     """Each entry of a scheduled gain against its parameter, the fixed gain beside it.
 
-    One panel per nonzero entry ``K_ij`` (at most 12, the largest first): the table's values at
-    the breakpoints (markers), linear between them as the controller interpolates, and a
-    fixed gain's entry as a dashed line.
+    One panel per nonzero entry (at most 12, the largest first): the table's values at the
+    breakpoints (markers), linear between them as the controller interpolates, and a fixed
+    gain's entry as a dashed line. A PID-form plant's entries are drawn as its PID gains
+    ``K_I, K_P, K_D`` of ``u = K_P e + K_I ∫e + K_D ė`` (the entries of ``−K``), as the command
+    line prints them; any other plant's as the entries of ``K`` in ``u = −K x``.
 
     Parameters
     ----------
@@ -966,6 +968,8 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
     m, n = gain.shape
     K_fixed = None if fixed is None else np.asarray(fixed, dtype=float).reshape(m, n)
     names, per = gain_entry_labels(plant)
+    pid = plant.form == "pid" and n == 3 * len(plant.outputs)
+    sign = -1.0 if pid else 1.0  # u = −K x with x = [∫e, e, ė]: the PID gains are −K
     ins: list[Any] = list(plant.inputs) or [None] * m
     size = np.abs(gain.gains).max(axis=0)
     entries = [(i, j) for i, j in zip(*np.unravel_index(np.argsort(-size, axis=None), size.shape)) if size[i, j] > 0]
@@ -979,10 +983,10 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
     for ax, (i, j) in zip(axes.flat, entries):
         unit = f"{ins[i].unit}/{per[j]}" if ins[i] is not None else "input unit per state unit"
         label = names[j] if m == 1 else f"{names[j]} → {ins[i].name if ins[i] is not None else i}"
-        ax.plot(p, curve[:, i, j], color="C0", label="scheduled K(p̂)")
-        ax.plot(gain.breakpoints, gain.gains[:, i, j], "o", color="C0", ms=4, label="breakpoints")
+        ax.plot(p, sign * curve[:, i, j], color="C0", label="scheduled gain at p̂")
+        ax.plot(gain.breakpoints, sign * gain.gains[:, i, j], "o", color="C0", ms=4, label="breakpoints")
         if K_fixed is not None:
-            ax.axhline(K_fixed[i, j], color="C1", ls="--", label="fixed gain")
+            ax.axhline(sign * K_fixed[i, j], color="C1", ls="--", label="fixed gain")
         ax.set_title(label, fontsize=_LEGEND_SIZE + 1)
         ax.set_ylabel(f"gain [{unit}]")
         ax.set_xlabel(f"measured {gain.parameter} [{gain.unit}]")
@@ -991,6 +995,7 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
         ax.set_visible(False)
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=_LEGEND_SIZE)
-    fig.suptitle(title or f"{plant.name}: K of u = −K x, scheduled on {gain.parameter} ({gain.method})")
+    what = "PID gains (u = K_P e + K_I ∫e + K_D ė)" if pid else "K of u = −K x"
+    fig.suptitle(title or f"{plant.name}: {what}, scheduled on {gain.parameter} ({gain.method})")
     return fig
 

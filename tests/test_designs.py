@@ -70,6 +70,20 @@ def test_design_labels_must_not_hide_a_controller():
 
 
 @pytest.mark.lmi
+@pytest.mark.parametrize("extra", [["--gain-bound", "1e-3"], []], ids=["tiny-bound", "default"])
+def test_synthesize_writes_no_design_file_for_a_gain_it_does_not_certify(tmp_path, capsys, extra):
+    """The two carts: no certified gain (here the solver's gain fails numpy's check at ‖K‖ <= 1e-3, and by
+    default it decides nothing, infeasible_inaccurate): one line, exit 2, no file, no solver jargon alone."""
+    out = tmp_path / "t.json"
+    assert main(["synthesize", "--model", "examples/plant-two-mass.toml", *extra, "--output", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not written" in err[0], err
+    honest = ("the gain is not certified", "neither an answer nor a proof that none exists", "no gain with")
+    assert any(words in err[0] for words in honest) and "Try another solver" not in err[0], err
+    assert not out.exists()
+
+
+@pytest.mark.lmi
 def test_synthesize_writes_a_design_file_that_simulate_reads(tmp_path, capsys):
     out = tmp_path / "box.json"
     assert main(["synthesize", "--model", "examples/plant-dc-motor-elements.toml", "--output", str(out)]) == 0

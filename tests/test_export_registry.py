@@ -241,3 +241,11 @@ def test_the_targets_refuse_what_export_controller_refuses(pids, name):
         sr.get_target(name).files(pids["plain"], precision="half")
     with pytest.raises(ValueError, match=r"`prefix` must be a C identifier"):
         sr.get_target(name).files(pids["plain"], prefix="scara-pid")
+
+
+@pytest.mark.parametrize("unit, rate", [("rad", "rad/s"), ("1", "1/s"), ("1/s", "1/s²"), ("m/s", "m/s²"),
+                                        ("N·m", "N·m/s"), ("m/s²", "(m/s²)/s"), ("m/(N·s²)", "(m/(N·s²))/s")])
+def test_the_unit_of_a_rate_reads_as_one(unit, rate):
+    from scara_robust.export._common import per_second
+
+    assert per_second(unit) == rate

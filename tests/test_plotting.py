@@ -3,8 +3,10 @@
 Small inputs (7-s runs, 20 x 20 grids), so the module runs in a few seconds.
 """
 
+import os
 import re
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,6 +14,7 @@ from matplotlib.contour import ContourSet
 
 import scara_robust as sr
 
+EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples")
 #: A unit in brackets (``[rad]``, ``[N·m]``, ``[-]``) or a number with its unit (``0.02 rad``, ``t = 6 s``).
 UNIT = re.compile(r"\[[^\]]+\]|\d (rad|N·m|kg|s)\b")
 #: Legend entries of dimensionless statements that `tests/test_reproduction.py` pins word for word.
@@ -317,3 +320,24 @@ def test_margin_figures_have_units_plain_labels_and_legends_off_the_data(surface
     assert "θ" in ax.get_xlabel() and "[-]" in ax.get_xlabel()
     _check_units(ax.figure)
     _assert_off_the_data(ax.get_legend(), ax)
+
+
+def test_a_scheduled_pid_is_drawn_as_its_pid_gains_with_units():
+    """plot_schedule on a PID-form plant draws K_I, K_P, K_D (the entries of −K, positive for a stabilizing
+    PID) as the command line prints them, the fixed gain beside them, every axis with its unit."""
+    plant = sr.load_plant(os.path.join(EXAMPLES, "plant-arm-payload.toml"))
+    gain = sr.schedule_riccati(plant, "m", np.linspace(0.0, 2.0, 3), 1.0, 10.0)
+    fixed = sr.design(plant, 1.0, 10.0).K
+    fig = sr.plot_schedule(gain, plant, fixed=fixed)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert sorted(ax.get_title() for ax in axes) == ["K_D", "K_I", "K_P"]
+    column = {"K_I": 0, "K_P": 1, "K_D": 2}
+    for ax in axes:
+        j = column[ax.get_title()]
+        curve, markers, dashed = ax.get_lines()
+        np.testing.assert_allclose(markers.get_ydata(), -gain.gains[:, 0, j])
+        np.testing.assert_allclose(curve.get_ydata(), -gain.gain(curve.get_xdata())[:, 0, j])
+        assert np.all(markers.get_ydata() > 0) and dashed.get_ydata()[0] == pytest.approx(-fixed[0, j])
+        assert ax.get_xlabel() == "measured m [kg]" and "N·m/" in ax.get_ylabel()
+    assert "PID gains" in fig._suptitle.get_text()
+    plt.close(fig)

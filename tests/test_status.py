@@ -72,7 +72,10 @@ def test_simulate_prints_a_summary_by_default(capsys, tmp_path):
     assert main(["simulate", "--scenario", "small", "--t-final", "6.5", "--output", str(csv)]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[1].startswith("status: tracking (max |e| after 6 s = ")
-    assert any(line.startswith("  max_abs_error_after_6s = ") for line in out)
+    assert any(line.startswith("  max_abs_error_after_6s = ") and line.endswith(" rad") for line in out)
+    units = {line.split(" = ")[0].strip(): line.rsplit(" ", 1)[1] for line in out if line.startswith("  ")}
+    assert units == {"max_abs_error_after_6s": "rad", "rms_error_after_6s": "rad", "peak_torque": "N·m",
+                     "max_abs_torque_after_6s": "N·m", "chattering_index": "N·m/s", "control_energy": "N²·m²·s"}
     assert out[-1] == f"time series: {csv}" and csv.read_text().startswith("t,e1,e2")
 
 

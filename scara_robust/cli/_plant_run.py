@@ -11,6 +11,7 @@ import numpy as np
 from ..controller.scheduled import ScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
+from ..export._common import per_second
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
@@ -274,5 +275,5 @@ def summary(run: PlantRun, plant: UncertainPlant, head: str) -> list[str]:
         if prm.varies:
             rate = "" if prm.rate is None else f" (bound {prm.rate:.4g})"
             lines.append(f"  {prm.name} in [{run.p[k].min():.6g}, {run.p[k].max():.6g}] {prm.unit}, "
-                         f"max |d{prm.name}/dt| = {run.max_rate[k]:.4g} {prm.unit}/s{rate}")
+                         f"max |d{prm.name}/dt| = {run.max_rate[k]:.4g} {per_second(prm.unit)}{rate}")
     return lines

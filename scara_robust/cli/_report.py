@@ -9,10 +9,10 @@ from typing import Any
 import pandas as pd
 
 from ..plotting import plot_campaign
+from ..simulation.metrics import METRIC_UNITS
 from ..studies.campaign.inputs import DRAWN_COLUMNS
 from ..studies.campaign.report import (
     BOOTSTRAP_RESAMPLES,
-    METRIC_UNITS,
     REPORT_CONFIDENCE,
     campaign_report,
     worst_scenarios,

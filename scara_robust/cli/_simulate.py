@@ -20,7 +20,7 @@ from ..paper import PAPER_DESIGN_POINT, PAPER_T_FINAL
 from ..plotting import plot_plant_run, plot_response
 from ..simulation.controllers import CONTROLLERS, scheduled_pid_controller
 from ..simulation.engines import ENGINES
-from ..simulation.metrics import TRACKING_TOLERANCE
+from ..simulation.metrics import METRIC_UNITS, TRACKING_TOLERANCE
 from ..simulation.plants import PLANT_TRACKING_RTOL
 from ..simulation.run import SimulationResult, run_scenario, simulate
 from ..studies.campaign.inputs import replay_scenario
@@ -122,7 +122,8 @@ def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
         f"status: {res.status} ({res.status_reason})",
     ]
     if res.has_metrics:
-        lines += [f"  {name} = {value:.4g}" for name, value in res.metrics().to_dict().items()]
+        lines += [f"  {name} = {value:.4g} {unit}"
+                  for (name, value), unit in zip(res.metrics().to_dict().items(), METRIC_UNITS.values())]
     lines += files or ["time series: not written (use --output FILE or --format csv|json)"]
     return "\n".join(lines)
 

@@ -204,6 +204,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if output is not None:  # the design file; main() prints the summary
         if result.K is None:
             raise CommandLineError(f"`--output` {output!r} not written: {result.message}")
+        if not result.certified:  # a design file holds a certified gain; --format json shows the solver's answer
+            raise CommandLineError(f"`--output` {output!r} not written: the gain is not certified ({result.message}); "
+                                   "--format json prints it")
         try:
             write_design(output, result.K, result.P, **info)
         except OSError as err:

@@ -55,4 +55,9 @@ def unit_of(units: Sequence[str]) -> str | list[str]:
 
 
 def per_second(unit: str) -> str:
-    return "1/s" if unit == "1" else f"{unit}/s"
+    """The unit of a rate of change: ``rad`` → ``rad/s``, ``1/s`` → ``1/s²``, ``m/s²`` → ``(m/s²)/s``."""
+    if unit in ("1", ""):
+        return "1/s"
+    if unit.endswith("/s") and "(" not in unit:
+        return f"{unit}²"
+    return f"({unit})/s" if "/" in unit else f"{unit}/s"

@@ -96,6 +96,41 @@ def decay_floor(closed_loops: ArrayLike) -> float:
     return float(DECAY_FLOOR_RTOL * np.linalg.norm(A, 2, axis=(1, 2)).max())
 
 
+def solver_said(status: str) -> str:
+    """A solver's status without an answer, in words (``'infeasible_inaccurate'``, ``'solver error: ...'``).
+
+    Parameters
+    ----------
+    status : str
+        As for :func:`lmi_verdict`.
+
+    Returns
+    -------
+    str
+        What the status means for the question, e.g. ``"the solver stopped on a numerical
+        failure: neither an answer nor a proof that none exists"``.
+
+    Examples
+    --------
+    >>> from scara_robust.robustness.lmi import solver_said
+    >>> said = solver_said("solver error: Solver 'CLARABEL' failed. Try another solver, or solve with verbose=True.")
+    >>> said.split(": ")[0]
+    "the solver stopped on a numerical failure (Solver 'CLARABEL' failed)"
+    """
+    unproven = "neither an answer nor a proof that none exists"
+    if status.startswith("solver error"):
+        # the solver's own words, without cvxpy's advice to the programmer
+        detail = status.partition(":")[2].split(" Try another solver")[0].strip().rstrip(".")
+        return f"the solver stopped on a numerical failure{f' ({detail})' if detail else ''}: {unproven}"
+    if status == "infeasible_inaccurate":
+        return f"the solver found the LMI infeasible only to a loose tolerance (infeasible_inaccurate): {unproven}"
+    if status in ("unbounded", "unbounded_inaccurate"):
+        return f"the solver found the LMI unbounded ({status}), which a well-posed LMI is not: {unproven}"
+    if status == INFEASIBLE_NOT_VERIFIED:
+        return f"the solver said infeasible, but its certificate fails numpy's check: {unproven}"
+    return f"the solver said {status}: {unproven}"
+
+
 def lmi_verdict(status: str, verified: bool) -> str:
     """What an LMI answer proves (one of :data:`LMI_VERDICTS`).
 

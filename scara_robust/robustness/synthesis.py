@@ -51,6 +51,7 @@ from .lmi import (
     decay_floor,
     decay_rate,
     lmi_verdict,
+    solver_said,
 )
 from .search import bisect
 
@@ -276,7 +277,7 @@ class Synthesis(AnalysisResult):
             return (f"the solver returned a gain ({self.status}) that numpy does not certify: decay "
                     f"{self.verified_decay:.4g} 1/s on the synthesis set, {self.check_decay:.4g} on the check set"
                     f"{limits}")
-        return f"no gain: {self.status}"
+        return f"no gain: {solver_said(self.status)}"
 
 
 #: The decay LMI's strictness: ``A_iQ − B_iY + (·)ᵀ + 2αQ ⪯ −10⁻⁶I`` (Q ⪰ I).

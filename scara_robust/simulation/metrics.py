@@ -106,6 +106,8 @@ def metric_names(t_transient: float = PAPER_TRANSIENT) -> tuple[str, ...]:
 
 #: Metric names at the paper's 6-s transient: the columns of ``compare`` and campaign tables.
 METRIC_NAMES = metric_names(PAPER_TRANSIENT)
+#: The unit of each metric, in the order of :func:`metric_names` (keyed by :data:`METRIC_NAMES`).
+METRIC_UNITS: dict[str, str] = dict(zip(METRIC_NAMES, ("rad", "rad", "N·m", "N·m", "N·m/s", "N²·m²·s")))
 
 
 def tracking_metrics(

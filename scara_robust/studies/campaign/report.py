@@ -29,8 +29,6 @@ __all__ = ["campaign_report", "worst_scenarios"]
 BOOTSTRAP_RESAMPLES = 2000
 #: Confidence level of the intervals of :func:`campaign_report`.
 REPORT_CONFIDENCE = 0.95
-#: Unit of each metric column of a campaign table.
-METRIC_UNITS: dict[str, str] = dict(zip(METRIC_NAMES, ("rad", "rad", "N·m", "N·m", "N·m/s", "N²·m²·s")))
 
 #: Resamples per block of the bootstrap: bounds the memory at ~block x n integers.
 _BLOCK = 250
@@ -213,7 +211,7 @@ def campaign_report(
         ``failed``, ``too-short``); ``failures`` (runs that are not ``tracking``),
         ``failure_rate`` and its Wilson score interval ``failure_rate low``,
         ``failure_rate high`` (:func:`wilson_interval`); and, for each metric (units in
-        :data:`METRIC_UNITS`), ``<metric> q<p>`` for every quantile with its
+        ``scara_robust.simulation.metrics.METRIC_UNITS``), ``<metric> q<p>`` for every quantile with its
         percentile-bootstrap interval ``<metric> q<p> low`` and ``<metric> q<p> high``
         (:func:`bootstrap_quantiles`), and ``<metric> max``. A metric no run has is NaN.
     """
@@ -267,8 +265,9 @@ def worst_scenarios(results: pd.DataFrame, n: int = 5) -> pd.DataFrame:
     -------
     pandas.DataFrame
         One row per run, controllers in sorted order: ``controller``, ``rank`` (1 is the
-        worst), ``scenario``, ``status``, the metrics (units in :data:`METRIC_UNITS`) and
-        the drawn inputs (``scara_robust.studies.campaign.inputs.DRAWN_COLUMNS``, units in
+        worst), ``scenario``, ``status``, the metrics (units in
+        ``scara_robust.simulation.metrics.METRIC_UNITS``) and the drawn inputs
+        (``scara_robust.studies.campaign.inputs.DRAWN_COLUMNS``, units in
         ``scara_robust.studies.campaign.spec.SPEC_FIELDS``) that the table has. Replay one with
         :func:`scara_robust.replay_scenario`.
     """
