@@ -171,11 +171,13 @@ def field_number(
     -------
     float
     """
+    # a dimensionless field ('-', '1' or none) is "a finite number", not "a finite number in -"
+    what = "a finite number" + ("" if unit in ("", "-", "1") else f" in {unit}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise error(f"{where} field `{field}` must be a finite number in {unit}, found {describe(value)}")
+        raise error(f"{where} field `{field}` must be {what}, found {describe(value)}")
     out = float(value)
     if math.isnan(out) or (math.isinf(out) and not (allow_inf and out > 0)):
-        raise error(f"{where} field `{field}` must be a finite number in {unit}, found {out}")
+        raise error(f"{where} field `{field}` must be {what}, found {out}")
     return out
 
 

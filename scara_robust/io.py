@@ -1070,6 +1070,9 @@ def load_design(path: str | os.PathLike[str]) -> DesignFile:
     text_path = os.fspath(path)
     if os.path.splitext(text_path)[1].lower() in (".yaml", ".yml"):
         return load_pid_controller(text_path).design_file()
+    if os.path.splitext(text_path)[1].lower() != ".json":
+        raise InputFileError(f"{text_path!r}: expected a design file (.json) or a pid_controller parameter "
+                             "file (.yaml)")
     data = read_mapping(text_path, extensions=(".json",))
     if data.get("format") != DESIGN_FORMAT:
         raise InputFileError(f"{text_path!r}: field `format` must be {DESIGN_FORMAT!r}, found "
@@ -1080,7 +1083,10 @@ def load_design(path: str | os.PathLike[str]) -> DesignFile:
     K = _matrix(where, "K", data["K"], (None, None))
     P = None
     if data.get("P") is not None:
-        P = _matrix(where, "P", data["P"], (K.shape[1], K.shape[1]))
+        P = _matrix(where, "P", data["P"], (None, None))
+        if P.shape != (K.shape[1], K.shape[1]):  # the two fields disagree: name both
+            raise InputFileError(f"{where} fields `K` and `P` disagree: K has shape {K.shape}, so P must be "
+                                 f"{(K.shape[1], K.shape[1])}, found {P.shape}")
     info = {k: v for k, v in data.items() if k not in ("format", "K", "P")}
     return DesignFile(text_path, K, P, info)
 

@@ -5,6 +5,7 @@ the message (the argument's name in backticks). Each CLI case checks exit code 2
 line on stderr, no traceback, and no file left behind.
 """
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -166,6 +167,14 @@ def _cli_cases(tmp):
     table = tmp / "table.csv"
     pd.DataFrame([{**row, **dict.fromkeys(sr.METRIC_NAMES, 0.01)}]).to_csv(table, index=False)
     replay = ["simulate", "--from-campaign", str(table)]
+    campaign_text = (EXAMPLES / "campaign.toml").read_text()
+    open_range = tmp / "open.toml"
+    open_range.write_text(campaign_text.replace("torque_limit = inf", "torque_limit = { min = 5.0, max = inf }"))
+    nan_rho = tmp / "nan.toml"
+    nan_rho.write_text(campaign_text.replace("rho = 3.0", "rho = nan"))
+    k_and_p = tmp / "kp.json"
+    k_and_p.write_text(json.dumps({"format": "scara_robust design 1", "K": np.ones((2, 5)).tolist(),
+                                   "P": np.eye(6).tolist()}))
     design = ["design", "--rho", "3", "--eta", "90"]
     export = ["export", "--rho", "3", "--eta", "90"]
     return [
@@ -277,6 +286,22 @@ def _cli_cases(tmp):
          "design: unrecognized arguments: --etta 90; did you mean --eta?"),
         ("margin-anchor-elements", ["margin", "--rho", "3", "--eta", "90", "--anchor", "center", "--elements", "A"],
          "`--anchor center` scales every element"),
+        ("campaign-open-range", ["campaign", str(open_range), "--runs", "2", "--output", str(tmp / "o.csv")],
+         "a range must have finite ends"),
+        ("campaign-nan-rho", ["campaign", str(nan_rho), "--runs", "2", "--output", str(tmp / "o.csv")],
+         "field `rho` must be a finite number, found nan"),
+        ("campaign-spec-missing", ["campaign", str(tmp / "none.toml"), "--output", str(tmp / "o.csv")],
+         "none.toml': No such file or directory"),
+        ("report-missing-parquet", ["campaign-report", str(tmp / "none.parquet")],
+         "none.parquet': No such file or directory"),
+        ("replay-missing-parquet", [*replay[:2], str(tmp / "none.parquet"), "--index", "1"],
+         "none.parquet': No such file or directory"),
+        ("design-json-not-json", [*design, "--format", "json", "--output", str(tmp / "d.txt")],
+         "--format json writes a design file"),
+        ("design-file-extension", ["simulate", "--design", str(tmp / "d.txt")], "a design file (.json)"),
+        ("design-file-k-and-p", ["certify", "--design", str(k_and_p)], "K has shape (2, 5), so P must be (5, 5)"),
+        ("margin-tol-above-1", ["margin", "--rho", "3", "--eta", "90", "--tol", "2"],
+         "`--tol` must be a relative tolerance in (0, 1), found 2"),
     ]
 
 
@@ -306,7 +331,9 @@ CLI_NAMES = [
     "simulate-method", "simulate-t-final-huge", "compare-t-final-huge", "campaign-runs-huge", "campaign-t-final-huge",
     "replay-t-final-huge", "export-uncertified-ts", "export-design-and-rho", "export-no-gain",
     "export-torque-limit-count", "export-tracking-time-count", "simulate-torque-limit-count", "plot-jpg",
-    "surface-mark-outside", "typo-before-missing", "margin-anchor-elements",
+    "surface-mark-outside", "typo-before-missing", "margin-anchor-elements", "campaign-open-range", "campaign-nan-rho",
+    "campaign-spec-missing", "report-missing-parquet", "replay-missing-parquet", "design-json-not-json",
+    "design-file-extension", "design-file-k-and-p", "margin-tol-above-1",
 ]
 
 

@@ -29,7 +29,7 @@ def test_design_file_round_trip(tmp_path):
     [('{"K": [[1.0]]}', "field `format` must be"),
      ('{"format": "scara_robust design 1"}', "field `K` (the gain, a matrix) is missing"),
      ('{"format": "scara_robust design 1", "K": [[1.0, "x"]]}', "field `K` must be a table of numbers"),
-     ('{"format": "scara_robust design 1", "K": [[1.0, 2.0]], "P": [[1.0]]}', "field `P` must have shape (2, 2)"),
+     ('{"format": "scara_robust design 1", "K": [[1.0, 2.0]], "P": [[1.0]]}', "so P must be (2, 2)"),
      ('{"format": "scara_robust design 1", "K": [[NaN]]}', "finite numbers")],
     ids=["format", "missing-K", "text", "P-shape", "nan"],
 )

@@ -296,3 +296,16 @@ def test_an_arm_s_per_joint_pid_goes_out_with_its_urdf_joint_names(tmp_path, cap
                  "--format", "json"]) == 0
     row = json.loads(capsys.readouterr().out)[0]
     assert row["certified"] is True
+
+
+def test_certify_answers_not_certified_for_a_file_whose_nominal_loop_is_unstable(tmp_path, capsys):
+    """A pid_controller file cannot carry P; a gain that destabilizes the nominal plant gets a verdict, not an error."""
+    path = tmp_path / "unstable.yaml"
+    path.write_text(open(HAND_WRITTEN, encoding="utf-8").read().replace("p: 200.0", "p: -200.0"))
+    assert main(["certify", "--design", str(path), "--format", "json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["certified"] is False and row["verdict"] == "not certified" and "not Hurwitz" in row["detail"]
+    # numpy, independently: the nominal closed loop has an eigenvalue in the right half-plane
+    K = sr.load_pid_controller(path).K
+    model = sr.paper_model()
+    assert np.linalg.eigvals(model.A - model.B @ K).real.max() > 0

@@ -101,3 +101,22 @@ def test_campaign_rows_and_report_count_statuses(tmp_path):
     assert report.loc["pid", "not-tracking"] == 2 and report.loc["pid", "tracking"] == 0
     assert report.loc["pid", "failure_rate"] == 1.0
     assert np.isfinite(report.loc["pid", "max_abs_error_after_6s q50"])
+
+
+def test_an_integrator_s_complaint_is_in_the_status_not_on_stderr(capsys, tmp_path):
+    """A gain far too stiff for LSODA (η = 1e12): the run stops; scipy's UserWarning goes into the reason."""
+    import warnings
+
+    design = tmp_path / "stiff.json"
+    assert main(["design", "--rho", "3", "--eta", "1e12", "--format", "json", "--output", str(design)]) == 0
+    capsys.readouterr()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a warning that leaks fails the test
+        assert main(["simulate", "--design", str(design), "--t-final", "8"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    lines = out.splitlines()
+    if "status: failed" in out:  # where LSODA gives up, the header says where, the reason says why
+        assert "stopped at" in lines[0] and "integrator failed" in lines[1]
+    else:
+        assert lines[0].endswith("8 s (lsoda)")

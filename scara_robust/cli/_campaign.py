@@ -91,8 +91,11 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         engine=args.engine,
         checkpoint=args.checkpoint,
     )
-    failures = int((~table["success"].astype(bool)).sum())
+    # the report's failures: every run that is not tracking; of them, the runs whose integration failed
+    not_tracking = int((table["status"] != "tracking").sum())
+    broken = int((~table["success"].astype(bool)).sum())
     return (
         f"campaign: {table['scenario'].nunique()} scenarios x {len(spec.controllers)} controllers "
-        f"= {len(table)} rows in {output} ({failures} failed runs)"
+        f"= {len(table)} rows in {output} ({not_tracking} runs not tracking, the report's failures; "
+        f"{broken} of them with a failed integration)"
     )

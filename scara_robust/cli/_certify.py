@@ -10,7 +10,15 @@ import numpy as np
 
 from ..robustness.sampled import max_sample_time
 from ..robustness.table import certificate_table
-from ._common import CommandLineError, add_setup_options, finite_float, method_names, per_joint_values, resolve_gain
+from ._common import (
+    CommandLineError,
+    UnstableGainError,
+    add_setup_options,
+    finite_float,
+    method_names,
+    per_joint_values,
+    resolve_gain,
+)
 from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, is_schedule_file, refuse_schedule_options, run_schedule_certificate
 from ._system import LoadedSystem
@@ -79,7 +87,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         return run_schedule_certificate(args, system)
     refuse_schedule_options(args, "--design SCHEDULE.json")
     model = system.model
-    d, label = resolve_gain(args, model, system.joint_names())
+    try:
+        d, label = resolve_gain(args, model, system.joint_names())
+    except UnstableGainError as err:  # an answer, not bad input: no certificate can hold
+        said = str(err).split(": field `K` ", 1)[1]
+        detail = f"not certified: the gain {said.replace('gives', 'gives the nominal plant', 1)}"
+        detail = detail.split("; pass P")[0] + "; no method can certify it"
+        if args.format == "json":
+            return json.dumps([{"method": "nominal-loop", "verdict": "not certified", "certified": False,
+                                "detail": detail}], indent=2)
+        return f"certificates of the gain of {args.design!r}, model: {model.name}\n{detail}"
     table = certificate_table(model, d, plant=system.physical, falsifier_tries=args.tries, seed=args.seed,
                               methods=args.methods)
     decay = system.decay_rate(d)

@@ -22,7 +22,7 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.registry import get_method
-from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message
+from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message, os_error_text
 
 __all__ = [
     "BOUNDS",
@@ -212,7 +212,7 @@ def _write(option: str, path: str, write: Callable[[str], None]) -> None:
     try:
         write_atomic(path, write)
     except OSError as err:
-        raise CommandLineError(f"`{option}` {path!r}: {err.strerror or err}") from err
+        raise CommandLineError(f"`{option}` {path!r}: {os_error_text(err)}") from err
 
 
 def write_text(option: str, path: str, text: str) -> None:
@@ -377,7 +377,7 @@ def load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loaded
     try:
         return load(path)
     except OSError as err:
-        raise CommandLineError(f"`{option}` {path!r}: {err.strerror or err}") from err
+        raise CommandLineError(f"`{option}` {path!r}: {os_error_text(err)}") from err
     except InputFileError as err:
         raise CommandLineError(f"`{option}` {err}") from err
 
@@ -489,6 +489,10 @@ def check_gain_options(args: argparse.Namespace) -> str | None:
     return path
 
 
+class UnstableGainError(CommandLineError):
+    """A design file's gain (without P) whose nominal closed loop is unstable: an answer for ``certify``."""
+
+
 def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel,
                  joints: Sequence[str] | None = None) -> tuple[Design, str]:
     """The gain analysed: designed at ``--rho``/``--eta``, or your own from ``--design FILE.json``.
@@ -520,6 +524,8 @@ def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicM
     try:
         d = Design.from_gain(model, loaded.K, loaded.P)
     except ArgumentError as err:
+        if err.argument == "K" and loaded.P is None and "not Hurwitz" in err.problem:
+            raise UnstableGainError(f"`--design` {path!r}: field `K` {err.problem}") from err
         raise CommandLineError(f"`--design` {path!r}: field `{err.argument}` {err.problem}") from err
     source = {"given": "the file's P", "lyapunov": "P from the nominal loop's Lyapunov equation"}[d.P_source]
     return d, f"the gain of {path!r} ({source})"

@@ -14,7 +14,7 @@ from ..lyapunov.gain import design
 from ..lyapunov.theorem1 import certify
 from ..model.uncertain import ELEMENT_SETS
 from ..robustness.polytope import vertex_certificate
-from ._common import add_setup_options, finite_float, screen_table
+from ._common import CommandLineError, add_setup_options, finite_float, screen_table
 from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_riccati
 from ._system import LoadedSystem
@@ -66,6 +66,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if args.schedule is not None:
         return run_schedule_riccati(args, system)
     refuse_schedule_options(args, "--schedule NAME")
+    if args.format == "json" and args.output is not None and not args.output.lower().endswith(".json"):
+        raise CommandLineError(f"`--output` {args.output!r}: --format json writes a design file, which --design "
+                               "reads as .json")
     model = system.model
     d = design(model, args.rho, args.eta)
     source = system.source(model)

@@ -87,8 +87,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     -------
     str
     """
-    if args.tol <= 0:
-        raise CommandLineError(f"`--tol` must be > 0, found {args.tol}")
+    if not 0 < args.tol < 1:  # a relative width of 1 or more ends every bisection where it starts
+        raise CommandLineError(f"`--tol` must be a relative tolerance in (0, 1), found {args.tol:g}")
     if args.tries < 1:
         raise CommandLineError(f"`--tries` must be an integer >= 1, found {args.tries}")
     if is_schedule_file(args.design):

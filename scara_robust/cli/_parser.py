@@ -11,6 +11,7 @@ option a user typed; :func:`error_message` uses it to render a library
 from __future__ import annotations
 
 import argparse
+import os
 from typing import NoReturn
 
 from ..exceptions import ArgumentError
@@ -96,6 +97,27 @@ class Parser(argparse.ArgumentParser):
         raise CommandLineError(f"{command}: {message}" if command else message)
 
 
+def os_error_text(err: OSError) -> str:
+    """What went wrong with a file, without its path: ``'No such file or directory'``.
+
+    Some libraries raise ``FileNotFoundError(path)`` with no ``strerror``; that still reads
+    as the missing file it is.
+
+    Parameters
+    ----------
+    err : OSError
+
+    Returns
+    -------
+    str
+    """
+    if err.strerror:
+        return str(err.strerror)
+    if isinstance(err, FileNotFoundError):
+        return "No such file or directory"
+    return str(err) or type(err).__name__
+
+
 def error_message(err: BaseException) -> str:
     """One line for `err`, naming options rather than library parameters.
 
@@ -109,6 +131,10 @@ def error_message(err: BaseException) -> str:
     """
     if isinstance(err, ArgumentError) and err.argument in OPTION_NAMES:
         text = f"`{OPTION_NAMES[err.argument]}` {err.problem}"
+    elif isinstance(err, OSError):
+        path = err.filename if err.filename is not None else (
+            str(err) if isinstance(err, FileNotFoundError) and not err.strerror else None)
+        text = f"{os.fspath(path)!r}: {os_error_text(err)}" if path else os_error_text(err)
     else:
         text = str(err)
     return " ".join(text.split())

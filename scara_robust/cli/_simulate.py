@@ -36,7 +36,7 @@ from ._common import (
     save_figure,
     write_text,
 )
-from ._parser import COMMAND_HELP
+from ._parser import COMMAND_HELP, os_error_text
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
 from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem
@@ -118,7 +118,8 @@ def add_parser(sub: Any) -> None:
 
 def _summary(res: SimulationResult, payload: str, files: list[str]) -> str:
     lines = [
-        f"{res.controller} on scenario {res.scenario}, payload {payload}, {res.t[-1]:g} s ({res.method})",
+        f"{res.controller} on scenario {res.scenario}, payload {payload}, "
+        f"{'stopped at ' if res.status == 'failed' else ''}{res.t[-1]:g} s ({res.method})",
         f"status: {res.status} ({res.status_reason})",
     ]
     if res.has_metrics:
@@ -307,7 +308,7 @@ def _replay(args: argparse.Namespace, system: LoadedSystem, tolerance: float) ->
     try:
         results = read_results(path)
     except OSError as err:
-        raise CommandLineError(f"`--from-campaign` {path!r}: {err.strerror or err}") from err
+        raise CommandLineError(f"`--from-campaign` {path!r}: {os_error_text(err)}") from err
     except ArgumentError as err:
         raise CommandLineError(f"`--from-campaign` {err.problem}") from err
     rows = results[results["scenario"] == args.index]

@@ -94,10 +94,12 @@ def _text(result: Synthesis, what: str, margin: str, l2_unit: str = "rad/(N·m)"
              f"status: {result.status} ({result.message})"]
     if result.K is None or result.design is None:
         return "\n".join(lines)
-    lines += ["K (u = -K x) =", np.array2string(result.K, precision=4, suppress_small=True, max_line_width=120)]
+    # + 0.0: no "-0." where a structure puts exact zeros
+    lines += ["K (u = -K x) =", np.array2string(result.K + 0.0, precision=4, suppress_small=True, max_line_width=120)]
     if result.design.n_joints is not None:
         for name, mat in zip(("K_I", "K_P", "K_D"), result.design.pid_matrices()):
-            lines.append(f"{name} = " + np.array2string(mat, precision=4, suppress_small=True, max_line_width=120))
+            lines.append(f"{name} = " + np.array2string(mat + 0.0, precision=4, suppress_small=True,
+                                                        max_line_width=120))
     lines.append(f"decay rate α (dV/dt <= -2αV): {result.decay:.4g} 1/s required, {result.verified_decay:.4g} 1/s "
                  "verified by numpy")
     if not math.isnan(result.check_decay):

@@ -29,6 +29,7 @@ name            algorithm                                                       
 
 from __future__ import annotations
 
+import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import ClassVar
@@ -160,9 +161,12 @@ class LSODAEngine(Engine):
         def segment_rhs(t: float, xx: Array) -> Array:
             return rhs(t, xx, torque(t, xx), td)
 
-        sol = solve_ivp(segment_rhs, (a, b), x, method="LSODA", t_eval=t_eval, rtol=rtol, atol=atol)
+        with warnings.catch_warnings(record=True) as caught:  # LSODA's complaints go into the run's reason
+            warnings.simplefilter("always", UserWarning)
+            sol = solve_ivp(segment_rhs, (a, b), x, method="LSODA", t_eval=t_eval, rtol=rtol, atol=atol)
         if not sol.success:
-            return None, f"integrator failed at t = {a:.3f} s: {sol.message}"
+            said = "".join(f" ({' '.join(str(w.message).split())})" for w in caught[:1])
+            return None, f"integrator failed at t = {a:.3f} s: {sol.message}{said}"
         return np.asarray(sol.y, dtype=float), ""
 
 

@@ -172,6 +172,9 @@ def _range(name: str, value: Any) -> Range:
         low = high = _number(name, value, unit, allow_inf=name == "torque_limit")
     if low > high:
         raise _error(name, f"min {low:g} {unit} > max {high:g} {unit}")
+    if low != high and math.isinf(high):  # a uniform draw needs finite ends
+        raise _error(name, f"a range must have finite ends, found {{min = {low:g}, max = inf}} {unit}; "
+                           "`inf` alone means no limit")
     for v in (low, high):
         if (v <= limit) if strict else (v < limit):
             op = ">" if strict else ">="
