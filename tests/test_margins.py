@@ -132,7 +132,8 @@ def test_a_model_without_elements_has_no_margin():
 
 @pytest.mark.parametrize(
     ("argv", "needle"),
-    [(["--tol", "0"], "`--tol` must be a relative tolerance in (0, 1)"), (["--tries", "0"], "`--tries` must be an integer >= 1"),
+    [(["--tol", "0"], "`--tol` must be a relative tolerance in (0, 1)"),
+     (["--tries", "0"], "`--tries` must be an integer >= 1"),
      (["--method", "mu"], "argument --method: must be one of 'theorem1'")],
     ids=["tol", "tries", "method"],
 )
