@@ -331,7 +331,7 @@ def test_app_page_in_chromium(benchmark, tmp_path):
     finally:
         explorer.close()
     for key, values in times.items():
-        assert len(values) == rounds
+        assert len(values) == (1 if benchmark.disabled else rounds)  # disabled, pedantic runs the click once
         benchmark.extra_info[key] = {"median": float(np.median(values)), "p90": float(np.percentile(values, 90)),
                                      "max": float(np.max(values)), "all": [round(v, 1) for v in values]}
 
