@@ -90,9 +90,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     try:
         d, label = resolve_gain(args, model, system.joint_names())
     except UnstableGainError as err:  # an answer, not bad input: no certificate can hold
-        said = str(err).split(": field `K` ", 1)[1]
-        detail = f"not certified: the gain {said.replace('gives', 'gives the nominal plant', 1)}"
-        detail = detail.split("; pass P")[0] + "; no method can certify it"
+        detail = (f"not certified: the gain's nominal closed loop is unstable (eigenvalue {err.eigenvalue:.4g} 1/s), "
+                  "so no Lyapunov function exists and no method can certify it")
         if args.format == "json":
             return json.dumps([{"method": "nominal-loop", "verdict": "not certified", "certified": False,
                                 "detail": detail}], indent=2)

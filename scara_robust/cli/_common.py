@@ -490,7 +490,19 @@ def check_gain_options(args: argparse.Namespace) -> str | None:
 
 
 class UnstableGainError(CommandLineError):
-    """A design file's gain (without P) whose nominal closed loop is unstable: an answer for ``certify``."""
+    """A design file's gain (without P) whose nominal closed loop is unstable: an answer for ``certify``.
+
+    Parameters
+    ----------
+    message : str
+        The one line for commands that need a Lyapunov matrix.
+    eigenvalue : complex
+        The nominal closed loop's eigenvalue of largest real part, 1/s.
+    """
+
+    def __init__(self, message: str, eigenvalue: complex) -> None:
+        super().__init__(message)
+        self.eigenvalue = eigenvalue
 
 
 def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicModel,
@@ -524,8 +536,10 @@ def resolve_gain(args: argparse.Namespace, model: UncertainLTVModel | PolytopicM
     try:
         d = Design.from_gain(model, loaded.K, loaded.P)
     except ArgumentError as err:
-        if err.argument == "K" and loaded.P is None and "not Hurwitz" in err.problem:
-            raise UnstableGainError(f"`--design` {path!r}: field `K` {err.problem}") from err
+        poles = np.linalg.eigvals(model.A - model.B @ loaded.K)
+        if err.argument == "K" and loaded.P is None and poles.real.max() >= 0:
+            raise UnstableGainError(f"`--design` {path!r}: field `K` {err.problem}",
+                                    complex(poles[np.argmax(poles.real)])) from err
         raise CommandLineError(f"`--design` {path!r}: field `{err.argument}` {err.problem}") from err
     source = {"given": "the file's P", "lyapunov": "P from the nominal loop's Lyapunov equation"}[d.P_source]
     return d, f"the gain of {path!r} ({source})"
