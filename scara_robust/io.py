@@ -1068,9 +1068,10 @@ def load_design(path: str | os.PathLike[str]) -> DesignFile:
         matrix, or ``P`` of the wrong size.
     """
     text_path = os.fspath(path)
-    if os.path.splitext(text_path)[1].lower() in (".yaml", ".yml"):
+    ext = os.path.splitext(text_path)[1].lower()
+    if ext in (".yaml", ".yml"):
         return load_pid_controller(text_path).design_file()
-    if os.path.splitext(text_path)[1].lower() != ".json":
+    if ext != ".json":
         raise InputFileError(f"{text_path!r}: expected a design file (.json) or a pid_controller parameter "
                              "file (.yaml)")
     data = read_mapping(text_path, extensions=(".json",))

@@ -926,11 +926,16 @@ def plot_arm_run(run: ArmRun, *, title: str | None = None) -> Any:
     return fig
 
 
+def _pid_design_form(plant: UncertainPlant) -> bool:
+    """The design state is ``[∫e, e, ė]``, one of each per output: the gain's entries are K_I, K_P, K_D."""
+    return plant.form == "pid" and plant.n_design_states == 3 * len(plant.outputs)
+
+
 def gain_entry_labels(plant: UncertainPlant) -> tuple[list[str], list[str]]:
     """Each design-form state's gain name and the unit of the state it multiplies (``rad·s`` for K_I)."""
     n = plant.n_design_states
     outs = list(plant.outputs)
-    if plant.form == "pid" and n == 3 * len(outs):
+    if _pid_design_form(plant):
         names, units = [], []
         for kind, unit in (("K_I", "({}·s)"), ("K_P", "{}"), ("K_D", "({}/s)")):
             for k, sig in enumerate(outs):
@@ -968,7 +973,7 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
     m, n = gain.shape
     K_fixed = None if fixed is None else np.asarray(fixed, dtype=float).reshape(m, n)
     names, per = gain_entry_labels(plant)
-    pid = plant.form == "pid" and n == 3 * len(plant.outputs)
+    pid = _pid_design_form(plant)
     sign = -1.0 if pid else 1.0  # u = −K x with x = [∫e, e, ė]: the PID gains are −K
     ins: list[Any] = list(plant.inputs) or [None] * m
     size = np.abs(gain.gains).max(axis=0)

@@ -16,7 +16,7 @@ from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
-from ._parser import COMMAND_HELP
+from ._parser import COMMAND_HELP, os_error_text
 from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem, load_system, plant_source
 
@@ -165,7 +165,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             server = serve(explorer, args.port)
             server.start()
         except OSError as err:
-            why = "is in use" if err.errno == errno.EADDRINUSE else (err.strerror or str(err))
+            why = "is in use" if err.errno == errno.EADDRINUSE else os_error_text(err)
             raise CommandLineError(f"`--port` {args.port}: {why}") from None
         explorer.start_workers()
         handled = server.io_loop.asyncio_loop

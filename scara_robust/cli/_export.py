@@ -29,7 +29,7 @@ from ._common import (
     resolve_design,
     resolve_gain,
 )
-from ._parser import COMMAND_HELP
+from ._parser import COMMAND_HELP, os_error_text
 from ._schedule import add_schedule_options, is_schedule_file, refuse_schedule_options, run_schedule_export
 from ._system import LoadedSystem
 
@@ -95,7 +95,7 @@ def _check_folder(folder: str) -> None:
     try:  # os.access says yes to root on read-only file systems; a real probe does not
         fd, probe = tempfile.mkstemp(dir=folder, prefix=".tmp-")
     except OSError as err:
-        raise CommandLineError(f"`--output` {folder!r}: the folder is not writable ({err.strerror or err})") from err
+        raise CommandLineError(f"`--output` {folder!r}: the folder is not writable ({os_error_text(err)})") from err
     os.close(fd)
     os.unlink(probe)
 

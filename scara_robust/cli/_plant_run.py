@@ -16,6 +16,7 @@ from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
+from ._parser import os_error_text
 from ._schedule import is_schedule_file, read_schedule
 
 __all__ = ["add_plant_run_options", "option_floats", "plant_gain", "plant_profiles", "plant_run", "run_inputs",
@@ -178,7 +179,7 @@ def plant_profiles(args: argparse.Namespace, plant: UncertainPlant, t_final: flo
     except InputFileError as err:
         raise CommandLineError(f"`--profile` {err}") from err
     except OSError as err:
-        raise CommandLineError(f"`--profile` {kwargs.get('path')!r}: {err.strerror or err}") from err
+        raise CommandLineError(f"`--profile` {kwargs.get('path')!r}: {os_error_text(err)}") from err
     except ArgumentError as err:
         raise CommandLineError(f"`--profile` {args.profile!r}: `{err.argument}` {err.problem}") from err
     return name, {name: profile}

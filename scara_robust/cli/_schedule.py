@@ -29,6 +29,7 @@ from ..robustness.scheduled import (
 )
 from ._board import run_board
 from ._common import CommandLineError
+from ._parser import os_error_text
 from ._system import LoadedSystem
 
 __all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "refuse_schedule_options",
@@ -154,7 +155,7 @@ def _save(gain: ScheduledGain, output: str | None) -> list[str]:
     try:
         gain.save(output)
     except OSError as err:
-        raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
+        raise CommandLineError(f"`--output` {output!r}: {os_error_text(err)}") from err
     return [f"schedule file: {output}"]
 
 

@@ -16,7 +16,7 @@ from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, STRUCTURES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
-from ._parser import COMMAND_HELP
+from ._parser import COMMAND_HELP, os_error_text
 from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_synthesis
 from ._system import LoadedSystem
 
@@ -89,7 +89,7 @@ def _l2_unit(system: LoadedSystem) -> str:
     return f"{out}/({inp})" if any(c in inp for c in "·*/ ") else f"{out}/{inp}"
 
 
-def _text(result: Synthesis, what: str, margin: str, l2_unit: str = "rad/(N·m)") -> str:
+def _text(result: Synthesis, what: str, margin: str, l2_unit: str) -> str:
     lines = [f"synthesize: {what}" + ("" if result.structure == "full" else f", structure {result.structure}"),
              f"status: {result.status} ({result.message})"]
     if result.K is None or result.design is None:
@@ -212,7 +212,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         try:
             write_design(output, result.K, result.P, **info)
         except OSError as err:
-            raise CommandLineError(f"`--output` {output!r}: {err.strerror or err}") from err
+            raise CommandLineError(f"`--output` {output!r}: {os_error_text(err)}") from err
         return _text(result, what, margin, _l2_unit(system)) + f"\ndesign file: {output}"
     if args.format == "json":
         if result.K is None:

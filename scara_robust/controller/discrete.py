@@ -175,14 +175,15 @@ class DiscretePID:
         # Plain-float copies for the per-sample loops (fields are not meant to change after construction).
         self._cache = (_rows(A), _rows(B), _rows(C), _rows(D))
         self._limit = None if self.torque_limit is None else tuple(float(v) for v in self.torque_limit)
-        self._gain = (
-            tuple(float(self.Ts / t) for t in self.tracking_time)
-            if self.anti_windup and self.torque_limit is not None
-            else None
-        )
+        self._gain = tuple(float(self.Ts / t) for t in self.tracking_time) if self.back_calculation else None
         self.reset()
 
     # -- the linear part --------------------------------------------------------------
+
+    @property
+    def back_calculation(self) -> bool:
+        """True when the anti-windup acts: asked for, and with a torque limit (without one, u = v)."""
+        return bool(self.anti_windup and self.torque_limit is not None)
 
     @property
     def n_joints(self) -> int:

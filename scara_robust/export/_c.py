@@ -114,7 +114,7 @@ def c_source(
     up = prefix.upper()
     measured = pid.derivative == "measured"
     limited = pid.torque_limit is not None
-    windup = limited and pid.anti_windup
+    windup = pid.back_calculation
     guard = f"{up}_H"
     u_units = unit_of([s.unit for s in ins])
     limit_unit = u_units if isinstance(u_units, str) else "/".join(u_units)
@@ -241,7 +241,7 @@ def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.f
     p, m, nz = pid.n_joints, pid.n_torques, A.shape[0]
     measured = pid.derivative == "measured"
     limit = None if pid.torque_limit is None else np.asarray(pid.torque_limit, dtype=f32)
-    windup = limit is not None and pid.anti_windup
+    windup = pid.back_calculation
     aw = np.array([pid.Ts / float(t) for t in np.asarray(pid.tracking_time)], dtype=f32) if windup else None
     state = [f32(0.0)] * nz
 

@@ -66,9 +66,8 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         "K_D": pid.K_D.tolist(),
         "torque_limit": None if pid.torque_limit is None else np.asarray(pid.torque_limit).tolist(),
         # without a limit u = v, so there is no windup to correct: neither anti-windup nor its time constant
-        "tracking_time": None if pid.tracking_time is None or pid.torque_limit is None
-        else np.asarray(pid.tracking_time).tolist(),
-        "anti_windup": bool(pid.anti_windup and pid.torque_limit is not None),
+        "tracking_time": np.asarray(pid.tracking_time).tolist() if pid.back_calculation else None,
+        "anti_windup": pid.back_calculation,
         "A": A.tolist(),
         "B": B.tolist(),
         "C": C.tolist(),
