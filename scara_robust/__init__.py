@@ -52,8 +52,12 @@ The controller on a board (:mod:`scara_robust.controller`)
     SampledStateFeedback            -- u_k = -K x(t_k) held by a zero-order hold: a gain of your own, sampled
     ScheduledGain, load_schedule, SCHEDULE_KIND -- gains at breakpoints of a measured parameter, linear between
     SampledScheduledGain            -- u_k = -K(p̂_k) x(t_k) held: the scheduled gain as exported to C
+    single_precision_step           -- the PID's float32 step in the C's order, which the single-precision C matches
+    check_controller, controller_kind, SAMPLED_CONTROLLERS -- a sampled controller by its kind, never its class
+    schedule_of, held_gain          -- a gain's schedule, and a held gain's K and Ts
 The paper's method (:mod:`scara_robust.lyapunov`)
     design, Design, riccati_solution -- K from (ρ, η), steps 2-3
+    design_or_none                  -- a Design, or None for a plain gain
     certify, Certificate, UltimateBound -- Theorem 1 and Corollary 1
     design_surface, DesignSurface, SURFACE_FORMULATIONS, SURFACE_METHODS -- max λ(Z) over a (ρ, η) grid (Fig. 2)
     MAX_SURFACE_POINTS              -- the largest grid of one call and its memory
@@ -133,7 +137,7 @@ Files (:mod:`scara_robust.io`)
     PID_CONTROLLER_METHOD, ros2_dof_name -- the method a design file read from it records; a joint's ROS name
 Export (:mod:`scara_robust.export`)
     export_controller, c_source, controller_record, EXPORT_FORMATS, DEFAULT_PREFIX -- C99, JSON, ros2 (``export``)
-    PRECISIONS, single_precision_step -- the C in double or single precision, and the float32 step it matches
+    PRECISIONS                      -- the C's floating-point types, double or single
     ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
     pid_controller_parameters, coupling_of -- a per-joint PID as ros2_control's pid_controller parameters
     update_rate_of                  -- pid_controller's update rate for a Ts (a whole number of Hz)

@@ -27,12 +27,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 WORK = Path("/tmp/scara_robust_cli_snapshot")
 
-# elapsed times in the outputs: "in 1.23 s", "(0.4 s)", "time 12 ms", timing columns of tables
+# what is not the command's answer: elapsed times ("in 1.23 s", "; 2.8 s" after synthesize's gain norm,
+# a table's "seconds" column) and the memory this machine has free when a request is refused
 TIMING = [
     (re.compile(r"\b\d+(\.\d+)? ?(s|ms|min)\b(?= (of solver|elapsed|wall))"), "<time>"),
     (re.compile(r"(\bin |took |elapsed |wall time |time: )\d+(\.\d+)?( ?(s|ms|min))"), r"\1<time>"),
     (re.compile(r'"(elapsed|seconds|wall_time|time_s|elapsed_s)": [0-9.e+-]+'), r'"\1": <time>'),
+    (re.compile(r"(\(bound [^)]*\)); \d+(\.\d+)? s$", re.MULTILINE), r"\1; <time>"),
+    (re.compile(r"more than the [0-9.]+ \w+ one request may use on this machine \(50% of the [0-9.]+ \w+ "
+                r"available\)"), "more than <memory>"),
 ]
+_NUMBER = re.compile(r"[-+]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?$")
 
 # command lines of every kind, as the guides give them (fast ones; the arm's LMI commands aside)
 GOOD = [
@@ -128,7 +133,17 @@ def _files(folder: Path) -> dict[str, str]:
 def _mask(text: str) -> str:
     for pattern, replacement in TIMING:
         text = pattern.sub(replacement, text)
-    return text
+    lines, in_table = text.split("\n"), False
+    for i, line in enumerate(lines):  # a text table whose last column is "seconds": its rows' last number
+        tokens = line.split()  # (the column widths follow the times: spaces are not compared there)
+        if tokens and tokens[-1] == "seconds":
+            in_table = True
+            lines[i] = " ".join(tokens)
+        elif not line.strip() or re.match(r"^\s+[\w-]+: ", line):
+            in_table = False
+        elif in_table:
+            lines[i] = " ".join(tokens[:-1] + ["<time>" if _NUMBER.match(tokens[-1]) else tokens[-1]])
+    return "\n".join(lines)
 
 
 def record(out: Path) -> None:
@@ -168,6 +183,8 @@ def compare(a: Path, b: Path) -> int:
         return 1
     differ = 0
     for ra, rb in zip(rows_a, rows_b, strict=True):
+        for key in ("stdout", "stderr"):
+            ra[key], rb[key] = _mask(ra[key]), _mask(rb[key])
         for key in ("code", "stdout", "stderr", "files"):
             if ra[key] != rb[key]:
                 differ += 1

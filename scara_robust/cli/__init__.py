@@ -20,6 +20,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..exceptions import ScaraRobustError
+from ._options import option
 from ._parser import COMMANDS, CommandLineError, Parser, error_message
 
 __all__ = ["main", "build_parser", "CommandLineError"]
@@ -162,7 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         system = load_system(args)  # the one place that tells the SCARA, an arm and a plant file apart
         check_outputs(args)
         text = args.func(args, system)
-        emit(text, getattr(args, "output", None))
+        emit(text, option(args, "output"))
     except (CommandLineError, ScaraRobustError, ValueError, TypeError, OSError, ImportError) as err:
         sys.stderr.write(f"scara_robust: error: {error_message(err)}\n")
         return 2

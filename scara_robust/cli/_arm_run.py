@@ -22,6 +22,7 @@ from ..robustness.synthesis import synthesize
 from ..simulation.arm import ARM_ENGINES, ArmRun, simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ._common import CommandLineError, per_joint_values, resolve_design, save_figure
+from ._options import given, option
 from ._plant_run import option_floats, plant_gain, plant_profiles, series_output
 from ._system import LoadedSystem
 
@@ -63,9 +64,9 @@ def refuse_arm_options(args: argparse.Namespace, instead: str) -> None:
     ------
     CommandLineError
     """
-    given = [o for o in _ARM_ONLY if getattr(args, o, None) is not None]
-    if given:
-        raise CommandLineError(f"`--{given[0]}` is the initial error of a URDF robot's run; {instead}")
+    arm_only = given(args, _ARM_ONLY)
+    if arm_only:
+        raise CommandLineError(f"`--{arm_only[0]}` is the initial error of a URDF robot's run; {instead}")
 
 
 def _per_joint(option: str, values: list[float], n: int, unit: str) -> list[float]:
@@ -80,10 +81,10 @@ def arm_run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
     n = setup.arm.n_joints
     inputs: dict[str, Any] = {}
     for key, unit in (("e0", "rad"), ("edot0", "rad/s")):
-        values = getattr(args, key, None)
+        values = option(args, key)
         inputs[key] = None if values is None else _per_joint(f"--{key}", values, n, unit)
     inputs["disturbance"] = None
-    if getattr(args, "disturbance", None) is not None:
+    if option(args, "disturbance") is not None:
         amplitudes = _per_joint("--disturbance", option_floats("--disturbance", args.disturbance), n, "N·m")
         wave = setup.disturbance  # its period and phase, else the paper's
         inputs["disturbance"] = square_wave(amplitudes, PAPER_DISTURBANCE_PERIOD if wave is None else wave.period,
@@ -109,18 +110,16 @@ def _describe_inputs(inputs: dict[str, Any], setup: ArmSetup) -> str:
 
 def check_arm_options(args: argparse.Namespace, system: LoadedSystem) -> None:
     """Refuse the options of the SCARA's or a plant file's runs on a URDF arm's, in one line each."""
-    if getattr(args, "x0", None) is not None:
+    if option(args, "x0") is not None:
         raise CommandLineError("`--x0` is a plant file's initial state; a URDF robot's run starts from the initial "
                                "error --e0 (rad) and --edot0 (rad/s), one value per joint")
-    given = [o for o in _NOT_FOR_ARMS if getattr(args, o, None) is not None]
-    if getattr(args, "reference", "1") != "1":
-        given.append("reference")
-    if given:
-        raise CommandLineError(f"`--{given[0].replace('_', '-')}` is not an option of a URDF robot's runs (its "
+    refused = given(args, {**dict.fromkeys(_NOT_FOR_ARMS), "reference": "1"})
+    if refused:
+        raise CommandLineError(f"`--{refused[0].replace('_', '-')}` is not an option of a URDF robot's runs (its "
                                f"reference and payload range are in {system.file!r}; --profile drives the payload)")
-    if getattr(args, "parameter", None) not in (None, "m_p"):
+    if option(args, "parameter") not in (None, "m_p"):
         raise CommandLineError(f"`--parameter` of an arm's run is its payload m_p, found {args.parameter!r}")
-    if getattr(args, "method", None) not in (None, *ARM_ENGINES):
+    if option(args, "method") not in (None, *ARM_ENGINES):
         raise CommandLineError(f"`--method` of an arm's run is one of {', '.join(ARM_ENGINES)}, found {args.method!r}")
 
 
@@ -166,7 +165,7 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     inputs = arm_run_inputs(args, setup)
     start = time.perf_counter()
     engine: dict[str, Any] = {} if args.method is None else {"method": args.method}
-    if getattr(args, "measurement_bias", None) is not None:
+    if option(args, "measurement_bias") is not None:
         engine["measurement_bias"] = args.measurement_bias  # a schedule file's (plant_gain refuses it otherwise)
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
                        tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,

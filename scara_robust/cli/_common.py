@@ -22,6 +22,7 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.registry import get_method
+from ._options import option
 from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message, os_error_text
 
 __all__ = [
@@ -279,21 +280,21 @@ def check_outputs(args: argparse.Namespace) -> None:
         that does not exist or is not writable; a figure (``plot``) whose extension is
         not one of :data:`FIGURE_FORMATS`.
     """
-    for attr, option in OUTPUT_OPTIONS.items():
-        path = getattr(args, attr, None)
+    for attr, flag in OUTPUT_OPTIONS.items():
+        path = option(args, attr)
         if path is None:
             continue
         if attr == "plot":
-            _figure_format(option, path)
+            _figure_format(flag, path)
         folder = os.path.dirname(os.path.abspath(path))
         if os.path.isdir(path):
-            raise CommandLineError(f"`{option}` {path!r}: is a directory")
+            raise CommandLineError(f"`{flag}` {path!r}: is a directory")
         if not os.path.isdir(folder):
             raise CommandLineError(
-                f"`{option}` {path!r}: No such file or directory: the folder {folder!r} does not exist"
+                f"`{flag}` {path!r}: No such file or directory: the folder {folder!r} does not exist"
             )
         if not os.access(folder, os.W_OK):
-            raise CommandLineError(f"`{option}` {path!r}: the folder {folder!r} is not writable")
+            raise CommandLineError(f"`{flag}` {path!r}: the folder {folder!r} is not writable")
 
 
 def save_figure(option: str, path: str, fig: Any) -> None:
@@ -431,7 +432,7 @@ def resolve_design(args: argparse.Namespace, shape: tuple[int, int] = (2, 6),
     -------
     DesignFile or None
     """
-    path = getattr(args, "design", None)
+    path = option(args, "design")
     if path is None:
         return None
     loaded = load_file("--design", path, load_design)
@@ -481,7 +482,7 @@ def check_gain_options(args: argparse.Namespace) -> str | None:
     CommandLineError
         For both, or neither.
     """
-    path: str | None = getattr(args, "design", None)
+    path: str | None = option(args, "design")
     if path is not None and (args.rho is not None or args.eta is not None):
         raise CommandLineError("`--design` gives the gain; it cannot go with --rho/--eta")
     if path is None and (args.rho is None or args.eta is None):

@@ -32,6 +32,7 @@ from ..studies.comparison import (
 )
 from ._arm_run import add_arm_run_options, arm_run_inputs, check_arm_options, compare_arm, refuse_arm_options
 from ._common import CommandLineError, add_setup_options, finite_float, resolve_design
+from ._options import given
 from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_profiles, run_inputs
 from ._schedule import add_schedule_options, is_schedule_file, read_schedule, refuse_schedule_options
@@ -122,9 +123,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
 
 def _compare_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``compare`` on the SCARA: PID against sliding-mode control on both scenarios."""
-    plant_only = [o for o in ("rho", "eta", "parameter", "disturbance", "tolerance") if getattr(args, o) is not None]
-    plant_only += [o for o, default in (("profile", "constant"), ("reference", "1"), ("no_synthesis", False))
-                   if getattr(args, o) != default]
+    plant_only = given(args, ("rho", "eta", "parameter", "disturbance", "tolerance"))
+    plant_only += given(args, {"profile": "constant", "reference": "1", "no_synthesis": False})
     if plant_only:
         raise CommandLineError(f"`--{plant_only[0].replace('_', '-')}` describes the comparison for --model's plant")
     payload = args.payload or "on"

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
+from ..controller.kinds import check_controller
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
 from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_controller, export_targets, update_rate_of
@@ -243,9 +244,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
         decay = system.decay_rate(d)
-    if ros2:
-        assert isinstance(controller, DiscretePID)
-        coupled = coupling_of(controller)
+    if ros2:  # a PID: export refused state feedback and schedules above
+        coupled = coupling_of(check_controller("controller", controller, ("pid",)))
         if coupled is not None:
             raise CommandLineError(f"`--format ros2` writes one PID per joint (pid_controller), and this gain is "
                                    f"coupled ({coupled}); synthesize --structure decentralized gives a per-joint PID")
@@ -257,8 +257,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                                "anyway)")
     own = None
     if ros2:  # the package's own (Tustin) PID at the same Ts, reported beside pid_controller's
-        assert isinstance(controller, DiscretePID)
-        own = check_sample_time(plants, replace(controller, integrator="tustin"), check=check, set_name=set_name)
+        pid = check_controller("controller", controller, ("pid",))
+        own = check_sample_time(plants, replace(pid, integrator="tustin"), check=check, set_name=set_name)
     meta["certificate"] = result.record()
     meta["plant_file"] = system.file
     meta["decay_rate"] = {"rate [1/s]": decay.rate if decay.certified else None, "from": decay.source,
@@ -278,12 +278,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     # export_controller dispatches through the registry (get_target) and writes the target's files, all or none
     files = export_controller(controller, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
                               precision=args.precision, **signals)
-    if isinstance(controller, SampledStateFeedback):
+    if controller.kind == "state feedback":
         lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
                  ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
         lines += [] if board is None else [board.message]
         return "\n".join([*lines, *(f"wrote {f}" for f in files)])
-    pid = controller
+    pid = check_controller("controller", controller, ("pid",))
     lines = [f"{gain}, {source}, Ts = {pid.Ts:g} s, integrator {pid.integrator}, derivative {pid.derivative}, "
              + ("ros2_control pid_controller" if ros2 else f"{args.precision} precision"),
              ("" if result.certified else "WARNING: not certified; ") + ("pid_controller (forward Euler): " if ros2

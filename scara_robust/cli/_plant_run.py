@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controller.scheduled import ScheduledGain
+from ..controller.kinds import schedule_of
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
 from ..export._common import per_second
@@ -16,6 +16,7 @@ from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
+from ._options import option
 from ._parser import os_error_text
 from ._schedule import is_schedule_file, read_schedule
 
@@ -66,14 +67,14 @@ def plant_gain(args: argparse.Namespace, plant: UncertainPlant, what: str) -> tu
     K : ndarray, shape (m, n)
     label : str
     """
-    if is_schedule_file(getattr(args, "design", None)):
+    if is_schedule_file(option(args, "design")):
         schedule = read_schedule(args.design)
         if schedule.parameter not in plant.names or schedule.shape != (plant.n_inputs, plant.n_design_states):
             raise CommandLineError(f"`--design` {args.design!r}: schedules {schedule.parameter!r} with gains of shape "
                                    f"{schedule.shape}; this plant needs a parameter of {plant.names} and "
                                    f"({plant.n_inputs}, {plant.n_design_states})")
         return schedule, f"gain of {args.design!r} scheduled on {schedule.parameter}"
-    if getattr(args, "measurement_bias", None) is not None:
+    if option(args, "measurement_bias") is not None:
         raise CommandLineError("`--measurement-bias` is the error of a scheduled gain's measurement; it goes with "
                                "--design SCHEDULE.json")
     check_gain_options(args)
@@ -201,11 +202,11 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
     """
     _, profiles = plant_profiles(args, plant, t_final)
     reference, dist = run_inputs(args, plant)
-    ts = getattr(args, "ts", None)
+    ts = option(args, "ts")
     if ts is not None and not (np.isfinite(ts) and ts > 0):
         raise CommandLineError(f"`--ts` must be a sample time > 0 s, found {ts:g}")
-    bias = getattr(args, "measurement_bias", None)
-    if isinstance(K, ScheduledGain):
+    bias = option(args, "measurement_bias")
+    if schedule_of(K) is not None:
         if ts is not None:
             raise CommandLineError("`--ts` samples a fixed gain here; a scheduled gain runs continuous (its sampled-"
                                    "data certificate is export's)")
@@ -213,7 +214,7 @@ def plant_run(args: argparse.Namespace, plant: UncertainPlant, K: Any, t_final: 
             raise CommandLineError(f"`--measurement-bias` must be a number, found {bias}")
     gain = K if ts is None else SampledStateFeedback(K, ts)
     x0 = None
-    if getattr(args, "x0", None) is not None:
+    if option(args, "x0") is not None:
         x0 = option_floats("--x0", args.x0)
         if len(x0) != plant.n_states:
             raise CommandLineError(f"`--x0` takes {plant.n_states} values (one per state of the plant), found "

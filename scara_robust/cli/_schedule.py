@@ -29,6 +29,7 @@ from ..robustness.scheduled import (
 )
 from ._board import run_board
 from ._common import CommandLineError
+from ._options import option
 from ._parser import os_error_text
 from ._system import LoadedSystem
 
@@ -114,9 +115,9 @@ def _breakpoints(text: str, plant: UncertainPlant, name: str) -> np.ndarray:
 
 
 def _check_numbers(args: argparse.Namespace) -> None:
-    for option, value in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error)):
+    for flag, value in (("--rate", args.schedule_rate), ("--measurement-error", args.measurement_error)):
         if value is not None and not (value >= 0 and not math.isnan(value)):
-            raise CommandLineError(f"`{option}` must be >= 0, found {value:g}")
+            raise CommandLineError(f"`{flag}` must be >= 0, found {value:g}")
 
 
 def _certificate_lines(cert: ScheduleCertificate, unit: str) -> list[str]:
@@ -280,8 +281,8 @@ def run_schedule_margin(args: argparse.Namespace, system: LoadedSystem) -> str:
 
 def _schedule_answers(args: argparse.Namespace, system: LoadedSystem, *, with_certificate: bool) -> str:
     """The certificate (with `with_certificate`) and the three searches of a schedule file, as text or JSON."""
-    rate_bound = getattr(args, "schedule_rate", None)
-    error_bound = getattr(args, "measurement_error", None)
+    rate_bound = option(args, "schedule_rate")
+    error_bound = option(args, "measurement_error")
     if with_certificate:
         _check_numbers(args)
     plant = _plant(system)

@@ -36,6 +36,7 @@ from ._common import (
     save_figure,
     write_text,
 )
+from ._options import given
 from ._parser import COMMAND_HELP, os_error_text
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
 from ._schedule import is_schedule_file, read_schedule
@@ -171,9 +172,9 @@ _INITIAL = {"scara": "the SCARA's is --scenario (large, small, or a scenario fil
 
 def _run_scara(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``simulate`` on the SCARA: a run of its engine, or the replay of a campaign's run."""
-    plant_only = [o for o in ("rho", "eta") if getattr(args, o) is not None]
-    plant_only += [o for o, default in (("profile", "constant"), ("reference", "1")) if getattr(args, o) != default]
-    plant_only += [o for o in ("parameter", "disturbance", "ts", "x0") if getattr(args, o) is not None]
+    plant_only = given(args, ("rho", "eta"))
+    plant_only += given(args, {"profile": "constant", "reference": "1"})
+    plant_only += given(args, ("parameter", "disturbance", "ts", "x0"))
     if plant_only:
         raise CommandLineError(f"`--{plant_only[0]}` describes a run of --model's plant; the robot's runs take "
                                "--design, --scenario and --payload")
@@ -296,11 +297,11 @@ _INPUT_OPTIONS = ("design", "payload", "torque_limit", "measurement_bias")
 
 def _replay(args: argparse.Namespace, system: LoadedSystem, tolerance: float) -> tuple[SimulationResult, str | None]:
     """The run of ``--from-campaign`` at ``--index``, from the inputs stored in its row, and its controller."""
-    given = [option for option, _ in system.options("robot", "scenario", "bounds")]
-    given += [f"--{name.replace('_', '-')}" for name in _INPUT_OPTIONS if getattr(args, name, None) is not None]
-    if given:
+    refused = [option for option, _ in system.options("robot", "scenario", "bounds")]
+    refused += [f"--{name.replace('_', '-')}" for name in given(args, _INPUT_OPTIONS)]
+    if refused:
         raise CommandLineError(
-            f"`--from-campaign` replays a run from the inputs in its table; {', '.join(given)} cannot go with it"
+            f"`--from-campaign` replays a run from the inputs in its table; {', '.join(refused)} cannot go with it"
         )
     if args.index is None:
         raise CommandLineError("`--index` is needed with --from-campaign: the scenario index of the run to replay")
@@ -333,8 +334,7 @@ def _replay(args: argparse.Namespace, system: LoadedSystem, tolerance: float) ->
 
 def _run_plant(args: argparse.Namespace, system: LoadedSystem) -> str:
     """``simulate --model F``: the plant file's closed loop under the chosen parameter profile."""
-    robot_only = [o for o in ("controller", "from_campaign", "index", "payload", "method", "torque_limit")
-                  if getattr(args, o, None) is not None]
+    robot_only = given(args, ("controller", "from_campaign", "index", "payload", "method", "torque_limit"))
     if robot_only:
         raise CommandLineError(f"`--{robot_only[0].replace('_', '-')}` is an option of the robot's runs; it cannot go "
                                "with --model")

@@ -27,7 +27,7 @@ import pandas as pd
 
 from ..exceptions import ArgumentError
 from ..io import is_arm_file, load_arm, load_model, load_robot, load_scenario
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.arm import ArmSetup
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant, as_model, as_plant
@@ -43,6 +43,7 @@ from ..robustness.parameters import parameter_margin
 from ..robustness.payload import payload_margin
 from ..robustness.sampled import interior_grid
 from ._common import CommandLineError, load_file
+from ._options import option
 
 __all__ = [
     "ARM_COMMANDS",
@@ -323,7 +324,8 @@ class LoadedSystem:
         physical = self.physical
         if physical is None or physical.input_limits is None or box is None:
             return None
-        K = design.K if isinstance(design, Design) else np.asarray(design, dtype=float)
+        found = design_or_none(design)
+        K = found.K if found is not None else np.asarray(design, dtype=float)
         if decay.P is None:  # no certified Lyapunov function: no invariant ellipsoid either
             return None
         return input_limit_certificate(K, decay.P, physical.input_limits, box, inputs=physical.inputs,
@@ -791,23 +793,23 @@ def _check_arm(args: argparse.Namespace, robot: str) -> None:
     if args.command not in ARM_COMMANDS:
         raise CommandLineError(f"`--robot` {robot!r} names a URDF; `{args.command}` runs on the built-in SCARA only "
                                f"(a URDF robot goes with {', '.join(ARM_COMMANDS)})")
-    if getattr(args, "model", None) is not None:
+    if option(args, "model") is not None:
         raise CommandLineError("`--robot` and `--model` each name the plant; give one")
-    for option in ("bounds", "scenario"):
-        if getattr(args, option, None) is not None:
+    for name in ("bounds", "scenario"):
+        if option(args, name) is not None:
             runs = (" (its runs' initial error and disturbance too, [initial] and [disturbance], or --e0, --edot0 "
                     "and --disturbance)" if args.command in ("simulate", "compare") else "")
-            raise CommandLineError(f"`--{option}` describes the built-in SCARA; a URDF robot's reference, payload "
+            raise CommandLineError(f"`--{name}` describes the built-in SCARA; a URDF robot's reference, payload "
                                    f"and linearization are in its file {robot!r}{runs}")
 
 
 def _kind(args: argparse.Namespace) -> str:
     """Which system the arguments name: ``'arm'``, ``'plant'`` or ``'scara'``."""
-    robot = getattr(args, "robot", None)
+    robot = option(args, "robot")
     if robot is not None and is_arm_file(robot):
         _check_arm(args, robot)
         return "arm"
-    return "plant" if getattr(args, "model", None) is not None else "scara"
+    return "plant" if option(args, "model") is not None else "scara"
 
 
 #: The kind of each system; :func:`load_system` chooses one from the arguments.
@@ -838,11 +840,11 @@ def load_system(args: argparse.Namespace) -> LoadedSystem:
     kind = _kind(args)
     return _KINDS[kind](
         command=args.command,
-        robot=getattr(args, "robot", None),
-        model_file=getattr(args, "model", None),
-        scenario=getattr(args, "scenario", None),
-        scenario_kind=getattr(args, "scenario_kind", "run"),
-        bounds_option=getattr(args, "bounds", None),
+        robot=option(args, "robot"),
+        model_file=option(args, "model"),
+        scenario=option(args, "scenario"),
+        scenario_kind=option(args, "scenario_kind", "run"),
+        bounds_option=option(args, "bounds"),
     )
 
 

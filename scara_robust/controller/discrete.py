@@ -34,18 +34,20 @@ Units: e in rad, ė in rad/s, torques in N·m, times in s, ``N`` in 1/s.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import copy
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_per_item, check_real
+from .._validation import check_array, check_choice, check_instance, check_per_item, check_real
 from ..exceptions import ArgumentValueError
+from ._hold import expm_stack
 
-__all__ = ["DiscretePID", "INTEGRATOR_METHODS", "DERIVATIVE_MODES", "default_tracking_time"]
+__all__ = ["DiscretePID", "INTEGRATOR_METHODS", "DERIVATIVE_MODES", "default_tracking_time", "single_precision_step"]
 
 Array = NDArray[np.float64]
 
@@ -243,6 +245,151 @@ class DiscretePID:
             outputs=[f"u[{j}]" for j in range(m)], states=states, name="pid_discrete",
         )
 
+    # -- the controller protocol (what certificates, the board and the export ask) --------
+
+    #: The controller's kind, as export targets and the board name it.
+    kind: ClassVar[str] = "pid"
+
+    def linear_at(self, Ts: float) -> DiscretePID:
+        """The same linear law at sample time `Ts`: no torque limit, no anti-windup (what a certificate covers).
+
+        Parameters
+        ----------
+        Ts : float
+            Sample time, s (> 0).
+
+        Returns
+        -------
+        DiscretePID
+        """
+        return DiscretePID(Ts, self.K_I, self.K_P, self.K_D, integrator=self.integrator,
+                           derivative=self.derivative, N=self.N)
+
+    def closed_loops(self, A: Array, B: Array) -> Array:
+        """The sampled loops ``A_d,i`` with each plant ``(A_i, B_i)`` of the PID form held by a zero-order hold.
+
+        Parameters
+        ----------
+        A : ndarray, shape (V, 3p, 3p)
+        B : ndarray, shape (V, 3p, m)
+            Continuous-time plants in the PID form ``x = [∫e, e, ė]`` (the ∫e columns of
+            the e and ė rows zero, as in Eq. 4).
+
+        Returns
+        -------
+        ndarray, shape (V, 2p + n_z, 2p + n_z)
+            On the state ``[e, ė, z]``.
+
+        Raises
+        ------
+        ArgumentValueError
+            Naming ``model``, for plants of another shape or form.
+        """
+        p, m = self.n_joints, self.n_torques
+        if A.shape[1:] != (3 * p, 3 * p) or B.shape[1:] != (3 * p, m) or A.shape[0] != B.shape[0]:
+            raise ArgumentValueError(
+                "model", f"must hold plants of shapes ({3 * p}, {3 * p}) and ({3 * p}, {m}) for this PID, "
+                f"found {A.shape[1:]} and {B.shape[1:]}"
+            )
+        scale = max(float(np.abs(A).max()), 1.0)
+        if np.abs(A[:, p:, :p]).max(initial=0.0) > 1e-12 * scale:
+            raise ArgumentValueError("model", "must not feed ∫e into the e, ė rows (the PID form of Eq. 4)")
+        F, G = A[:, p:, p:], B[:, p:, :]
+        n_p, V = 2 * p, A.shape[0]
+        aug = np.zeros((V, n_p + m, n_p + m))
+        aug[:, :n_p, :n_p] = F * self.Ts
+        aug[:, :n_p, n_p:] = G * self.Ts
+        E = expm_stack(aug)
+        Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
+        Ac, Bc, Cc, Dc = self.matrices()
+        n_z = Ac.shape[0]
+        out = np.zeros((V, n_p + n_z, n_p + n_z))
+        out[:, :n_p, :n_p] = Phi + Gam @ Dc
+        out[:, :n_p, n_p:] = Gam @ Cc
+        out[:, n_p:, :n_p] = Bc
+        out[:, n_p:, n_p:] = Ac
+        return out
+
+    def sampled_coordinates(self, P: ArrayLike, n: int) -> Array | None:
+        """A P of the PID form ``x = [∫e, e, ė]`` in the sampled loop's state ``ξ = [e, ė, w]``, ``w = K_I ∫e``.
+
+        ``ξ = T x`` gives ``P_ξ = T⁻ᵀ P T⁻¹``.
+
+        Parameters
+        ----------
+        P : array_like, shape (3p, 3p)
+        n : int
+            The sampled loop's number of states.
+
+        Returns
+        -------
+        ndarray, shape (n, n), or None
+            None where the map does not exist (a filtered derivative, or K_I not square
+            and invertible).
+        """
+        P = np.asarray(P, dtype=float)
+        m, p = self.K_I.shape
+        if self.derivative != "measured" or m != p or P.shape != (3 * p, 3 * p) or n != 3 * p:
+            return None
+        if np.linalg.matrix_rank(self.K_I) < p:
+            return None
+        T = np.zeros((3 * p, 3 * p))
+        T[:2 * p, p:] = np.eye(2 * p)
+        T[2 * p:, :p] = self.K_I
+        T_inv = np.linalg.inv(T)
+        out = T_inv.T @ P @ T_inv
+        return np.asarray(0.5 * (out + out.T), dtype=float)
+
+    @property
+    def step_sizes(self) -> tuple[int, int]:
+        """(inputs, outputs) of one step: ``[e, ė]`` (2p) in, u (m) out."""
+        return 2 * self.n_joints, self.n_torques
+
+    @property
+    def n_state_values(self) -> int:
+        """Numbers the running controller keeps between steps (n_z)."""
+        return int(self.matrices()[0].shape[0])
+
+    def random_inputs(self, rng: np.random.Generator, n_steps: int) -> Array:
+        """Random step inputs: e uniform in ±0.05 and ė in ±0.5 (the errors' units, per s).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        n_steps : int
+
+        Returns
+        -------
+        ndarray, shape (2p, n_steps)
+        """
+        p = self.n_joints
+        return np.vstack([rng.uniform(-0.05, 0.05, (p, n_steps)), rng.uniform(-0.5, 0.5, (p, n_steps))])
+
+    def run_steps(self, inputs: Array, precision: str) -> Array:
+        """The steps on every column of `inputs` from a zero state (the controller's own state kept).
+
+        Parameters
+        ----------
+        inputs : ndarray, shape (2p, n_steps)
+            ``[e, ė]`` per column.
+        precision : {'double', 'single'}
+            Double: :meth:`step`; single: :func:`single_precision_step` (float32 in the C's order).
+
+        Returns
+        -------
+        ndarray, shape (m, n_steps)
+        """
+        p = self.n_joints
+        n_steps = inputs.shape[1]
+        if precision == "single":
+            step32 = single_precision_step(self)
+            rows: list[Any] = [step32(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
+        else:
+            pid = copy.deepcopy(self)  # the caller's controller keeps its state
+            pid.reset()
+            rows = [pid.step(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
+        return np.asarray(np.array(rows, dtype=float).T, dtype=float)
+
     # -- running it ---------------------------------------------------------------------
 
     def _y(self, e: ArrayLike, edot: ArrayLike | None) -> list[float]:
@@ -355,3 +502,70 @@ class DiscretePID:
         self.state = np.array(self.update(z, y, u, v), dtype=float)
         return np.array(u, dtype=float)
 
+
+def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.float32]]:
+    """The step of the single-precision C export, in Python: float32 operations in the C's order.
+
+    Each product and sum is rounded to float32 as C evaluates ``float`` arithmetic
+    (``FLT_EVAL_METHOD == 0``, no contraction), on the constants the C source holds.
+
+    Parameters
+    ----------
+    pid : DiscretePID
+
+    Returns
+    -------
+    callable
+        ``step(e, edot) -> u``: e and edot array_like, shape (p,) (edot ignored with
+        ``derivative='filtered'``), u float32, shape (m,); the state starts at zero.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> step = sr.single_precision_step(sr.design(sr.paper_model(), 3, 90).discretize(1e-3))
+    >>> step([0.1, 0.0], [0.0, 0.0]).dtype
+    dtype('float32')
+    """
+    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    f32 = np.float32
+    A, B, C, D = (np.asarray(M, dtype=f32) for M in pid.matrices())
+    p, m, nz = pid.n_joints, pid.n_torques, A.shape[0]
+    measured = pid.derivative == "measured"
+    limit = None if pid.torque_limit is None else np.asarray(pid.torque_limit, dtype=f32)
+    windup = pid.back_calculation
+    aw = np.array([pid.Ts / float(t) for t in np.asarray(pid.tracking_time)], dtype=f32) if windup else None
+    state = [f32(0.0)] * nz
+
+    def step(e: Any, edot: Any = None) -> NDArray[np.float32]:
+        e32 = check_array("e", e, shape=(p,)).astype(f32)
+        y = list(e32)
+        if measured:
+            y += list(check_array("edot", edot, shape=(p,)).astype(f32))
+        v, u = [], []
+        for i in range(m):
+            acc = f32(0.0)
+            for j in range(nz):
+                acc = f32(acc + f32(C[i, j] * state[j]))
+            for j in range(len(y)):
+                acc = f32(acc + f32(D[i, j] * y[j]))
+            v.append(acc)
+        for i in range(m):
+            x = v[i]
+            if limit is not None:
+                x = -limit[i] if x < -limit[i] else x
+                x = limit[i] if x > limit[i] else x
+            u.append(f32(x))
+        new = []
+        for i in range(nz):
+            acc = f32(0.0)
+            for j in range(nz):
+                acc = f32(acc + f32(A[i, j] * state[j]))
+            for j in range(len(y)):
+                acc = f32(acc + f32(B[i, j] * y[j]))
+            if aw is not None and i < m:
+                acc = f32(acc + f32(aw[i] * f32(u[i] - v[i])))
+            new.append(acc)
+        state[:] = new
+        return np.array(u, dtype=f32)
+
+    return step

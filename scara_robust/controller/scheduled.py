@@ -17,7 +17,7 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -219,6 +219,50 @@ class SampledScheduledGain:
         if not isinstance(self.gain, ScheduledGain):
             raise ArgumentValueError("gain", f"must be a ScheduledGain, found {type(self.gain).__name__}")
         object.__setattr__(self, "Ts", check_real("Ts", self.Ts, positive=True))
+
+    # -- the controller protocol (what certificates, the board and the export ask) --------
+
+    #: The controller's kind, as export targets and the board name it.
+    kind: ClassVar[str] = "scheduled"
+
+    def linear_at(self, Ts: float) -> SampledScheduledGain:
+        """The same schedule at another sample time."""
+        return SampledScheduledGain(self.gain, Ts)
+
+    @property
+    def step_sizes(self) -> tuple[int, int]:
+        """(inputs, outputs) of one step: x (n) then p̂ in, u (m) out."""
+        m, n = self.gain.shape
+        return n + 1, m
+
+    @property
+    def n_state_values(self) -> int:
+        """Numbers kept between steps: none."""
+        return 0
+
+    def random_inputs(self, rng: np.random.Generator, n_steps: int) -> Array:
+        """Random step inputs: standard normal x, then p̂ uniform over the breakpoints' range widened by 10 % a side.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+        n_steps : int
+
+        Returns
+        -------
+        ndarray, shape (n + 1, n_steps)
+        """
+        n_in = self.step_sizes[0]
+        lo, hi = self.gain.range
+        widen = 0.1 * (hi - lo)
+        return np.vstack([rng.standard_normal((n_in - 1, n_steps)),
+                          rng.uniform(lo - widen, hi + widen, (1, n_steps))])
+
+    def run_steps(self, inputs: Array, precision: str) -> Array:
+        """:meth:`step` (double) or :meth:`step_single` on every column ``[x, p̂]`` of `inputs`, shape (m, n_steps)."""
+        scheduled = self.step_single if precision == "single" else self.step
+        rows: list[Any] = [scheduled(inputs[:-1, k], float(inputs[-1, k]))[0] for k in range(inputs.shape[1])]
+        return np.asarray(np.array(rows, dtype=float).T, dtype=float)
 
     def _step(self, x: ArrayLike, p_hat: float, kind: Any) -> tuple[NDArray[Any], bool]:
         b = self.gain.breakpoints.astype(kind)

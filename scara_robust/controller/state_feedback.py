@@ -8,11 +8,14 @@ a textbook's) on the plant's own state, analysed by the sampled-data certificate
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_real
+from ..exceptions import ArgumentValueError
+from ._hold import expm_stack
 
 __all__ = ["SampledStateFeedback"]
 
@@ -78,6 +81,67 @@ class SampledStateFeedback:
         SampledStateFeedback
         """
         return SampledStateFeedback(self.K, Ts)
+
+    # -- the controller protocol (what certificates, the board and the export ask) --------
+
+    #: The controller's kind, as export targets and the board name it.
+    kind: ClassVar[str] = "state feedback"
+
+    def linear_at(self, Ts: float) -> SampledStateFeedback:
+        """The same law at another sample time (:meth:`at`: the law is linear)."""
+        return self.at(Ts)
+
+    def closed_loops(self, A: Array, B: Array) -> Array:
+        """The sampled loops ``A_d,i = Φ_i − Γ_i K`` of each plant ``(A_i, B_i)`` held by a zero-order hold.
+
+        Parameters
+        ----------
+        A : ndarray, shape (V, n, n)
+        B : ndarray, shape (V, n, m)
+            Continuous-time plants of any form, whose whole state is fed back.
+
+        Returns
+        -------
+        ndarray, shape (V, n, n)
+
+        Raises
+        ------
+        ArgumentValueError
+            Naming ``model``, for plants of other shapes.
+        """
+        n, m = self.n_states, self.n_inputs
+        if A.shape[1:] != (n, n) or B.shape[1:] != (n, m) or A.shape[0] != B.shape[0]:
+            raise ArgumentValueError(
+                "model", f"must hold plants of shapes ({n}, {n}) and ({n}, {m}) for this gain, "
+                f"found {A.shape[1:]} and {B.shape[1:]}")
+        held = np.zeros((A.shape[0], n + m, n + m))
+        held[:, :n, :n], held[:, :n, n:] = A * self.Ts, B * self.Ts
+        E = expm_stack(held)
+        return np.asarray(E[:, :n, :n] - E[:, :n, n:] @ self.K, dtype=float)
+
+    def sampled_coordinates(self, P: ArrayLike, n: int) -> Array | None:
+        """A continuous-time P on the same state: itself where it is (n, n), else None."""
+        return np.asarray(P, dtype=float) if np.shape(P) == (n, n) else None
+
+    @property
+    def step_sizes(self) -> tuple[int, int]:
+        """(inputs, outputs) of one step: x (n) in, u (m) out."""
+        return self.n_states, self.n_inputs
+
+    @property
+    def n_state_values(self) -> int:
+        """Numbers kept between steps: none."""
+        return 0
+
+    def random_inputs(self, rng: np.random.Generator, n_steps: int) -> Array:
+        """Random step inputs: standard normal states, shape (n, n_steps)."""
+        return rng.standard_normal((self.n_states, n_steps))
+
+    def run_steps(self, inputs: Array, precision: str) -> Array:
+        """:meth:`step` (double) or :meth:`step_single` on every column of `inputs`, shape (m, n_steps)."""
+        fixed = self.step_single if precision == "single" else self.step
+        rows: list[Any] = [fixed(inputs[:, k]) for k in range(inputs.shape[1])]
+        return np.asarray(np.array(rows, dtype=float).T, dtype=float)
 
     def step(self, x: ArrayLike) -> Array:
         """The input held over the next sample period.

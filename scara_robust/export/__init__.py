@@ -13,7 +13,6 @@ c_source               -- the C99 header and source of a DiscretePID
 pid_controller_parameters -- a per-joint PID as ros2_control's pid_controller parameters (target ``'ros2'``)
 coupling_of            -- where a PID is coupled (a torque reads another joint's error), or None
 update_rate_of         -- pid_controller's update rate for a Ts (a whole number of Hz), or an error
-single_precision_step  -- the float32 step in Python that the single-precision C matches to rounding
 controller_record      -- every gain, limit and matrix of a DiscretePID, JSON-ready
 EXPORT_FORMATS         -- the built-in formats, ``('c', 'json', 'ros2')``
 PRECISIONS             -- the C's floating-point types, ``('double', 'single')``

@@ -43,10 +43,10 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from .._validation import check_array, check_choice, check_instance
+from .._validation import check_choice
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller
 from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
@@ -54,7 +54,7 @@ from ..model.plant import Signal
 from ._common import DEFAULT_PREFIX, PRECISIONS, check_prefix, per_second, signal_names, unit_of
 from .registry import ExportTarget, register_target
 
-__all__ = ["c_source", "single_precision_step"]
+__all__ = ["c_source"]
 
 
 def _num(x: float, precision: str = "double") -> str:
@@ -100,7 +100,7 @@ def c_source(
     header, source : str
         Contents of ``<prefix>.h`` and ``<prefix>.c``.
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_controller("pid", pid, ("pid",), "a DiscretePID (Design.discretize)")
     prefix = check_prefix(prefix)
     check_choice("precision", precision, PRECISIONS)
     outs, ins = signal_names(pid, outputs, inputs)
@@ -210,74 +210,6 @@ void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T}
 }}
 """
     return header, source
-
-
-def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.float32]]:
-    """The step of the single-precision C export, in Python: float32 operations in the C's order.
-
-    Each product and sum is rounded to float32 as C evaluates ``float`` arithmetic
-    (``FLT_EVAL_METHOD == 0``, no contraction), on the constants the C source holds.
-
-    Parameters
-    ----------
-    pid : DiscretePID
-
-    Returns
-    -------
-    callable
-        ``step(e, edot) -> u``: e and edot array_like, shape (p,) (edot ignored with
-        ``derivative='filtered'``), u float32, shape (m,); the state starts at zero.
-
-    Examples
-    --------
-    >>> import scara_robust as sr
-    >>> step = sr.single_precision_step(sr.design(sr.paper_model(), 3, 90).discretize(1e-3))
-    >>> step([0.1, 0.0], [0.0, 0.0]).dtype
-    dtype('float32')
-    """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
-    f32 = np.float32
-    A, B, C, D = (np.asarray(M, dtype=f32) for M in pid.matrices())
-    p, m, nz = pid.n_joints, pid.n_torques, A.shape[0]
-    measured = pid.derivative == "measured"
-    limit = None if pid.torque_limit is None else np.asarray(pid.torque_limit, dtype=f32)
-    windup = pid.back_calculation
-    aw = np.array([pid.Ts / float(t) for t in np.asarray(pid.tracking_time)], dtype=f32) if windup else None
-    state = [f32(0.0)] * nz
-
-    def step(e: Any, edot: Any = None) -> NDArray[np.float32]:
-        e32 = check_array("e", e, shape=(p,)).astype(f32)
-        y = list(e32)
-        if measured:
-            y += list(check_array("edot", edot, shape=(p,)).astype(f32))
-        v, u = [], []
-        for i in range(m):
-            acc = f32(0.0)
-            for j in range(nz):
-                acc = f32(acc + f32(C[i, j] * state[j]))
-            for j in range(len(y)):
-                acc = f32(acc + f32(D[i, j] * y[j]))
-            v.append(acc)
-        for i in range(m):
-            x = v[i]
-            if limit is not None:
-                x = -limit[i] if x < -limit[i] else x
-                x = limit[i] if x > limit[i] else x
-            u.append(f32(x))
-        new = []
-        for i in range(nz):
-            acc = f32(0.0)
-            for j in range(nz):
-                acc = f32(acc + f32(A[i, j] * state[j]))
-            for j in range(len(y)):
-                acc = f32(acc + f32(B[i, j] * y[j]))
-            if aw is not None and i < m:
-                acc = f32(acc + f32(aw[i] * f32(u[i] - v[i])))
-            new.append(acc)
-        state[:] = new
-        return np.array(u, dtype=f32)
-
-    return step
 
 
 def _feedback_signals(n: int, m: int, inputs: Sequence[Signal] | None,
@@ -429,13 +361,13 @@ def _c_files(
     precision: str,
 ) -> dict[str, str]:
     """``write`` of the C target: ``{'.h': header, '.c': source}`` (`metadata` is not written)."""
-    if isinstance(controller, SampledScheduledGain):
-        files = _scheduled_files(controller, prefix, notes, inputs, outputs, precision)
+    given: Any = controller  # its kind says which writer takes it
+    writers: dict[str, Callable[..., dict[str, str]]] = {"scheduled": _scheduled_files, "state feedback": _gain_files}
+    fixed = writers.get(given.kind)
+    if fixed is not None:
+        files = fixed(given, prefix, notes, inputs, outputs, precision)
         return {name.removeprefix(prefix): text for name, text in files.items()}
-    if isinstance(controller, SampledStateFeedback):
-        files = _gain_files(controller, prefix, notes, inputs, outputs, precision)
-        return {name.removeprefix(prefix): text for name, text in files.items()}
-    header, source = c_source(controller, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
+    header, source = c_source(given, prefix, notes, outputs=outputs, inputs=inputs, precision=precision)
     return {".h": header, ".c": source}
 
 

@@ -11,8 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_choice, check_instance
+from .._validation import check_choice
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller
 from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..model.plant import Signal
@@ -44,7 +45,7 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         ``anti_windup``, and the linear part ``A, B, C, D`` with the state and input
         names, plus ``signals`` (names and units), ``units`` and the `metadata`.
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_controller("pid", pid, ("pid",), "a DiscretePID (Design.discretize)")
     outs, ins = signal_names(pid, outputs, inputs)
     e_unit, u_unit = unit_of([s.unit for s in outs]), unit_of([s.unit for s in ins])
     eu = e_unit if isinstance(e_unit, str) else "/".join(e_unit)
@@ -97,19 +98,20 @@ def _json_file(
 ) -> str:
     """``write`` of the JSON target: the text of ``<prefix>.json`` (the record, indented by 2)."""
     check_choice("precision", precision, PRECISIONS)
-    if isinstance(controller, SampledScheduledGain):
-        g = controller.gain
+    given: Any = controller  # its kind says which record it has
+    if given.kind == "scheduled":
+        g = given.gain
         record = {"controller": "scheduled gain", "law": "u = -K(p_hat) x, K linear between the breakpoints, the "
-                  "edge gain outside them; zero-order hold", "Ts": controller.Ts, "parameter": g.parameter,
+                  "edge gain outside them; zero-order hold", "Ts": given.Ts, "parameter": g.parameter,
                   "unit": g.unit, "breakpoints": g.breakpoints.tolist(), "gains": g.gains.tolist(),
                   "certified": g.to_dict()["certified"], "precision": precision, **(metadata or {}),
                   **({"notes": list(notes)} if notes else {})}
-    elif isinstance(controller, SampledStateFeedback):
-        record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": controller.Ts,
-                  "K": controller.K.tolist(), "precision": precision, **(metadata or {}),
+    elif given.kind == "state feedback":
+        record = {"controller": "static state feedback", "law": "u = -K x, zero-order hold", "Ts": given.Ts,
+                  "K": given.K.tolist(), "precision": precision, **(metadata or {}),
                   **({"notes": list(notes)} if notes else {})}
     else:
-        record = controller_record(controller, outputs=outputs, inputs=inputs, **(metadata or {}),
+        record = controller_record(given, outputs=outputs, inputs=inputs, **(metadata or {}),
                                    **({"notes": list(notes)} if notes else {}))
     return json.dumps(record, indent=2) + "\n"
 

@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_instance
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller
 from ..exceptions import ArgumentValueError
 from ..io import ros2_dof_name
 from ..model.plant import Signal
@@ -71,7 +71,7 @@ def coupling_of(pid: DiscretePID) -> str | None:
         E.g. ``'K_P[0, 1] = 1.157'``: the largest off-diagonal entry, or None when every
         off-diagonal entry of K_I, K_P and K_D is zero and there is one torque per joint.
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID")
+    check_controller("pid", pid, ("pid",), "a DiscretePID")
     if pid.n_torques != pid.n_joints:
         return f"{pid.n_torques} torques for {pid.n_joints} joints"
     worst: tuple[float, str] = (0.0, "")
@@ -114,7 +114,7 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
         decentralized one), another integrator or derivative, or a Ts whose rate is not
         a whole number of Hz (:func:`update_rate_of`).
     """
-    check_instance("pid", pid, DiscretePID, "a DiscretePID (Design.discretize)")
+    check_controller("pid", pid, ("pid",), "a DiscretePID (Design.discretize)")
     coupled = coupling_of(pid)
     if coupled is not None:
         raise ArgumentValueError("pid", f"is coupled ({coupled}): pid_controller runs one PID per joint, on that "
@@ -152,7 +152,7 @@ def _ros2_file(controller: Any, *, prefix: str, notes: Sequence[str], metadata: 
     """``write`` of the ros2 target: ``<prefix>.yaml`` (`metadata` and `precision` are not used)."""
     import yaml
 
-    check_instance("controller", controller, DiscretePID,
+    check_controller("controller", controller, ("pid",),
                    "a DiscretePID: pid_controller runs a PID per joint, not state feedback or a schedule")
     parameters = pid_controller_parameters(controller, prefix, outputs)
     errors, torques = signal_names(controller, outputs, inputs)

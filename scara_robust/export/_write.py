@@ -11,8 +11,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .._validation import check_choice, check_instance
+from .._validation import check_choice
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller
 from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..io import current_umask
@@ -89,8 +90,8 @@ def export_controller(
     >>> [p.name for p in sr.export_controller(pid, tempfile.mkdtemp())]
     ['scara_pid.h', 'scara_pid.c']
     """
-    check_instance("pid", pid, (DiscretePID, SampledStateFeedback, SampledScheduledGain),
-                   "a DiscretePID (Design.discretize), a SampledStateFeedback or a SampledScheduledGain")
+    check_controller("pid", pid, what="a DiscretePID (Design.discretize), a SampledStateFeedback or a "
+                     "SampledScheduledGain")
     check_choice("format", format, export_targets())
     kind = get_target(format)
     prefix = check_prefix(prefix)

@@ -26,7 +26,6 @@ check_toolchain -- the board's tools, or an error naming the packages that insta
 from __future__ import annotations
 
 import contextlib
-import copy
 import os
 import re
 import shutil
@@ -40,12 +39,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_int, check_real
+from .._validation import check_array, check_choice, check_int, check_real
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller
 from ..controller.scheduled import SampledScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import MissingToolError, ScaraRobustError
-from ._c import single_precision_step
 from ._common import DEFAULT_PREFIX, PRECISIONS, check_prefix
 from .registry import get_target
 
@@ -276,21 +275,8 @@ class BoardRun:
 
 
 def _kind(controller: Any) -> str:
-    check_instance("controller", controller, (DiscretePID, SampledStateFeedback, SampledScheduledGain),
-                   "a DiscretePID, SampledStateFeedback or SampledScheduledGain")
-    if isinstance(controller, DiscretePID):
-        return "pid"
-    return "scheduled" if isinstance(controller, SampledScheduledGain) else "state feedback"
-
-
-def _sizes(controller: Controller) -> tuple[int, int]:
-    """(inputs per step, outputs per step) of the driver's rows."""
-    if isinstance(controller, DiscretePID):
-        return 2 * controller.n_joints, controller.n_torques
-    if isinstance(controller, SampledScheduledGain):
-        m, n = controller.gain.shape
-        return n + 1, m
-    return controller.n_states, controller.n_inputs
+    return str(check_controller("controller", controller, what="a DiscretePID, SampledStateFeedback or "
+                                "SampledScheduledGain").kind)
 
 
 def board_inputs(controller: Controller, n_steps: int, *, seed: int = 0) -> NDArray[np.float64]:
@@ -312,41 +298,9 @@ def board_inputs(controller: Controller, n_steps: int, *, seed: int = 0) -> NDAr
         over the breakpoints' range widened by 10 % on each side (the edge gain is
         exercised).
     """
-    kind = _kind(controller)
+    _kind(controller)
     n_steps = check_int("n_steps", n_steps, 1)
-    rng = np.random.default_rng(seed)
-    n_in, _ = _sizes(controller)
-    if kind == "pid":
-        p = n_in // 2
-        return np.vstack([rng.uniform(-0.05, 0.05, (p, n_steps)), rng.uniform(-0.5, 0.5, (p, n_steps))])
-    if kind == "state feedback":
-        return rng.standard_normal((n_in, n_steps))
-    assert isinstance(controller, SampledScheduledGain)
-    lo, hi = controller.gain.range
-    widen = 0.1 * (hi - lo)
-    return np.vstack([rng.standard_normal((n_in - 1, n_steps)), rng.uniform(lo - widen, hi + widen, (1, n_steps))])
-
-
-def _reference(controller: Controller, inputs: NDArray[Any], precision: str) -> NDArray[np.float64]:
-    """The Python step on every column of `inputs` (float32 operations in the C's order in single)."""
-    n_steps = inputs.shape[1]
-    rows: list[Any]
-    if isinstance(controller, DiscretePID):
-        p = controller.n_joints
-        if precision == "single":
-            step32 = single_precision_step(controller)
-            rows = [step32(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
-        else:
-            pid = copy.deepcopy(controller)  # the caller's controller keeps its state
-            pid.reset()
-            rows = [pid.step(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
-    elif isinstance(controller, SampledScheduledGain):
-        scheduled = controller.step_single if precision == "single" else controller.step
-        rows = [scheduled(inputs[:-1, k], float(inputs[-1, k]))[0] for k in range(n_steps)]
-    else:
-        fixed = controller.step_single if precision == "single" else controller.step
-        rows = [fixed(inputs[:, k]) for k in range(n_steps)]
-    return np.asarray(np.array(rows, dtype=float).T, dtype=float)
+    return controller.random_inputs(np.random.default_rng(seed), n_steps)
 
 
 def check_toolchain(board: str = "cortex-m4f") -> Board:
@@ -393,17 +347,13 @@ def _run(command: Sequence[str], cwd: Path, what: str, timeout: float) -> subpro
 
 
 def _driver(controller: Controller, prefix: str, ctype: str) -> str:
-    n_in, n_out = _sizes(controller)
-    if isinstance(controller, DiscretePID):
-        p = controller.n_joints
+    n_in, n_out = controller.step_sizes
+    declare = ""
+    call = {"pid": f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{n_in // 2}], out_rows[k])",
+            "scheduled": f"(void){prefix}_step(in_rows[k], in_rows[k][{n_in - 1}], out_rows[k])",
+            "state feedback": f"{prefix}_step(in_rows[k], out_rows[k])"}[controller.kind]
+    if controller.n_state_values:
         declare = f"    {prefix}_state s;\n    {prefix}_init(&s);"
-        call = f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{p}], out_rows[k])"
-    elif isinstance(controller, SampledScheduledGain):
-        declare = ""
-        call = f"(void){prefix}_step(in_rows[k], in_rows[k][{n_in - 1}], out_rows[k])"
-    else:
-        declare = ""
-        call = f"{prefix}_step(in_rows[k], out_rows[k])"
     return _DRIVER.format(prefix=prefix, T=ctype, n_in=n_in, n_out=n_out, declare=declare, call=call)
 
 
@@ -497,7 +447,7 @@ def run_on_board(
     spec = BOARDS[check_choice("board", board, tuple(BOARDS))]
     check_choice("precision", precision, PRECISIONS)
     check_prefix(prefix)
-    n_in, n_out = _sizes(controller)
+    n_in, n_out = controller.step_sizes
     x = check_array("inputs", inputs, shape=(n_in, None))
     if x.shape[1] < 1:
         raise ScaraRobustError("`inputs` must have at least one column (step), found 0")
@@ -508,7 +458,7 @@ def run_on_board(
     ftype = np.float32 if precision == "single" else np.float64
     ctype = "float" if precision == "single" else "double"
     x = x.astype(ftype)
-    reference = _reference(controller, x.astype(float), precision)
+    reference = controller.run_steps(x.astype(float), precision)
     flags = [*spec.cflags, "-std=c99", "-O2", "-ffp-contract=off", "-ffunction-sections", "-fdata-sections"]
     if workdir is not None and not Path(workdir).is_dir():
         raise ScaraRobustError(f"`workdir` {os.fspath(workdir)!r}: no such folder")
@@ -571,8 +521,5 @@ def _footprint(spec: Board, work: Path, prefix: str, symbols: dict[str, tuple[in
     usage = (work / "controller.su").read_text() if (work / "controller.su").exists() else ""
     stack = max((int(parts[-2]) for line in usage.splitlines()
                  if (parts := line.split()) and parts[0].endswith(f":{prefix}_step")), default=0)
-    state = 0
-    if isinstance(controller, DiscretePID):
-        nz = controller.matrices()[0].shape[0]
-        state = nz * (4 if ctype == "float" else 8)
+    state = controller.n_state_values * (4 if ctype == "float" else 8)
     return text + data + sum(by_address.values()), data + bss + state + stack, stack, tuple(helpers)

@@ -19,7 +19,7 @@ from ..controller.discrete import DiscretePID
 from ..exceptions import ArgumentTypeError, ArgumentValueError
 from ..model.plant import ModelLike, as_model
 
-__all__ = ["Design", "design", "riccati_solution"]
+__all__ = ["Design", "design", "design_or_none", "riccati_solution"]
 
 Array = NDArray[np.float64]
 
@@ -421,6 +421,20 @@ def design(model: ModelLike, rho: float, eta: float) -> Design:
     )
 
 
+def design_or_none(value: Any) -> Design | None:
+    """`value` if it is a :class:`Design`, else None (a plain gain matrix, a controller, anything else).
+
+    Parameters
+    ----------
+    value : object
+
+    Returns
+    -------
+    Design or None
+    """
+    return value if isinstance(value, Design) else None
+
+
 def as_design(model: ModelLike, design: Design | ArrayLike) -> Design:
     """`design` itself, or :meth:`Design.from_gain` of `model` for a plain gain K (its P from the Lyapunov equation).
 
@@ -433,8 +447,9 @@ def as_design(model: ModelLike, design: Design | ArrayLike) -> Design:
     -------
     Design
     """
-    if isinstance(design, Design):
-        return design
+    found = design_or_none(design)
+    if found is not None:
+        return found
     if isinstance(design, (str, bytes)) or design is None:
         raise ArgumentTypeError("design", f"must be a Design or a gain matrix K, found {type(design).__name__}")
-    return Design.from_gain(model, design)
+    return Design.from_gain(model, design)  # type: ignore[arg-type]

@@ -26,7 +26,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_closed_loops
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import UncertainPlant
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
@@ -216,8 +216,9 @@ def design_decay_rate(
         plant = model if plant is None else plant  # type: ignore[assignment]
         model = model.interval_model()  # type: ignore[union-attr]
     own: Array | None
-    if isinstance(design, Design):
-        K, own = design.K, design.P
+    found = design_or_none(design)
+    if found is not None:
+        K, own = found.K, found.P
     else:
         K = check_array("design", design, ndim=2)
         own = None if P is None else check_array("P", P, shape=(K.shape[1], K.shape[1]))

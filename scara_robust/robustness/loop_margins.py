@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import as_model, require_plant
 from ..results import AnalysisResult
 from .polytope import MAX_BOX_ELEMENTS
@@ -592,8 +592,9 @@ def worst_loop_margins(
     start = time.perf_counter()
     frozen = _frozen_plants(system, points)
     N, n, m = frozen.B.shape
-    if isinstance(K, Design):
-        K = K.K
+    found = design_or_none(K)
+    if found is not None:
+        K = found.K
     if isinstance(K, (str, bytes)) or K is None:
         raise ArgumentTypeError("K", f"must be a gain matrix of shape ({m}, {n}) or a Design, found "
                                      f"{type(K).__name__}")

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentError, ArgumentValueError
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..lyapunov.theorem1 import certify
 from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
@@ -228,7 +228,7 @@ def parameter_margin(
     0.174
     """
     K = _gain(plant, design)  # the plant's type and K's shape
-    found = design if isinstance(design, Design) else None
+    found = design_or_none(design)
     names = analysis_methods("parameter", defaults=True) if methods is None else tuple(methods)
     chosen = [get_method("parameter", name, argument="methods") for name in names]
     for entry in chosen:
@@ -379,7 +379,8 @@ def frozen_end(plant: UncertainPlant, K: ArrayLike, scale: float) -> tuple[str, 
 def _gain(plant: UncertainPlant, design: Design | ArrayLike) -> Array:
     """K of a Design or a plain gain, checked against the plant's design form."""
     require_plant("plant", plant)
-    K = design.K if isinstance(design, Design) else check_array("design", design, ndim=2)
+    found = design_or_none(design)
+    K = found.K if found is not None else check_array("design", design, ndim=2)
     shape = (plant.n_inputs, plant.n_design_states)
     if K.shape != shape:
         raise ArgumentValueError("design", f"must have K of shape {shape} for the plant, found {K.shape}")

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from .._validation import check_instance, check_int, check_real
 from ..exceptions import ArgumentValueError
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
@@ -208,7 +208,7 @@ def physical_certificate(
         them are covered; points of the robot between samples are not, so check that a
         finer sampling keeps the verdict (:func:`scara_robust.certificate_table` does).
     """
-    if not isinstance(design, Design):
+    if design_or_none(design) is None:
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     n_times = check_int("n_times", n_times, 2)
     samples = physical_samples(

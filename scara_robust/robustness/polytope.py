@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_closed_loops, check_symmetric
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified
@@ -228,7 +228,7 @@ def vertex_certificate(
     >>> cert.n_vertices, cert.certifiable
     (1024, False)
     """
-    if not isinstance(design, Design):
+    if design_or_none(design) is None:
         raise TypeError(f"`design` must be a Design from scara_robust.design, found {type(design).__name__}")
     check_choice("elements", elements, ELEMENT_SETS)
     sub = as_model("model", model).subset(elements)

@@ -33,15 +33,17 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_instance, check_real
+from .._validation import check_array, check_choice, check_real
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import check_controller, controller_kind
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentTypeError, ArgumentValueError
-from ..lyapunov.gain import Design
+from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import as_box, as_model, is_model
 from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
@@ -86,25 +88,6 @@ def _plants(model: SampledSet | tuple[ArrayLike, ArrayLike]) -> tuple[Array, Arr
                                      f"PhysicalSamples or a tuple (A, B), found {type(model).__name__}")
 
 
-def _expm(X: Array) -> Array:
-    """``expm`` of a stack of matrices, shape (V, k, k): scaling and squaring with a degree-18 Taylor sum.
-
-    After scaling ``‖X‖₁ <= 1/2``, the remainder of the sum is below ``0.5^19/19! ≈ 2e-23``
-    relative, so the result is accurate to rounding; one batched matrix product per term
-    (``scipy.linalg.expm`` on a stack is ~100 times slower here).
-    """
-    norm = float(np.abs(X).sum(axis=-2).max(initial=0.0))
-    squarings = max(0, int(math.ceil(math.log2(norm / 0.5)))) if norm > 0.5 else 0
-    Y = X / 2.0**squarings
-    eye = np.broadcast_to(np.eye(X.shape[-1]), X.shape)
-    out = eye.copy()
-    for k in range(18, 0, -1):  # Horner: I + Y/1 (I + Y/2 (I + ...))
-        out = eye + (Y @ out) / k
-    for _ in range(squarings):
-        out = out @ out
-    return np.asarray(out, dtype=float)
-
-
 def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID | SampledStateFeedback) -> Array:
     """The sampled loops ``A_d,i`` of a discrete controller with each plant held by a zero-order hold.
 
@@ -130,40 +113,7 @@ def sampled_closed_loops(A: ArrayLike, B: ArrayLike, pid: DiscretePID | SampledS
     """
     A = check_array("A", A, ndim=3)
     B = check_array("B", B, ndim=3)
-    if isinstance(pid, SampledStateFeedback):
-        n, m = pid.n_states, pid.n_inputs
-        if A.shape[1:] != (n, n) or B.shape[1:] != (n, m) or A.shape[0] != B.shape[0]:
-            raise ArgumentValueError(
-                "model", f"must hold plants of shapes ({n}, {n}) and ({n}, {m}) for this gain, "
-                f"found {A.shape[1:]} and {B.shape[1:]}")
-        held = np.zeros((A.shape[0], n + m, n + m))
-        held[:, :n, :n], held[:, :n, n:] = A * pid.Ts, B * pid.Ts
-        E = _expm(held)
-        return np.asarray(E[:, :n, :n] - E[:, :n, n:] @ pid.K, dtype=float)
-    p, m = pid.n_joints, pid.n_torques
-    if A.shape[1:] != (3 * p, 3 * p) or B.shape[1:] != (3 * p, m) or A.shape[0] != B.shape[0]:
-        raise ArgumentValueError(
-            "model", f"must hold plants of shapes ({3 * p}, {3 * p}) and ({3 * p}, {m}) for this PID, "
-            f"found {A.shape[1:]} and {B.shape[1:]}"
-        )
-    scale = max(float(np.abs(A).max()), 1.0)
-    if np.abs(A[:, p:, :p]).max(initial=0.0) > 1e-12 * scale:
-        raise ArgumentValueError("model", "must not feed ∫e into the e, ė rows (the PID form of Eq. 4)")
-    F, G = A[:, p:, p:], B[:, p:, :]
-    n_p, V = 2 * p, A.shape[0]
-    aug = np.zeros((V, n_p + m, n_p + m))
-    aug[:, :n_p, :n_p] = F * pid.Ts
-    aug[:, :n_p, n_p:] = G * pid.Ts
-    E = _expm(aug)
-    Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
-    Ac, Bc, Cc, Dc = pid.matrices()
-    n_z = Ac.shape[0]
-    out = np.zeros((V, n_p + n_z, n_p + n_z))
-    out[:, :n_p, :n_p] = Phi + Gam @ Dc
-    out[:, :n_p, n_p:] = Gam @ Cc
-    out[:, n_p:, :n_p] = Bc
-    out[:, n_p:, n_p:] = Ac
-    return out
+    return pid.closed_loops(A, B)
 
 
 def _structurally_marginal(Ad: Array) -> NDArray[np.bool_]:
@@ -386,8 +336,8 @@ def sampled_certificate(
     >>> sr.sampled_certificate(plant, pid).certified
     True
     """
-    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
-                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
+    check_controller("pid", pid, ("pid", "state feedback"),
+                     "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("solver", solver, LMI_SOLVERS)
     A, B = _plants(model)
     Ad, keep = _without_marginal(sampled_closed_loops(A, B, pid))
@@ -413,11 +363,7 @@ def sampled_certificate(
     given = None
     if candidate is not None and not (rate > 0 and rate >= floor):  # asked for only where the LMI's P falls short
         given = candidate() if callable(candidate) else candidate
-    mapped = None
-    if given is not None and isinstance(pid, SampledStateFeedback):
-        mapped = np.asarray(given, dtype=float) if np.shape(given) == Ad.shape[1:] else None
-    elif given is not None and isinstance(pid, DiscretePID):
-        mapped = _to_sampled_coordinates(given, pid, Ad.shape[1])
+    mapped = None if given is None else pid.sampled_coordinates(given, Ad.shape[1])
     if mapped is not None:
         mapped_rate = verified(mapped)
         if mapped_rate > rate:
@@ -425,26 +371,6 @@ def sampled_certificate(
     if P is None:
         return SampledCertificate(pid.Ts, radius, status, None, -np.inf, Ad.shape[0], n_marginal=n_marginal)
     return SampledCertificate(pid.Ts, radius, status, P, float(rate), Ad.shape[0], floor, n_marginal)
-
-
-def _to_sampled_coordinates(P: ArrayLike, pid: DiscretePID, n: int) -> Array | None:
-    """A P of the PID form ``x = [∫e, e, ė]`` in the sampled loop's state ``ξ = [e, ė, w]``, ``w = K_I ∫e``.
-
-    ``ξ = T x`` gives ``P_ξ = T⁻ᵀ P T⁻¹``; None where the map does not exist (a filtered
-    derivative, or K_I not square and invertible).
-    """
-    P = np.asarray(P, dtype=float)
-    m, p = pid.K_I.shape
-    if pid.derivative != "measured" or m != p or P.shape != (3 * p, 3 * p) or n != 3 * p:
-        return None
-    if np.linalg.matrix_rank(pid.K_I) < p:
-        return None
-    T = np.zeros((3 * p, 3 * p))
-    T[:2 * p, p:] = np.eye(2 * p)
-    T[2 * p:, :p] = pid.K_I
-    T_inv = np.linalg.inv(T)
-    out = T_inv.T @ P @ T_inv
-    return np.asarray(0.5 * (out + out.T), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -552,9 +478,9 @@ def max_sample_time(
     >>> print(lim.message)  # doctest: +SKIP
     certified up to Ts = 0.281 s (decay rate α >= 0.01295 1/s); a frozen plant is unstable from Ts = 0.283 s
     """
-    if not isinstance(design, (Design, DiscretePID, SampledStateFeedback)):
+    if design_or_none(design) is None and controller_kind(design) not in ("pid", "state feedback"):
         try:
-            design = SampledStateFeedback(design, 1.0)
+            design = SampledStateFeedback(design, 1.0)  # type: ignore[arg-type]
         except (ArgumentValueError, ArgumentTypeError) as err:
             raise ArgumentTypeError("design", "must be a Design, a DiscretePID, a SampledStateFeedback or a gain "
                                     f"matrix K of shape (m, n): {err}") from err
@@ -570,13 +496,12 @@ def max_sample_time(
     if unknown:
         raise ArgumentValueError(unknown[0], "is not an option of Design.discretize")
 
+    given: Any = design  # a Design, a DiscretePID or a SampledStateFeedback from here on
+
     def pid_at(ts: float) -> DiscretePID | SampledStateFeedback:
-        if isinstance(design, SampledStateFeedback):
-            return design.at(ts)
-        if isinstance(design, DiscretePID):
-            return DiscretePID(ts, design.K_I, design.K_P, design.K_D, integrator=design.integrator,
-                               derivative=design.derivative, N=design.N)
-        return design.discretize(ts, **opts)  # type: ignore[arg-type]
+        if controller_kind(given) is not None:
+            return given.linear_at(ts)  # type: ignore[no-any-return]
+        return given.discretize(ts, **opts)  # type: ignore[no-any-return]
 
     def stable(ts: float, loops: Array | None = None) -> bool:
         if loops is None:
@@ -609,8 +534,8 @@ def max_sample_time(
                                + "; cvxpy not installed, no certificate" + left_out)
     certs: dict[float, SampledCertificate] = {}
     candidate = None
-    if isinstance(design, (Design, SampledStateFeedback)):
-        gain = design.K
+    if design_or_none(design) is not None or controller_kind(design) == "state feedback":
+        gain = given.K
 
         @functools.cache
         def candidate() -> Array | None:
@@ -785,8 +710,8 @@ def check_sample_time(
     >>> sr.check_sample_time(plant, pid).certified
     False
     """
-    check_instance("pid", pid, (DiscretePID, SampledStateFeedback),
-                   "a DiscretePID (Design.discretize) or a SampledStateFeedback")
+    check_controller("pid", pid, ("pid", "state feedback"),
+                     "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     cert = sampled_certificate(model, pid, check=check, solver=solver)
     limit = None
     if not cert.certified:

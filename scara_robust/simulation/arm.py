@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_callable, check_choice, check_instance, check_real
+from ..controller.kinds import schedule_of
 from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
@@ -58,9 +59,11 @@ class _NoDisturbance:
 def _gain_of_time(K: Array | ScheduledGain, payload: Callable[[float], Any],
                   bias: float) -> Callable[[float], Array]:
     """``t -> K`` (n, 3n): the fixed gain, or a schedule's at the measured payload ``m_p(t) + bias``."""
-    if isinstance(K, ScheduledGain):
-        return lambda t: K.gain(float(payload(t)) + bias)
-    return lambda t: K
+    schedule = schedule_of(K)
+    if schedule is not None:
+        return lambda t: schedule.gain(float(payload(t)) + bias)
+    fixed = cast(Array, K)
+    return lambda t: fixed
 
 
 @dataclass(frozen=True)
@@ -308,11 +311,12 @@ def simulate_arm(
     """
     n = setup.arm.n_joints
     bias = check_real("measurement_bias [kg]", measurement_bias)
-    if isinstance(K, ScheduledGain):
-        if K.shape != (n, 3 * n) or K.parameter != "m_p":
+    schedule = schedule_of(K)
+    if schedule is not None:
+        if schedule.shape != (n, 3 * n) or schedule.parameter != "m_p":
             raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė] on "
-                                          f"its payload m_p, found {K.shape} on {K.parameter!r}")
-        gain: Array | ScheduledGain = K
+                                          f"its payload m_p, found {schedule.shape} on {schedule.parameter!r}")
+        gain: Array | ScheduledGain = schedule
     else:
         if bias != 0.0:
             raise ArgumentValueError("measurement_bias", "goes with a scheduled gain; a fixed K measures nothing")
@@ -367,8 +371,9 @@ def simulate_arm(
         # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
         measured = (e, edot) if noise is None else (e - noise(t), edot - noise.rate(t))
         states = np.vstack([X[2 * n:], *measured])
-        if isinstance(gain, ScheduledGain):
-            gains = gain.gain(masses + bias)  # (k, n, 3n) at the measured payloads
+        schedule = schedule_of(gain)
+        if schedule is not None:
+            gains = schedule.gain(masses + bias)  # (k, n, 3n) at the measured payloads
             tau = ff - np.einsum("kij,jk->ik", gains, states)
         else:
             tau = ff - gain @ states

@@ -32,12 +32,13 @@ import math
 import weakref
 from dataclasses import dataclass
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_choice
+from ..controller.kinds import schedule_of
 from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..model.arm import FEEDFORWARDS, ArmSetup, RigidBodies, RobotArm
@@ -308,9 +309,9 @@ def pack_arm_loop(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, distu
     wave = (0.0, 1.0, 0.0) if disturbance is None else (float(disturbance.amplitude), float(disturbance.period),
                                                          float(disturbance.phase))
     reference = np.vstack([ref.center, ref.amplitude, ref.omega, ref.phase, signs])
-    scheduled = K if isinstance(K, ScheduledGain) else None
+    scheduled = schedule_of(K)
     return _model(bodies.ix, bodies.tree, bodies.body, bodies.gravity, reference=reference,
-                  gain=K.gains[0] if isinstance(K, ScheduledGain) else K, payload=spec,
+                  gain=cast(Array, K) if scheduled is None else scheduled.gains[0], payload=spec,
                   table=table, disturbance=wave, feedforward=FEEDFORWARDS.index(setup.feedforward),
                   nominal=float(setup.payload_nominal), Ts=0.0 if Ts is None else float(Ts),
                   limit=math.inf if torque_limit is None else float(torque_limit),
@@ -393,7 +394,7 @@ def compiled_arm_run(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, x0
     CompiledArmRun
     """
     stiff = check_choice("integrator", integrator, COMPILED_INTEGRATORS) == "bdf"
-    gain = K if isinstance(K, ScheduledGain) else np.asarray(K, dtype=float)
+    gain = K if schedule_of(K) is not None else np.asarray(K, dtype=float)
     model = pack_arm_loop(setup, gain, payload, disturbance, Ts, torque_limit, noise, measurement_bias)
     n = setup.arm.n_joints
     if Ts is not None:

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_choice, check_per_item, check_real
 from ..controller.discrete import DiscretePID
+from ..controller.kinds import controller_kind, schedule_of
 from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import design
@@ -193,7 +194,7 @@ def scheduled_pid_controller(
     control.NonlinearIOSystem
         As :func:`pid_controller`'s.
     """
-    if not isinstance(gain, ScheduledGain) or gain.shape != (2, 6):
+    if schedule_of(gain) is None or gain.shape != (2, 6):
         raise ArgumentValueError("gain", "must be a ScheduledGain of (2, 6) gains on the SCARA's [∫e, e, ė]")
     ref = reference or paper_reference()
     limit = check_torque_limit(torque_limit)
@@ -350,7 +351,7 @@ def sampled_pid_controller(
     >>> sr.sampled_pid_controller(pid).dt
     0.001
     """
-    if not isinstance(pid, DiscretePID) or pid.n_joints != 2 or pid.n_torques != 2:
+    if controller_kind(pid) != "pid" or pid.n_joints != 2 or pid.n_torques != 2:
         raise ArgumentValueError("pid", "must be a DiscretePID of a 2-joint design (Design.discretize)")
     ref = reference or paper_reference()
 

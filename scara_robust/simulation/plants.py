@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._resources import check_memory, simulation_bytes
 from .._validation import check_array, check_choice, check_int, check_real
+from ..controller.kinds import held_gain, schedule_of
 from ..controller.scheduled import ScheduledGain
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError, InputFileError
@@ -327,7 +328,7 @@ def simulate_plant(
     """
     n_x, m = plant.n_states, plant.n_inputs
     n = plant.n_design_states
-    schedule = K if isinstance(K, ScheduledGain) else None
+    schedule = schedule_of(K)
     bias = check_real("measurement_bias", measurement_bias)
     if schedule is not None:
         check_choice("K.parameter", schedule.parameter, plant.names)
@@ -336,8 +337,8 @@ def simulate_plant(
         K = schedule.gain(plant.nominal[schedule.parameter])  # the transient's time step is estimated with it
     elif bias != 0:
         raise ArgumentValueError("measurement_bias", "applies to a ScheduledGain (the measured parameter's error)")
-    Ts = K.Ts if isinstance(K, SampledStateFeedback) else None
-    K = check_array("K", K.K if isinstance(K, SampledStateFeedback) else K, shape=(m, n))
+    K, Ts = held_gain(K)
+    K = check_array("K", K, shape=(m, n))
     t_final = check_real("t_final", t_final, positive=True)
     n_points = check_int("n_points", n_points, 3)
     profiles = dict(profiles or {})
