@@ -40,6 +40,7 @@ Model (:mod:`scara_robust.model`)
     PolytopicModel                  -- (A(t), B(t)) in the convex hull of vertices; box_hull() for Theorem 1
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
+    NonlinearDynamics               -- a control.NonlinearIOSystem behind a plant (UncertainPlant.from_nonlinear)
     ParameterSamples, PLANT_FORMS   -- its frozen plants on a grid; its design forms; the sampled hull's rtol
     POSITIVE_UNITS                  -- units of a mass, a length, an inertia: a parameter positive by its unit
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)

@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import control as ct
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
@@ -40,7 +41,8 @@ from ._ranges import matrix_ranges
 from .polytopic import PolytopicModel
 from .uncertain import ANCHORS, UncertainElement, UncertainLTVModel, state_space
 
-__all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "PLANT_FORMS", "POSITIVE_UNITS"]
+__all__ = ["Parameter", "Signal", "UncertainPlant", "ParameterSamples", "NonlinearDynamics", "PLANT_FORMS",
+           "POSITIVE_UNITS"]
 
 Array = NDArray[np.float64]
 #: Design forms of a plant (see the module docstring).
@@ -374,7 +376,9 @@ class UncertainPlant:
 
     Build one with :meth:`from_expressions` (what a plant file holds),
     :meth:`from_function` (a Python callable ``p -> (A, B)`` or ``p -> StateSpace``),
-    :meth:`from_system` (a fixed python-control system), or :func:`scara_robust.scara_uncertain_plant`.
+    :meth:`from_system` (a fixed python-control system), :meth:`from_nonlinear` (a
+    ``control.NonlinearIOSystem`` with named parameters, linearized at its operating point or
+    along a reference), or :func:`scara_robust.scara_uncertain_plant`.
 
     Parameters
     ----------
@@ -402,6 +406,9 @@ class UncertainPlant:
         the computed one (the SCARA's Tables 1–2).
     prefix : str
         Identifier prefix of exported code.
+    dynamics : NonlinearDynamics, optional
+        The nonlinear system the matrices linearize (set by :meth:`from_nonlinear`):
+        :func:`scara_robust.simulate_plant` then runs it instead of ``A(p)x + B(p)u``.
     design_plant : {'lower', 'center'}
         Where :meth:`interval_model` puts its nominal (the plant ``design`` uses): the
         lower corner of the box (the paper's convention) or its centre. The box is the
@@ -441,6 +448,7 @@ class UncertainPlant:
     hull: Callable[[float], UncertainLTVModel] | None = field(default=None, repr=False)
     prefix: str = "plant_pid"
     design_plant: str = "lower"
+    dynamics: NonlinearDynamics | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         check_choice("form", self.form, PLANT_FORMS)
@@ -640,6 +648,114 @@ class UncertainPlant:
         return cls(params, matrices, first[0].shape[0], first[1].shape[1], form=form,
                    C=None if C is None else check_array("C", C, ndim=2), name=name, inputs=tuple(inputs),
                    outputs=tuple(outputs), prefix=prefix)
+
+    @classmethod
+    def from_nonlinear(
+        cls,
+        sys: ct.NonlinearIOSystem,
+        parameters: Sequence[Parameter],
+        *,
+        x_eq: ArrayLike | None = None,
+        u_eq: ArrayLike | None = None,
+        reference: tuple[ArrayLike, float] | None = None,
+        n_times: int = 9,
+        name: str | None = None,
+        inputs: Sequence[Signal] = (),
+        outputs: Sequence[Signal] = (),
+        prefix: str = "plant_pid",
+    ) -> UncertainPlant:
+        """A plant in the PID form from a ``control.NonlinearIOSystem`` with named parameters.
+
+        The system's state is ``[q, q̇]`` (2p states, p controlled outputs q) and it has m
+        inputs. Its matrices at a parameter value are ``control.linearize`` of `sys` at the
+        operating point, with ``params`` the system's own defaults updated by the value:
+
+        - without `reference`: at the equilibrium ``(x_eq, u_eq)`` (default zeros);
+        - with ``reference = (a, ω)``: along ``q_r(t) = a sin ωt`` (in coordinates relative
+          to `x_eq`) over one period, the reference time ``t_ref`` (s) being one more
+          parameter, at the input ``u_r(t)`` that holds the reference at the nominal
+          parameters (:meth:`NonlinearDynamics.operating_point`: the model feedforward the
+          run applies too).
+
+        Parameters
+        ----------
+        sys : control.NonlinearIOSystem
+            Continuous time; ``sys.dynamics(t, x, u, params)`` is ``ẋ``.
+        parameters : sequence of Parameter
+            The uncertain ones among the system's parameters (named as in ``params``).
+        x_eq : array_like, shape (2p,), optional
+            The equilibrium state (default 0), the origin of the plant's coordinates.
+        u_eq : array_like, shape (m,), optional
+            The input holding it at the nominal parameters (default 0).
+        reference : (array_like of shape (p,), float), optional
+            Amplitudes ``a`` (output units) and ``ω`` (rad/s, > 0) of a sinusoidal reference.
+        n_times : int
+            Samples of ``t_ref`` over the period (with `reference`).
+        name : str, optional
+            Default: the system's name.
+        inputs, outputs, prefix
+            As for the class.
+
+        Returns
+        -------
+        UncertainPlant
+            With :attr:`dynamics` set: :func:`scara_robust.simulate_plant` runs `sys`.
+
+        Raises
+        ------
+        ArgumentTypeError
+            If `sys` is not a ``control.NonlinearIOSystem``.
+        ArgumentValueError
+            For a discrete-time system, an odd number of states, a parameter `sys` does not
+            have, or operating points of the wrong size.
+
+        Examples
+        --------
+        >>> import numpy as np, control as ct, scara_robust as sr
+        >>> def arm(t, x, u, p):   # one link with a payload at its tip, hanging at q = 0
+        ...     J = 0.05 + p["m_p"] * 0.25
+        ...     return [x[1], (u[0] - 0.1 * x[1] - (0.25 + 0.5 * p["m_p"]) * 9.81 * np.sin(x[0])) / J]
+        >>> sys = ct.nlsys(arm, None, states=2, inputs=1, outputs=2, params={"m_p": 0.0})
+        >>> plant = sr.UncertainPlant.from_nonlinear(sys, [sr.Parameter("m_p", "kg", (0.0, 2.0))])
+        >>> A, B = plant.plant_matrices({"m_p": 2.0})   # ∂q̈/∂q = −(0.25 + 1) 9.81 / 0.55 at rest
+        >>> A.round(3).tolist(), B.round(3).tolist()
+        ([[0.0, 1.0], [-22.295, -0.182]], [[0.0], [1.818]])
+        """
+        if not isinstance(sys, ct.NonlinearIOSystem):
+            raise ArgumentTypeError("sys", f"must be a control.NonlinearIOSystem, found {type(sys).__name__}")
+        if not sys.isctime():
+            raise ArgumentValueError("sys", "must be continuous-time")
+        n, m = int(sys.nstates), int(sys.ninputs)
+        if n % 2:
+            raise ArgumentValueError("sys", f"must have the state [q, q̇] of 2p states, found {n}")
+        params = tuple(parameters)
+        for prm in params:
+            if prm.name not in sys.params:
+                raise ArgumentValueError("parameters", f"names {prm.name!r}, which is not a parameter of `sys` "
+                                                       f"({', '.join(sys.params) or 'none'})")
+        x0 = np.zeros(n) if x_eq is None else check_array("x_eq", x_eq, shape=(n,))
+        u0 = np.zeros(m) if u_eq is None else check_array("u_eq", u_eq, shape=(m,))
+        wave = None
+        if reference is not None:
+            amp = check_array("reference[0]", np.broadcast_to(reference[0], (n // 2,)))
+            omega = check_real("reference[1]", reference[1], positive=True)
+            wave = (amp, omega)
+            n_times = check_int("n_times", n_times, 2)
+            params = (Parameter("t_ref", "s", (0.0, 2 * math.pi / omega), samples=n_times,
+                                coarse=min(n_times, 9), scales=False,
+                                description="reference time over one period (the linearization point)"), *params)
+        nominal = {prm.name: float(prm.nominal) for prm in params if prm.name != "t_ref"}  # type: ignore[arg-type]
+        dynamics = NonlinearDynamics(sys, x0, u0, wave, nominal)
+
+        def linearized(point: dict[str, float]) -> tuple[Array, Array]:
+            values = {k: v for k, v in point.items() if k != "t_ref"}
+            x_op, u_op = dynamics.operating_point(point.get("t_ref", 0.0))
+            lin = ct.linearize(sys, x_op, u_op, params={**sys.params, **values})
+            return np.asarray(lin.A, dtype=float), np.asarray(lin.B, dtype=float)
+
+        plant = cls.from_function(params, linearized, form="pid", name=name or str(sys.name), inputs=inputs,
+                                  outputs=outputs, prefix=prefix)
+        return replace(plant, dynamics=dynamics)
 
     @classmethod
     def from_system(cls, sys: Any, *, form: str = "pid", name: str | None = None,
@@ -1070,6 +1186,93 @@ class UncertainPlant:
         """One row per parameter: name, unit, lower, upper, nominal, rate [unit/s], samples."""
         rows = [(p.name, p.unit, p.range[0], p.range[1], p.nominal, p.rate, p.samples) for p in self.parameters]
         return pd.DataFrame(rows, columns=["name", "unit", "lower", "upper", "nominal", "rate [unit/s]", "samples"])
+
+
+@dataclass(frozen=True, eq=False)
+class NonlinearDynamics:
+    """The nonlinear system behind a plant of :meth:`UncertainPlant.from_nonlinear`, and its operating point.
+
+    The plant's coordinates are relative to ``x_eq``: the system's state is ``x_eq + x``,
+    its input ``u_op(t) + u`` (the operating input: ``u_eq``, or the input holding the
+    reference at the nominal parameters).
+
+    Attributes
+    ----------
+    sys : control.NonlinearIOSystem
+    x_eq : ndarray, shape (2p,)
+    u_eq : ndarray, shape (m,)
+    reference : (ndarray of shape (p,), float) or None
+        Amplitudes and ω (rad/s) of the reference ``a sin ωt`` the plant is linearized along.
+    nominal : dict of str to float
+        The nominal parameters the operating input is computed at.
+    """
+
+    sys: Any
+    x_eq: Array
+    u_eq: Array
+    reference: tuple[Array, float] | None
+    nominal: dict[str, float]
+
+    def operating_point(self, t: float) -> tuple[Array, Array]:
+        """``(x_op, u_op)`` at time t: the equilibrium, or the reference's state and the input that holds it.
+
+        Along a reference, ``u_op`` solves ``f₂(x_r, u) = q̈_r`` (the velocity rows of the
+        dynamics) by Newton's method from ``u_eq``, with the linearization's B; one step for a
+        system affine in u.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        x_op : ndarray, shape (2p,)
+        u_op : ndarray, shape (m,)
+
+        Raises
+        ------
+        ArgumentValueError
+            Naming ``sys`` where the input cannot hold the reference (Newton's method fails).
+        """
+        if self.reference is None:
+            return self.x_eq, self.u_eq
+        amp, omega = self.reference
+        p = amp.size
+        x_op = self.x_eq + np.concatenate([amp * math.sin(omega * t), amp * omega * math.cos(omega * t)])
+        qdd = -amp * omega**2 * math.sin(omega * t)
+        params = {**self.sys.params, **self.nominal}
+        u = self.u_eq.copy()
+        for _ in range(20):
+            residual = np.asarray(self.sys.dynamics(t, x_op, u, params), dtype=float)[p:] - qdd
+            if np.abs(residual).max() <= 1e-12 * max(1.0, float(np.abs(qdd).max())):
+                return x_op, u
+            B = np.asarray(ct.linearize(self.sys, x_op, u, params=params).B, dtype=float)[p:]
+            u = u - np.linalg.lstsq(B, residual, rcond=None)[0]
+        raise ArgumentValueError("sys", f"cannot hold the reference at t = {t:g} s: Newton's method on the input "
+                                        "did not converge (is q̈ controlled by u?)")
+
+    def rhs(self, t: float, x: Array, u: Array, values: Mapping[str, float]) -> Array:
+        """``ẋ`` in the plant's coordinates: the system at ``x_eq + x`` under ``u_op(t) + u``, parameters `values`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x : ndarray, shape (2p,)
+        u : ndarray, shape (m,)
+            The controller's input (beside the operating input).
+        values : mapping of str to float
+            The parameters (``t_ref`` ignored).
+
+        Returns
+        -------
+        ndarray, shape (2p,)
+        """
+        x_op, u_op = self.operating_point(t)
+        params = {**self.sys.params, **{k: v for k, v in values.items() if k != "t_ref"}}
+        return np.asarray(self.sys.dynamics(t, self.x_eq + x, u_op + u, params), dtype=float)
+
 
 
 def hull_of_stacks(A: Array, B: Array, name: str, n_joints: int | None, rtol: float = HULL_RTOL) -> UncertainLTVModel:

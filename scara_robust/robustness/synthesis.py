@@ -30,6 +30,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -587,19 +588,7 @@ def synthesize(
     start = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)
     named = inputs if inputs is not None else getattr(model, "inputs", None)  # a plant's, before its interval model
-    if is_model(model):
-        model = as_model("model", model)
-        A, B = model.vertex_matrices()
-    else:
-        if objective == "margin":
-            raise ArgumentValueError("model", "must be an UncertainLTVModel or a PolytopicModel for objective "
-                                              "'margin' (a set of samples has no size to scale)")
-        if not isinstance(model, tuple) or len(model) != 2:
-            raise ArgumentValueError("model", "must be a model or a tuple (A, B) of sampled matrices")
-        A = check_array("model[0]", model[0], ndim=3)
-        B = check_array("model[1]", model[1], ndim=3)
-        if A.shape[1] != A.shape[2] or B.shape[:2] != A.shape[:2]:
-            raise ArgumentValueError("model", f"must hold A (k, n, n) and B (k, n, m), found {A.shape}, {B.shape}")
+    model, A, B = _pairs(model, objective)
     n, m = A.shape[1], B.shape[2]
     check_choice("structure", structure, STRUCTURES)
     pattern = None if structure == "full" else decentralized_pattern(n, m)
@@ -607,78 +596,169 @@ def synthesize(
     tol = check_real("tol", tol, positive=True)
     check_choice("solver", solver, LMI_SOLVERS)
     alpha = None if decay is None else check_real("decay", decay, nonnegative=True)
-    l2: tuple[Array, Array] | None = None
-    if objective == "l2":
-        C = error_output(n, m) if output is None else check_array("output", output, shape=(None, n))
-        Bw = B if disturbance is None else check_array("disturbance", disturbance)
-        if Bw.ndim == 2:
-            Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
-        if Bw.ndim != 3 or Bw.shape[:2] != A.shape[:2]:
-            raise ArgumentValueError("disturbance", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), "
-                                                    f"found {Bw.shape}")
-        l2 = (np.asarray(Bw, dtype=float), C)
-    A_chk = B_chk = None
-    if check is not None:
-        A_chk = check_array("check[0]", check[0], ndim=3)
-        B_chk = check_array("check[1]", check[1], ndim=3)
-        if A_chk.shape[1:] != A.shape[1:] or B_chk.shape[1:] != B.shape[1:]:
-            raise ArgumentValueError("check", f"must hold matrices of the sizes of `model`, found {A_chk.shape}")
-    n_chk = 0 if A_chk is None else int(A_chk.shape[0])
-    u_lim: Array | None = None
-    points: Array | None = None
-    lim: tuple[Array, Array] | None = None
-    accept: Callable[[Array, Array], bool] | None = None
-    s0 = 1.0
+    l2 = _l2_pairs(A, B, output, disturbance) if objective == "l2" else None
+    A_chk, B_chk = _check_pairs(check, A, B)
+    limits = _limits(input_limits, initial_errors, m, n)
+    problem = _Problem(A, B, A_chk, B_chk, kappa, solver, l2, limits, pattern, objective, structure, start)
+    if not cvxpy_available():
+        return problem.empty(NOT_INSTALLED)
+    status, Q, Y, gamma, alpha, theta, searched, A, B = _search(problem, model, alpha, tol)
+    if Q is None or Y is None:
+        return problem.empty("infeasible" if status == "infeasible" else status, searched)
+    assert alpha is not None
+    return _verified(problem, Q, Y, A, B, status, alpha, gamma, theta, searched, disturbance,
+                     named if named is not None and len(named) == m else None,
+                     nominal if nominal is not None else model)
+
+
+@dataclass(frozen=True)
+class _Limits:
+    """Input limits from a box of initial errors, as :func:`synthesize` scales them."""
+
+    u_lim: Array  # (m,) the limits
+    points: Array  # (k, n) the initial errors' vertices
+    s0: float  # their largest entry: the LMI is solved for x / s0
+    lmi: tuple[Array, Array]  # (u_lim / s0, points (1 + margin) / s0)
+
+    def hold(self, K: Array, P_scaled: Array) -> bool:
+        """True when the limits hold from every point with ``P = P_scaled / s0²``."""
+        return input_limit_certificate(K, P_scaled / self.s0**2, self.u_lim, self.points).certified
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """What :func:`synthesize` checked, shared by its search and its verification."""
+
+    A: Array
+    B: Array
+    A_chk: Array | None
+    B_chk: Array | None
+    kappa: float
+    solver: str
+    l2: tuple[Array, Array] | None
+    limits: _Limits | None
+    pattern: tuple[Array, Array] | None
+    objective: str
+    structure: str
+    start: float
+
+    @property
+    def n_chk(self) -> int:
+        """Number of check plants."""
+        return 0 if self.A_chk is None else int(self.A_chk.shape[0])
+
+    @property
+    def s0(self) -> float:
+        """The scale of the state in the LMI (1 without limits)."""
+        return 1.0 if self.limits is None else self.limits.s0
+
+    @property
+    def extra(self) -> dict[str, tuple[Array, Array]]:
+        """The LMI's options beyond decay and gain bound (without limits, _solve is called exactly as before)."""
+        extra: dict[str, tuple[Array, Array]] = {} if self.limits is None else {"limits": self.limits.lmi}
+        if self.pattern is not None:
+            extra["pattern"] = self.pattern
+        return extra
+
+    @property
+    def accept(self) -> Callable[[Array, Array], bool] | None:
+        """The extra check of a verified answer: the input limits, where given."""
+        return None if self.limits is None else self.limits.hold
+
+    def empty(self, status: str, search: str = "") -> Synthesis:
+        """A result without a gain."""
+        return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, self.kappa, len(self.A),
+                         self.n_chk, time.perf_counter() - self.start, None, objective=self.objective, search=search,
+                         input_limits=None if self.limits is None else self.limits.u_lim, structure=self.structure)
+
+
+def _pairs(model: Any, objective: str) -> tuple[Any, Array, Array]:
+    """The model (a set as a model) and its pairs ``(A (k, n, n), B (k, n, m))``."""
+    if is_model(model):
+        model = as_model("model", model)
+        A, B = model.vertex_matrices()
+        return model, A, B
+    if objective == "margin":
+        raise ArgumentValueError("model", "must be an UncertainLTVModel or a PolytopicModel for objective "
+                                          "'margin' (a set of samples has no size to scale)")
+    if not isinstance(model, tuple) or len(model) != 2:
+        raise ArgumentValueError("model", "must be a model or a tuple (A, B) of sampled matrices")
+    A = check_array("model[0]", model[0], ndim=3)
+    B = check_array("model[1]", model[1], ndim=3)
+    if A.shape[1] != A.shape[2] or B.shape[:2] != A.shape[:2]:
+        raise ArgumentValueError("model", f"must hold A (k, n, n) and B (k, n, m), found {A.shape}, {B.shape}")
+    return model, A, B
+
+
+def _l2_pairs(A: Array, B: Array, output: ArrayLike | None, disturbance: ArrayLike | None) -> tuple[Array, Array]:
+    """``(B_w (k, n, q), C)`` of the L2 objective."""
+    n, m = A.shape[1], B.shape[2]
+    C = error_output(n, m) if output is None else check_array("output", output, shape=(None, n))
+    Bw = B if disturbance is None else check_array("disturbance", disturbance)
+    if Bw.ndim == 2:
+        Bw = np.broadcast_to(Bw, (A.shape[0], *Bw.shape))
+    if Bw.ndim != 3 or Bw.shape[:2] != A.shape[:2]:
+        raise ArgumentValueError("disturbance", f"must have shape ({n}, q) or ({A.shape[0]}, {n}, q), "
+                                                f"found {Bw.shape}")
+    return np.asarray(Bw, dtype=float), C
+
+
+def _check_pairs(check: tuple[ArrayLike, ArrayLike] | None, A: Array,
+                 B: Array) -> tuple[Array | None, Array | None]:
+    """The pairs a gain is verified on besides the synthesis's own, or (None, None)."""
+    if check is None:
+        return None, None
+    A_chk = check_array("check[0]", check[0], ndim=3)
+    B_chk = check_array("check[1]", check[1], ndim=3)
+    if A_chk.shape[1:] != A.shape[1:] or B_chk.shape[1:] != B.shape[1:]:
+        raise ArgumentValueError("check", f"must hold matrices of the sizes of `model`, found {A_chk.shape}")
+    return A_chk, B_chk
+
+
+def _limits(input_limits: ArrayLike | None, initial_errors: ArrayLike | None, m: int, n: int) -> _Limits | None:
+    """The input limits and the box of initial errors they hold from, scaled for the LMI; None without them."""
     if (input_limits is None) != (initial_errors is None):
         missing = "initial_errors" if initial_errors is None else "input_limits"
         raise ArgumentValueError(missing, "is needed with the other: input limits hold from a set of initial errors "
                                           "(input_limits per input, initial_errors in state units)")
-    if input_limits is not None and initial_errors is not None:
-        u_lim = input_limits_of("input_limits", input_limits, m)
-        points = initial_error_vertices(initial_errors, n)
-        s0 = float(np.abs(points).max())
-        if s0 == 0.0:
-            raise ArgumentValueError("initial_errors", "must hold a nonzero initial error (from the origin alone every "
-                                                       "gain keeps u = 0)")
-        if len(points) > MAX_LIMIT_VERTICES:
-            raise ArgumentValueError("initial_errors", f"has {len(points)} points, more than {MAX_LIMIT_VERTICES} "
-                                                       "(one LMI each): pass fewer")
-        # the LMI is solved for x / s0 (points of size 1: Q, Y scale by s0², the limits by 1/s0)
-        lim = (u_lim / s0, points * (1 + LIMIT_MARGIN) / s0)
-        limits, initial, size = u_lim, points, s0
+    if input_limits is None or initial_errors is None:
+        return None
+    u_lim = input_limits_of("input_limits", input_limits, m)
+    points = initial_error_vertices(initial_errors, n)
+    s0 = float(np.abs(points).max())
+    if s0 == 0.0:
+        raise ArgumentValueError("initial_errors", "must hold a nonzero initial error (from the origin alone every "
+                                                   "gain keeps u = 0)")
+    if len(points) > MAX_LIMIT_VERTICES:
+        raise ArgumentValueError("initial_errors", f"has {len(points)} points, more than {MAX_LIMIT_VERTICES} "
+                                                   "(one LMI each): pass fewer")
+    # the LMI is solved for x / s0 (points of size 1: Q, Y scale by s0², the limits by 1/s0)
+    return _Limits(u_lim, points, s0, (u_lim / s0, points * (1 + LIMIT_MARGIN) / s0))
 
-        def limits_hold(K: Array, P_scaled: Array) -> bool:
-            return input_limit_certificate(K, P_scaled / size**2, limits, initial).certified
 
-        accept = limits_hold
+_Answer = tuple[str, "Array | None", "Array | None", float]
 
-    # without limits, _solve is called exactly as before
-    extra: dict[str, tuple[Array, Array]] = {} if lim is None else {"limits": lim}
-    if pattern is not None:
-        extra["pattern"] = pattern
 
-    def empty(status: str, search: str = "") -> Synthesis:
-        return Synthesis(status, None, None, math.nan, math.nan, math.nan, math.nan, kappa, len(A), n_chk,
-                         time.perf_counter() - start, None, objective=objective, search=search, input_limits=u_lim,
-                         structure=structure)
-
-    if not cvxpy_available():
-        return empty(NOT_INSTALLED)
-    theta = math.nan
-    gamma = math.nan
+def _search(problem: _Problem, model: Any, alpha: float | None,
+            tol: float) -> tuple[str, Array | None, Array | None, float, float | None, float, str, Array, Array]:
+    """The objective's LMI or bisection: ``(status, Q, Y, γ, α, θ, search, A, B)`` (A, B scaled by θ for a margin)."""
+    A, B, kappa, solver, extra, accept = problem.A, problem.B, problem.kappa, problem.solver, problem.extra, \
+        problem.accept
+    theta = gamma = math.nan
     searched = ""
     active: list[NDArray[np.int64]] = []  # the cutting planes' last active set, carried through the search
-    if objective == "l2":
+    if problem.objective == "l2":
         alpha = L2_DECAY if alpha is None else alpha
         # in x / s0 the disturbance enters through B_w / s0 and the output is s0·C (same L2 gain)
-        assert l2 is not None
-        l2_scaled = l2 if lim is None else (l2[0] / s0, l2[1] * s0)
+        assert problem.l2 is not None
+        s0 = problem.s0
+        l2_scaled = problem.l2 if problem.limits is None else (problem.l2[0] / s0, problem.l2[1] * s0)
         status, Q, Y, gamma = _solve(A, B, alpha, kappa, solver, l2_scaled, **extra)
-    elif objective == "margin":
+    elif problem.objective == "margin":
         if alpha is None:  # a decay the numpy check can tell from zero (see MARGIN_DECAY_RTOL)
             alpha = MARGIN_DECAY_RTOL * float(np.linalg.norm(A, 2, axis=(1, 2)).max())
         floor = alpha
-        found: dict[float, tuple[str, Array | None, Array | None, float]] = {}
+        found: dict[float, _Answer] = {}
         uncertain = as_model("model", model)
 
         def feasible(th: float) -> str:
@@ -697,7 +777,7 @@ def synthesize(
     elif alpha is not None:
         status, Q, Y, _ = _solve_by_cuts(A, B, alpha, kappa, solver, active, **extra)
     else:
-        by_alpha: dict[float, tuple[str, Array | None, Array | None, float]] = {}
+        by_alpha: dict[float, _Answer] = {}
 
         def decays(a: float) -> str:
             by_alpha[a] = _solve_by_cuts(A, B, a, kappa, solver, active, **extra)
@@ -711,9 +791,15 @@ def synthesize(
             scale = float(np.linalg.norm(A, 2, axis=(1, 2)).max())
             alpha, _, searched = _largest(decays, 1.0, tol, 1e4, DECAY_FLOOR_RTOL * scale)
             status, Q, Y, _ = by_alpha[alpha]
-    if Q is None or Y is None:
-        return empty("infeasible" if status == "infeasible" else status, searched)
-    assert alpha is not None
+    return status, Q, Y, gamma, alpha, theta, searched, A, B
+
+
+def _verified(problem: _Problem, Q: Array, Y: Array, A: Array, B: Array, status: str, alpha: float, gamma: float,
+              theta: float, searched: str, disturbance: ArrayLike | None, named: Sequence[Signal] | None,
+              nominal: Any) -> Synthesis:
+    """The gain ``K = YQ⁻¹`` and ``P = Q⁻¹`` of the LMI's answer, verified by numpy on every plant."""
+    A_chk, B_chk, l2, limits = problem.A_chk, problem.B_chk, problem.l2, problem.limits
+    s0 = problem.s0
     Q, Y = Q * s0**2, Y * s0**2  # back to the state's units (s0 = 1 without limits)
     K = Y @ np.linalg.inv(Q)
     P = np.linalg.inv(Q)
@@ -730,22 +816,21 @@ def synthesize(
             Bw_chk = B_chk if disturbance is None else np.broadcast_to(l2[0][0], (len(A_chk), *l2[0].shape[1:]))
             check_gamma = _verified_gamma(A_chk - B_chk @ K, Bw_chk, l2[1], P, gamma)
     limit_cert = None
-    if u_lim is not None and points is not None:
+    if limits is not None:
         loops = A - B @ K if A_chk is None or B_chk is None else np.concatenate([A - B @ K, A_chk - B_chk @ K])
-        limit_cert = input_limit_certificate(K, P, u_lim, points, closed_loops=loops,
-                                             inputs=named if named is not None and len(named) == m else None)
+        limit_cert = input_limit_certificate(K, P, limits.u_lim, limits.points, closed_loops=loops, inputs=named)
         ok = ok and limit_cert.certified
     verdict = "not verified"
     if ok:
         verdict = "certified" if min(verified, checked if not math.isnan(checked) else math.inf) >= floor_rate \
             else "marginal"
-    design = _as_design(K, P, nominal if nominal is not None else model, A, B)
+    design = _as_design(K, P, nominal, A, B)
     return Synthesis(verdict, K, P, alpha, verified, checked,
-                     float(np.linalg.norm(K, 2)), kappa, len(A), n_chk, time.perf_counter() - start, design, status,
-                     objective=objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta,
-                     search=searched, decay_floor=floor_rate, input_limits=u_lim, input_limit=limit_cert,
-                     structure=structure)
-
+                     float(np.linalg.norm(K, 2)), problem.kappa, len(A), problem.n_chk,
+                     time.perf_counter() - problem.start, design, status,
+                     objective=problem.objective, gamma=verified_gamma, check_gamma=check_gamma, theta=theta,
+                     search=searched, decay_floor=floor_rate, input_limits=None if limits is None else limits.u_lim,
+                     input_limit=limit_cert, structure=problem.structure)
 
 def _as_design(K: Array, P: Array, model: object, A: Array, B: Array) -> Design:
     if is_model(model):

@@ -1056,6 +1056,112 @@ def jacobian(th: Array, t: float, y: Array, f: Array, td: float, tc: Array, J: A
             J[i, k] = (fw[i] - f[i]) / h
 
 
+
+@inline
+def _bdf_newton(th: Array, t_new: float, td: float, tc: Array, c: float, ypred: Array, psi: Array, scale: Array,
+                LU: Array, piv: NDArray[np.int64], newton_tol: float, y: Array, d: Array, fw: Array,
+                dy: Array) -> tuple[bool, int]:
+    """Newton iterations of one BDF step (scipy's solve_bdf_system) into y and d: (converged, rhs calls)."""
+    n = y.shape[0]
+    for i in range(n):
+        y[i] = ypred[i]
+        d[i] = 0.0
+    dy_norm_old = -1.0
+    n_iter = 0
+    for k in range(_NEWTON_MAXITER):
+        n_iter = k + 1
+        model_closed_rhs(th, t_new, y, td, tc, fw)
+        finite = True
+        for i in range(n):
+            if not math.isfinite(fw[i]):
+                finite = False
+        if not finite:
+            return False, n_iter
+        for i in range(n):
+            dy[i] = c * fw[i] - psi[i] - d[i]
+        lu_solve(LU, piv, dy)
+        dy_norm = rms_scaled(dy, scale)
+        rate = -1.0 if dy_norm_old < 0 else dy_norm / dy_norm_old
+        if rate >= 0 and (rate >= 1 or rate ** (_NEWTON_MAXITER - k) / (1 - rate) * dy_norm > newton_tol):
+            return False, n_iter
+        for i in range(n):
+            y[i] += dy[i]
+            d[i] += dy[i]
+        if dy_norm == 0 or (rate >= 0 and rate / (1 - rate) * dy_norm < newton_tol):
+            return True, n_iter
+        dy_norm_old = dy_norm
+    return False, n_iter
+
+
+@inline
+def _bdf_first_step(th: Array, x: Array, a: float, b: float, td: float, rtol: float, atol: float, tc: Array,
+                    f0: Array, w: Array, fw: Array, scale: Array, dy: Array) -> float:
+    """The first step of :func:`bdf_dense` from x (ẋ = f0): scipy's select_initial_step with order 1 (one rhs call)."""
+    n = x.shape[0]
+    interval = b - a
+    for i in range(n):
+        scale[i] = atol + abs(x[i]) * rtol
+    d0 = rms_scaled(x, scale)
+    d1 = rms_scaled(f0, scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    for i in range(n):
+        w[i] = x[i] + h0 * f0[i]
+    closed_rhs_call(th, a + h0, w, td, tc, fw)
+    for i in range(n):
+        dy[i] = fw[i] - f0[i]
+    d2 = rms_scaled(dy, scale) / h0
+    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** 0.5
+    return min(100 * h0, h1, interval)
+
+
+@inline
+def _bdf_new_order(D: Array, order: int, scale: Array, dy: Array, error_norm: float,
+                   safety: float) -> tuple[int, float]:
+    """scipy's BDF order change after order + 1 equal steps: the new order and the step's factor."""
+    n = D.shape[1]
+    em = math.inf
+    ep = math.inf
+    if order > 1:
+        for i in range(n):
+            dy[i] = _ERROR_CONST[order - 1] * D[order, i]
+        em = rms_scaled(dy, scale)
+    if order < _MAX_ORDER:
+        for i in range(n):
+            dy[i] = _ERROR_CONST[order + 1] * D[order + 2, i]
+        ep = rms_scaled(dy, scale)
+    fm = math.inf if em == 0 else em ** (-1 / order)
+    fc = math.inf if error_norm == 0 else error_norm ** (-1 / (order + 1))
+    fp = math.inf if ep == 0 else ep ** (-1 / (order + 2))
+    best, delta = fm, -1
+    if fc > best:
+        best, delta = fc, 0
+    if fp > best:
+        best, delta = fp, 1
+    return order + delta, min(10.0, safety * best)
+
+
+@inline
+def _bdf_dense_output(th: Array, D: Array, order: int, t: float, h_abs: float, x: Array, tc: Array, t_out: Array,
+                      j: int, X: Array, TC: Array, ER: Array) -> int:
+    """The outputs on (t_old, t] (scipy's BdfDenseOutput, with the step and order now in force); the next index."""
+    n = x.shape[0]
+    while j < t_out.shape[0] and t_out[j] <= t + 1e-12:
+        if t_out[j] >= t - 1e-15:
+            for i in range(n):
+                X[i, j] = x[i]
+        else:
+            for i in range(n):
+                X[i, j] = D[0, i]
+            p = 1.0
+            for k in range(order):
+                p *= (t_out[j] - (t - h_abs * k)) / (h_abs * (1 + k))
+                for i in range(n):
+                    X[i, j] += D[k + 1, i] * p
+        model_output(th, t_out[j], X[:, j], tc, TC, ER, j)
+        j += 1
+    return j
+
 @jit
 def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, atol: float, tc: Array,
               t_out: Array, j: int, X: Array, TC: Array, ER: Array) -> tuple[int, float, bool, int]:
@@ -1082,23 +1188,8 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
     t = a
     closed_rhs_call(th, t, x, td, tc, f0)
     calls += 1
-    # initial step: scipy's select_initial_step with order 1
-    interval = b - a
-    for i in range(n):
-        scale[i] = atol + abs(x[i]) * rtol
-    d0 = rms_scaled(x, scale)
-    d1 = rms_scaled(f0, scale)
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    h0 = min(h0, interval)
-    for i in range(n):
-        w[i] = x[i] + h0 * f0[i]
-    closed_rhs_call(th, t + h0, w, td, tc, fw)
+    h_abs = _bdf_first_step(th, x, a, b, td, rtol, atol, tc, f0, w, fw, scale, dy)
     calls += 1
-    for i in range(n):
-        dy[i] = fw[i] - f0[i]
-    d2 = rms_scaled(dy, scale) / h0
-    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** 0.5
-    h_abs = min(100 * h0, h1, interval)
     newton_tol = max(10 * _EPS / rtol, min(0.03, rtol ** 0.5))
     jacobian(th, t, x, f0, td, tc, J, w, fw)
     calls += n
@@ -1150,36 +1241,9 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
                             LU[i, q] = (1.0 if i == q else 0.0) - c * J[i, q]
                     lu_factor(LU, piv)
                     lu_ok = True
-                # Newton iterations (scipy's solve_bdf_system)
-                for i in range(n):
-                    y[i] = ypred[i]
-                    d[i] = 0.0
-                dy_norm_old = -1.0
-                converged = False
-                for k in range(_NEWTON_MAXITER):
-                    n_iter = k + 1
-                    model_closed_rhs(th, t_new, y, td, tc, fw)
-                    calls += 1
-                    finite = True
-                    for i in range(n):
-                        if not math.isfinite(fw[i]):
-                            finite = False
-                    if not finite:
-                        break
-                    for i in range(n):
-                        dy[i] = c * fw[i] - psi[i] - d[i]
-                    lu_solve(LU, piv, dy)
-                    dy_norm = rms_scaled(dy, scale)
-                    rate = -1.0 if dy_norm_old < 0 else dy_norm / dy_norm_old
-                    if rate >= 0 and (rate >= 1 or rate ** (_NEWTON_MAXITER - k) / (1 - rate) * dy_norm > newton_tol):
-                        break
-                    for i in range(n):
-                        y[i] += dy[i]
-                        d[i] += dy[i]
-                    if dy_norm == 0 or (rate >= 0 and rate / (1 - rate) * dy_norm < newton_tol):
-                        converged = True
-                        break
-                    dy_norm_old = dy_norm
+                converged, n_iter = _bdf_newton(th, t_new, td, tc, c, ypred, psi, scale, LU, piv, newton_tol, y, d,
+                                                fw, dy)
+                calls += n_iter
                 if not converged:
                     if current_jac:
                         break
@@ -1217,45 +1281,12 @@ def bdf_dense(th: Array, x: Array, a: float, b: float, td: float, rtol: float, a
             for i in range(n):
                 D[k, i] += D[k + 1, i]
         if n_equal >= order + 1:
-            em = math.inf
-            ep = math.inf
-            if order > 1:
-                for i in range(n):
-                    dy[i] = _ERROR_CONST[order - 1] * D[order, i]
-                em = rms_scaled(dy, scale)
-            if order < _MAX_ORDER:
-                for i in range(n):
-                    dy[i] = _ERROR_CONST[order + 1] * D[order + 2, i]
-                ep = rms_scaled(dy, scale)
-            fm = math.inf if em == 0 else em ** (-1 / order)
-            fc = math.inf if error_norm == 0 else error_norm ** (-1 / (order + 1))
-            fp = math.inf if ep == 0 else ep ** (-1 / (order + 2))
-            best, delta = fm, -1
-            if fc > best:
-                best, delta = fc, 0
-            if fp > best:
-                best, delta = fp, 1
-            order += delta
-            factor = min(10.0, safety * best)
+            order, factor = _bdf_new_order(D, order, scale, dy, error_norm, safety)
             h_abs *= factor
             change_D(D, order, factor, work)
             n_equal = 0
             lu_ok = False
-        # dense output on (t_old, t] (scipy's BdfDenseOutput, with the step and order now in force)
-        while j < t_out.shape[0] and t_out[j] <= t + 1e-12:
-            if t_out[j] >= t - 1e-15:
-                for i in range(n):
-                    X[i, j] = x[i]
-            else:
-                for i in range(n):
-                    X[i, j] = D[0, i]
-                p = 1.0
-                for k in range(order):
-                    p *= (t_out[j] - (t - h_abs * k)) / (h_abs * (1 + k))
-                    for i in range(n):
-                        X[i, j] += D[k + 1, i] * p
-            model_output(th, t_out[j], X[:, j], tc, TC, ER, j)
-            j += 1
+        j = _bdf_dense_output(th, D, order, t, h_abs, x, tc, t_out, j, X, TC, ER)
         if t_old == t:
             return j, t, False, calls
     return j, t, True, calls

@@ -333,15 +333,10 @@ def simulate_arm(
         Ts = check_real("Ts", Ts, positive=True)
         if method != "compiled":
             method = "rk4"
-    e0 = setup.e0 if e0 is None else e0
-    edot0 = setup.edot0 if edot0 is None else edot0
     disturbance = setup.disturbance if disturbance is None else disturbance
     if disturbance is not None and len(disturbance.signs) != n:
         raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
-    r0, rd0, _ = setup.reference.at(0.0)
-    e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
-    ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))
-    x0 = np.concatenate([r0 - e_init, rd0 - ed_init, np.zeros(n)])
+    x0 = _initial_state(setup, e0, edot0)
     if torque_limit is not None:
         torque_limit = check_real("torque_limit [N·m]", torque_limit, positive=True)
     if noise is not None:
@@ -363,22 +358,7 @@ def simulate_arm(
                          divergence_limit=divergence_limit)
         t, X = traj.t, traj.x
         success, diverged, message = traj.success, traj.diverged, traj.message
-        ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
-            np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
-        masses = np.array([float(load(float(tk))) for tk in t])
-        r, rd, _ = setup.reference.sample(t)
-        e, edot = r.T - X[:n], rd.T - X[n:2 * n]
-        # the law of ArmLoop.torque at every sample at once (a held law's samples are its sample instants)
-        measured = (e, edot) if noise is None else (e - noise(t), edot - noise.rate(t))
-        states = np.vstack([X[2 * n:], *measured])
-        schedule = schedule_of(gain)
-        if schedule is not None:
-            gains = schedule.gain(masses + bias)  # (k, n, 3n) at the measured payloads
-            tau = ff - np.einsum("kij,jk->ik", gains, states)
-        else:
-            tau = ff - gain @ states
-        if torque_limit is not None:
-            tau = np.clip(tau, -torque_limit, torque_limit)
+        e, edot, tau, ff, masses = _samples(setup, gain, load, t, X, torque_limit, noise, bias)
     q = X[:n]
     metrics = None
     if int((t >= t_transient).sum()) >= 2 and not diverged:
@@ -389,3 +369,40 @@ def simulate_arm(
                   joints=setup.arm.joints, success=success and not diverged, diverged=diverged,
                   message=message, method=method, status=status, status_reason=reason,
                   t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)
+
+
+def _initial_state(setup: ArmSetup, e0: ArrayLike | None, edot0: ArrayLike | None) -> Array:
+    """The loop's state ``[q, q̇, ∫e]`` at t = 0 from the initial errors (default the setup's, else 0)."""
+    n = setup.arm.n_joints
+    e0 = setup.e0 if e0 is None else e0
+    edot0 = setup.edot0 if edot0 is None else edot0
+    r0, rd0, _ = setup.reference.at(0.0)
+    e_init = np.zeros(n) if e0 is None else check_array("e0", e0, shape=(n,))
+    ed_init = np.zeros(n) if edot0 is None else check_array("edot0", edot0, shape=(n,))
+    return np.concatenate([r0 - e_init, rd0 - ed_init, np.zeros(n)])
+
+
+def _samples(setup: ArmSetup, gain: Array | ScheduledGain, load: Callable[[float], Any], t: Array, X: Array,
+             torque_limit: float | None, noise: MeasurementNoise | None,
+             bias: float) -> tuple[Array, Array, Array, Array, Array]:
+    """``(e, ė, τ, τ_ff, m_p)`` at the samples of a run: the law of :meth:`ArmLoop.torque` at every sample at once.
+
+    A held law's samples are its sample instants, so the same formula holds for it.
+    """
+    n = setup.arm.n_joints
+    ff = np.zeros((n, t.size)) if setup.feedforward == "none" else \
+        np.array([setup.tau_ff(float(tk)) for tk in t]).reshape(t.size, n).T
+    masses = np.array([float(load(float(tk))) for tk in t])
+    r, rd, _ = setup.reference.sample(t)
+    e, edot = r.T - X[:n], rd.T - X[n:2 * n]
+    measured = (e, edot) if noise is None else (e - noise(t), edot - noise.rate(t))
+    states = np.vstack([X[2 * n:], *measured])
+    schedule = schedule_of(gain)
+    if schedule is not None:
+        gains = schedule.gain(masses + bias)  # (k, n, 3n) at the measured payloads
+        tau = ff - np.einsum("kij,jk->ik", gains, states)
+    else:
+        tau = ff - gain @ states
+    if torque_limit is not None:
+        tau = np.clip(tau, -torque_limit, torque_limit)
+    return e, edot, tau, ff, masses

@@ -327,18 +327,8 @@ def simulate_plant(
     plot_plant_run : draws the run.
     """
     n_x, m = plant.n_states, plant.n_inputs
-    n = plant.n_design_states
-    schedule = schedule_of(K)
     bias = check_real("measurement_bias", measurement_bias)
-    if schedule is not None:
-        check_choice("K.parameter", schedule.parameter, plant.names)
-        if schedule.shape != (m, n):
-            raise ArgumentValueError("K", f"must hold gains of shape ({m}, {n}) for this plant, found {schedule.shape}")
-        K = schedule.gain(plant.nominal[schedule.parameter])  # the transient's time step is estimated with it
-    elif bias != 0:
-        raise ArgumentValueError("measurement_bias", "applies to a ScheduledGain (the measured parameter's error)")
-    K, Ts = held_gain(K)
-    K = check_array("K", K, shape=(m, n))
+    schedule, K, Ts = _gain_parts(plant, K, bias)
     t_final = check_real("t_final", t_final, positive=True)
     n_points = check_int("n_points", n_points, 3)
     profiles = dict(profiles or {})
@@ -346,34 +336,13 @@ def simulate_plant(
         check_choice("profiles", key, plant.names)
     nominal = plant.nominal
     q = len(plant.outputs)
-    if plant.form == "pid":
-        C = np.hstack([np.eye(q), np.zeros((q, n_x - q))])
-    elif plant.form == "integral":
-        assert plant.C is not None
-        C = np.asarray(plant.C)
-    else:
-        C = np.eye(n_x)
-    amp = np.ones(q) if reference is None else check_array("reference[0]", np.broadcast_to(reference[0], (q,)))
-    omega = 0.0 if reference is None else check_real("reference[1]", reference[1], nonnegative=True)
-    if plant.form == "state":
-        amp = np.zeros(q)
+    C = _output_matrix(plant)
+    amp, omega = _reference_wave(plant, reference)
     d = np.zeros(m) if disturbance is None else check_array("disturbance", disturbance, shape=(m,))
     x_init = np.zeros(n_x) if x0 is None else check_array("x0", x0, shape=(n_x,))
     t_on = 0.25 * t_final
     n_int = q if plant.form != "state" else 0
-    # never coarser than the transient: a grid that misses it would show (and judge) nothing of it
-    step, why = _transient_step(plant, K, omega, Ts)
-    rows = float(n_points)
-    if t_final / (n_points - 1) > step:
-        rows = t_final / step + 1.0
-        rows = float(math.ceil(rows)) if math.isfinite(rows) else rows  # an infinite estimate is refused
-    else:
-        why = f"n_points = {n_points}"
-    segments = 0.0 if Ts is None else t_final / Ts + 1  # a sampled loop's breaks and held inputs
-    n_out = 1 + 2 * q + m + len(plant.names)
-    check_memory("t_final", simulation_bytes(t_final, t_final / (rows - 1), n_x + n_int, n_out) + 32.0 * segments,
-                 f"{rows:.3g} output samples ({t_final:g} s every {t_final / (rows - 1):.3g} s: {why})")
-    n_points = int(rows)
+    n_points = _output_points(plant, K, omega, Ts, t_final, n_points, n_int)
 
     def ref(t: float) -> tuple[Array, Array]:
         if omega == 0.0:
@@ -382,7 +351,6 @@ def simulate_plant(
 
     def params_at(t: float) -> dict[str, float]:
         return {k: (profiles[k](t) if k in profiles else v) for k, v in nominal.items()}
-
 
     def gain_at(t: float) -> Array:
         if schedule is None:
@@ -401,63 +369,31 @@ def simulate_plant(
 
     def update(t: float, xs: Array, u_in: Array, params: object) -> Array:
         x, z = xs[:n_x], xs[n_x:]
-        A, B = plant.plant_matrices(params_at(t))
         u = (control(t, x, z) if Ts is None else u_in) + (d if t >= t_on else 0.0)
         dz = ref(t)[0] - C[:q] @ x if n_int else np.zeros(0)
+        if plant.dynamics is not None:  # a nonlinear system: itself, not its linearization
+            return np.concatenate([plant.dynamics.rhs(t, x, u, params_at(t)), dz])
+        A, B = plant.plant_matrices(params_at(t))
         return np.concatenate([A @ x + B @ u, dz])
 
     n_in = 0 if Ts is None else m
     sys = ct.nlsys(update, None, states=n_x + n_int, inputs=n_in, outputs=n_x + n_int, name=plant.name)
     T = np.linspace(0.0, t_final, n_points)
-    xs0 = np.concatenate([x_init, np.zeros(n_int)])
-    held = np.zeros((m, T.size))
-    try:
-        if Ts is None:
-            states = _integrate(sys, T, np.zeros((0, T.size)), xs0)
-        else:
-            states, held = _integrate_sampled(sys, T, Ts, t_on, xs0, lambda t, xs: control(t, xs[:n_x], xs[n_x:]))
-        ok, message = True, "integrated"
-    except (ValueError, RuntimeError, OverflowError) as err:  # python-control raises on a failed solve
-        states = np.full((n_x + n_int, T.size), np.nan)
-        ok, message = False, f"the integrator failed: {err}"
+    states, held, ok, message = _solve(sys, T, Ts, t_on, np.concatenate([x_init, np.zeros(n_int)]), m,
+                                       lambda t, xs: control(t, xs[:n_x], xs[n_x:]))
     x, z = states[:n_x], states[n_x:]
     r = np.array([ref(t)[0] for t in T]).T.reshape(q, -1)
     y = C[:q] @ x if plant.form != "state" else x[:q]
     e = r - y
-    if Ts is None:
-        u = np.array([control(t, x[:, k], z[:, k]) for k, t in enumerate(T)]).T.reshape(m, -1)
-    else:
-        u = held
+    u = held if Ts is not None else np.array([control(t, x[:, k], z[:, k]) for k, t in enumerate(T)]).T.reshape(m, -1)
+    if plant.dynamics is not None:  # the input applied: the operating input and the controller's
+        u = u + np.array([plant.dynamics.operating_point(t)[1] for t in T]).T.reshape(m, -1)
     p = np.array([[params_at(t)[name] for t in T] for name in plant.names]).reshape(len(plant.names), -1)
     rates = np.abs(np.diff(p, axis=1) / np.diff(T)).max(axis=1) if p.size else np.zeros(0)
-    peak_r = float(np.abs(amp).max()) if amp.size else 0.0
-    tol = (PLANT_TRACKING_RTOL * peak_r if peak_r > 0 else PLANT_TRACKING_RTOL) if tolerance is None else \
-        check_real("tolerance", tolerance, positive=True)
-    start = 0.5 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
-    after = T >= start
     finite = bool(np.isfinite(states).all())
-    judged = int(after.sum()) >= 2
-    worst = (float(np.abs(e[:, after]).max()) if judged else math.nan) if finite else math.inf
-    scale = max(1.0, peak_r, float(np.abs(x_init).max()) if x_init.size else 0.0)
-    unit = plant.outputs[0].unit
-    if not ok:
-        status, reason = "failed", message
-    elif finite and not judged:
-        status, reason = "too-short", (f"fewer than 2 samples after {start:g} s (the run ends at {t_final:g} s): "
-                                       "max |e| after the transient is not resolved; tracking is not judged")
-    elif not finite or worst > _DIVERGED * scale:
-        status, reason = "diverged", f"the state grew beyond {_DIVERGED:g} times its scale"
-    elif worst <= tol:
-        status, reason = "tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} <= {tol:.3g} {unit}"
-    else:
-        status, reason = "not-tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} > {tol:.3g} {unit}"
-    assert status in STATUSES
-    labels = ("t [s]", *(f"{s.name} [{s.unit}]" for s in plant.outputs),
-              *(f"{s.name} reference [{s.unit}]" for s in plant.outputs),
-              *(f"{s.name} [{s.unit}]" for s in plant.inputs),
-              *(f"{prm.name} [{prm.unit}]" for prm in plant.parameters))
+    status, reason, worst = _judge(plant, T, e, amp, x_init, finite, ok, message, tolerance, t_transient)
     return PlantRun(T, y, r, e, u, p, status, reason, worst, float(np.abs(u).max()) if finite else math.inf,
-                    rates, labels)
+                    rates, _labels(plant))
 
 
 def _transient_step(plant: UncertainPlant, K: ArrayLike, omega: float = 0.0,
@@ -542,3 +478,111 @@ def _integrate_sampled(
         held[:, inside] = u[:, None]
         x = out[:, -1]
     return states, held
+
+
+def _output_matrix(plant: UncertainPlant) -> Array:
+    """The rows of the state that are the plant's outputs (the PID form's e, the integral form's C, else I)."""
+    n_x, q = plant.n_states, len(plant.outputs)
+    if plant.form == "pid":
+        return np.hstack([np.eye(q), np.zeros((q, n_x - q))])
+    if plant.form == "integral":
+        assert plant.C is not None
+        return np.asarray(plant.C)
+    return np.eye(n_x)
+
+
+def _output_points(plant: UncertainPlant, K: Array, omega: float, Ts: float | None, t_final: float, n_points: int,
+                   n_int: int) -> int:
+    """Output samples of a run: `n_points`, or more where the transient needs them; refused beyond the memory.
+
+    Never coarser than the transient: a grid that misses it would show (and judge) nothing of it.
+    """
+    step, why = _transient_step(plant, K, omega, Ts)
+    rows = float(n_points)
+    if t_final / (n_points - 1) > step:
+        rows = t_final / step + 1.0
+        rows = float(math.ceil(rows)) if math.isfinite(rows) else rows  # an infinite estimate is refused
+    else:
+        why = f"n_points = {n_points}"
+    segments = 0.0 if Ts is None else t_final / Ts + 1  # a sampled loop's breaks and held inputs
+    n_out = 1 + 2 * len(plant.outputs) + plant.n_inputs + len(plant.names)
+    check_memory("t_final", simulation_bytes(t_final, t_final / (rows - 1), plant.n_states + n_int, n_out)
+                 + 32.0 * segments,
+                 f"{rows:.3g} output samples ({t_final:g} s every {t_final / (rows - 1):.3g} s: {why})")
+    return int(rows)
+
+
+def _judge(plant: UncertainPlant, T: Array, e: Array, amp: Array, x_init: Array, finite: bool, ok: bool,
+           message: str, tolerance: float | None, t_transient: float | None) -> tuple[str, str, float]:
+    """``(status, reason, max |e| after the transient)`` of a plant's run."""
+    t_final = float(T[-1])
+    peak_r = float(np.abs(amp).max()) if amp.size else 0.0
+    tol = (PLANT_TRACKING_RTOL * peak_r if peak_r > 0 else PLANT_TRACKING_RTOL) if tolerance is None else \
+        check_real("tolerance", tolerance, positive=True)
+    start = 0.5 * t_final if t_transient is None else check_real("t_transient", t_transient, nonnegative=True)
+    after = T >= start
+    judged = int(after.sum()) >= 2
+    worst = (float(np.abs(e[:, after]).max()) if judged else math.nan) if finite else math.inf
+    scale = max(1.0, peak_r, float(np.abs(x_init).max()) if x_init.size else 0.0)
+    unit = plant.outputs[0].unit
+    if not ok:
+        status, reason = "failed", message
+    elif finite and not judged:
+        status, reason = "too-short", (f"fewer than 2 samples after {start:g} s (the run ends at {t_final:g} s): "
+                                       "max |e| after the transient is not resolved; tracking is not judged")
+    elif not finite or worst > _DIVERGED * scale:
+        status, reason = "diverged", f"the state grew beyond {_DIVERGED:g} times its scale"
+    elif worst <= tol:
+        status, reason = "tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} <= {tol:.3g} {unit}"
+    else:
+        status, reason = "not-tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} > {tol:.3g} {unit}"
+    assert status in STATUSES
+    return status, reason, worst
+
+
+def _gain_parts(plant: UncertainPlant, K: Any, bias: float) -> tuple[ScheduledGain | None, Array, float | None]:
+    """``(schedule, K, Ts)``: a schedule (its gain at the nominal K), or a fixed gain, held with its Ts or not."""
+    m, n = plant.n_inputs, plant.n_design_states
+    schedule = schedule_of(K)
+    if schedule is not None:
+        check_choice("K.parameter", schedule.parameter, plant.names)
+        if schedule.shape != (m, n):
+            raise ArgumentValueError("K", f"must hold gains of shape ({m}, {n}) for this plant, found {schedule.shape}")
+        K = schedule.gain(plant.nominal[schedule.parameter])  # the transient's time step is estimated with it
+    elif bias != 0:
+        raise ArgumentValueError("measurement_bias", "applies to a ScheduledGain (the measured parameter's error)")
+    K, Ts = held_gain(K)
+    return schedule, check_array("K", K, shape=(m, n)), Ts
+
+
+def _labels(plant: UncertainPlant) -> tuple[str, ...]:
+    """The columns of a plant's run: time, outputs, references, inputs, parameters, with units."""
+    return ("t [s]", *(f"{s.name} [{s.unit}]" for s in plant.outputs),
+            *(f"{s.name} reference [{s.unit}]" for s in plant.outputs),
+            *(f"{s.name} [{s.unit}]" for s in plant.inputs),
+            *(f"{prm.name} [{prm.unit}]" for prm in plant.parameters))
+
+
+def _solve(sys: ct.NonlinearIOSystem, T: Array, Ts: float | None, t_on: float, xs0: Array, m: int,
+           law: Callable[[float, Array], Array]) -> tuple[Array, Array, bool, str]:
+    """``(states, held inputs, ok, message)`` of a plant's loop: continuous, or `law` sampled every `Ts` and held.
+
+    A failed solve (python-control raises) gives NaN states and the error as the message.
+    """
+    held = np.zeros((m, T.size))
+    try:
+        if Ts is None:
+            states = _integrate(sys, T, np.zeros((0, T.size)), xs0)
+        else:
+            states, held = _integrate_sampled(sys, T, Ts, t_on, xs0, law)
+        return states, held, True, "integrated"
+    except (ValueError, RuntimeError, OverflowError) as err:  # python-control raises on a failed solve
+        return np.full((xs0.size, T.size), np.nan), held, False, f"the integrator failed: {err}"
+
+
+def _reference_wave(plant: UncertainPlant, reference: tuple[ArrayLike, float] | None) -> tuple[Array, float]:
+    """``(a, ω)`` of the run's reference ``a sin ωt`` (default a unit step; none for the state form)."""
+    q = len(plant.outputs)
+    amp = np.ones(q) if reference is None else check_array("reference[0]", np.broadcast_to(reference[0], (q,)))
+    omega = 0.0 if reference is None else check_real("reference[1]", reference[1], nonnegative=True)
+    return (np.zeros(q) if plant.form == "state" else amp), omega
