@@ -5,7 +5,7 @@ subpackage that defines it; each subpackage's ``__all__`` is the one source of t
 The layers, bottom to top (each imports only those before it)::
 
     paper, exceptions, results  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
-                       ->  io  ->  export  ->  studies  ->  plotting  ->  cli (front end)
+                       ->  io  ->  export  ->  studies  ->  plotting  ->  workflow  ->  app, cli (front ends)
 
 The paper's numbers (:mod:`scara_robust.paper`)
     PAPER_DESIGN_POINT, PAPER_GAIN, PAPER_GAIN_DECIMALS -- (ρ*, η*) and K as printed in Section 4
@@ -21,6 +21,7 @@ Errors (:mod:`scara_robust.exceptions`)
     ScaraRobustError                -- base of every error raised on purpose
     ArgumentError, ArgumentValueError, ArgumentTypeError -- a bad argument, named by its parameter
     InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
+    OptionError                     -- a front end's input that cannot be used (naming the option, e.g. --robot)
     MissingToolError                -- a program a command needs (a cross-compiler, an emulator) is not installed
 Model (:mod:`scara_robust.model`)
     UncertainSystem, CAPABILITIES   -- what every uncertain system is, and what it can do (intervals, vertices, ...)
@@ -164,6 +165,12 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
     plot_arm_run                    -- an arm run: joint errors, torques and payload over time
     plot_schedule                   -- a scheduled gain's entries against its parameter, a fixed gain beside
+The workflow the front ends share (:mod:`scara_robust.workflow`)
+    open_system, SYSTEM_KINDS, LoadedSystem -- the system a design runs on, from the files a user names, by kind
+    ScaraSystem, PlantFileSystem, ArmSystem -- the built-in SCARA, a plant file, an arm of a URDF robot file
+    Setup, Capabilities, PhysicalSet -- the SCARA's robot and signals; what a system can do; synthesis samples
+    CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID -- the SCARA's samples of the sampled-data certificate
+    load_input                      -- a file read with the option that named it in any error
 """
 
 from __future__ import annotations
@@ -175,7 +182,7 @@ __version__ = "0.2.0"
 
 #: The subpackages whose ``__all__`` make the API, in the order of the index above.
 _SUBPACKAGES = ("paper", "exceptions", "model", "controller", "lyapunov", "results", "robustness", "simulation",
-                "io", "export", "studies", "plotting")
+                "io", "export", "studies", "plotting", "workflow")
 
 if TYPE_CHECKING:  # what the names are, for type checkers; at run time they are imported on first use
     from .controller import *  # noqa: F403
@@ -190,6 +197,7 @@ if TYPE_CHECKING:  # what the names are, for type checkers; at run time they are
     from .robustness import *  # noqa: F403
     from .simulation import *  # noqa: F403
     from .studies import *  # noqa: F403
+    from .workflow import *  # noqa: F403
 
 
 def _api() -> list[str]:

@@ -215,3 +215,24 @@ def field_table(
         if name not in allowed:
             raise error(f"{where}: unknown field `{key}.{name}`; valid: {', '.join(f'{key}.{n}' for n in allowed)}")
     return dict(table)
+
+
+def os_error_text(err: OSError) -> str:
+    """What went wrong with a file, without its path: ``'No such file or directory'``.
+
+    Some libraries raise ``FileNotFoundError(path)`` with no ``strerror``; that still reads
+    as the missing file it is.
+
+    Parameters
+    ----------
+    err : OSError
+
+    Returns
+    -------
+    str
+    """
+    if err.strerror:
+        return str(err.strerror)
+    if isinstance(err, FileNotFoundError):
+        return "No such file or directory"
+    return str(err) or type(err).__name__

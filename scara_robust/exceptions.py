@@ -22,6 +22,7 @@ __all__ = [
     "MissingToolError",
     "InputFileError",
     "CampaignSpecError",
+    "OptionError",
 ]
 
 
@@ -74,3 +75,11 @@ class InputFileError(ScaraRobustError, ValueError):
 
 class CampaignSpecError(InputFileError):
     """A campaign spec that cannot be used; the message names the field."""
+
+
+class OptionError(ScaraRobustError, ValueError):
+    """Input of a front end (an option, or a file it names) that cannot be used together or read.
+
+    Raised by the workflow layer (:mod:`scara_robust.workflow`) that the command line and the
+    design page share; the message names the option as the user gave it (``--robot``).
+    """

@@ -28,12 +28,14 @@ ROOT = Path(__file__).resolve().parents[1]
 WORK = Path("/tmp/scara_robust_cli_snapshot")
 
 # what is not the command's answer: elapsed times ("in 1.23 s", "; 2.8 s" after synthesize's gain norm,
-# a table's "seconds" column) and the memory this machine has free when a request is refused
+# "(10 LMI steps, 2.8 s)", a table's "seconds" column) and the memory this machine has free when a request
+# is refused
 TIMING = [
     (re.compile(r"\b\d+(\.\d+)? ?(s|ms|min)\b(?= (of solver|elapsed|wall))"), "<time>"),
     (re.compile(r"(\bin |took |elapsed |wall time |time: )\d+(\.\d+)?( ?(s|ms|min))"), r"\1<time>"),
     (re.compile(r'"(elapsed|seconds|wall_time|time_s|elapsed_s)": [0-9.e+-]+'), r'"\1": <time>'),
     (re.compile(r"(\(bound [^)]*\)); \d+(\.\d+)? s$", re.MULTILINE), r"\1; <time>"),
+    (re.compile(r"(\d+ LMI steps, )\d+(\.\d+)? s\)"), r"\1<time>)"),
     (re.compile(r"more than the [0-9.]+ \w+ one request may use on this machine \(50% of the [0-9.]+ \w+ "
                 r"available\)"), "more than <memory>"),
 ]

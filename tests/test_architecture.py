@@ -30,6 +30,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.export",),
     ("scara_robust.studies",),
     ("scara_robust.plotting",),
+    ("scara_robust.workflow",),  # what the front ends share: the system of a user's files
     ("scara_robust",),  # the package's __init__: re-exports the library
     ("scara_robust.app",),  # the web page: a front end the command line serves
     ("scara_robust.cli", "scara_robust.compare", "scara_robust.__main__"),

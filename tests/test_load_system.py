@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+import scara_robust as sr
 from scara_robust.cli import build_parser, main
 from scara_robust.cli._common import CommandLineError
 from scara_robust.cli._system import ArmSystem, LoadedSystem, PlantFileSystem, ScaraSystem, load_system
@@ -109,7 +110,7 @@ def test_a_polytope_file():
     assert system.plant_prefix("scara_pid") == "scara_pid"
     assert system.signal_names() == {}
     assert system.sampled()[2].startswith("the ")
-    with pytest.raises(CommandLineError, match="^no parameters$"):
+    with pytest.raises(sr.OptionError, match="^no parameters$"):
         system.require_physical("no parameters")
 
 
@@ -118,7 +119,7 @@ def test_loading_leaves_the_arguments_alone_and_reads_files_when_asked():
     before = dict(vars(args))
     system = load_system(args)  # the kind only: the file is read when the plant is asked for
     assert vars(args) == before
-    with pytest.raises(CommandLineError, match="^`--model` 'missing.toml': "):
+    with pytest.raises(sr.OptionError, match="^`--model` 'missing.toml': "):
         _ = system.plant
 
 

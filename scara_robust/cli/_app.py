@@ -10,13 +10,14 @@ import sys
 import tempfile
 from typing import Any
 
+from .._validation import os_error_text
 from ..controller.scheduled import SCHEDULE_KIND
 from ._common import RANGE_HELP, CommandLineError, Parser, add_setup_options, parse_range
 from ._design import add_parser as add_design_parser
 from ._design import run as design_run
 from ._export import add_parser as add_export_parser
 from ._export import run as export_run
-from ._parser import COMMAND_HELP, os_error_text
+from ._parser import COMMAND_HELP
 from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem, load_system, plant_source
 

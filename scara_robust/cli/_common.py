@@ -15,15 +15,17 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..exceptions import ArgumentError, ArgumentValueError, InputFileError
+from .._validation import os_error_text
+from ..exceptions import ArgumentError, ArgumentValueError
 from ..io import PID_CONTROLLER_METHOD, DesignFile, load_design, ros2_dof_name, write_atomic
 from ..lyapunov.gain import Design, design
 from ..model.polytopic import PolytopicModel
 from ..model.scara import SCARA_BOUNDS
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.registry import get_method
+from ..workflow.system import load_input
 from ._options import option
-from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message, os_error_text
+from ._parser import OPTION_NAMES, CommandLineError, Parser, error_message
 
 __all__ = [
     "BOUNDS",
@@ -374,13 +376,8 @@ def add_setup_options(
 
 
 def load_file(option: str, path: str, load: Callable[[str], _Loaded]) -> _Loaded:
-    """``load(path)``, with the option named in any error."""
-    try:
-        return load(path)
-    except OSError as err:
-        raise CommandLineError(f"`{option}` {path!r}: {os_error_text(err)}") from err
-    except InputFileError as err:
-        raise CommandLineError(f"`{option}` {err}") from err
+    """``load(path)``, with the option named in any error (:func:`scara_robust.workflow.system.load_input`)."""
+    return load_input(option, path, load)
 
 
 def add_range_option(p: argparse.ArgumentParser, verb: str) -> None:

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import os_error_text
 from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, DiscretePID
 from ..controller.kinds import check_controller
 from ..controller.state_feedback import SampledStateFeedback
@@ -30,7 +31,7 @@ from ._common import (
     resolve_design,
     resolve_gain,
 )
-from ._parser import COMMAND_HELP, os_error_text
+from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, is_schedule_file, refuse_schedule_options, run_schedule_export
 from ._system import LoadedSystem
 

@@ -14,6 +14,7 @@ import argparse
 import os
 from typing import NoReturn
 
+from .._validation import os_error_text
 from ..exceptions import ArgumentError
 
 __all__ = ["COMMANDS", "COMMAND_HELP", "CommandLineError", "OPTION_NAMES", "Parser", "error_message"]
@@ -95,27 +96,6 @@ class Parser(argparse.ArgumentParser):
         """
         command = self.prog.removeprefix("scara_robust").strip()  # main() adds "scara_robust: error:"
         raise CommandLineError(f"{command}: {message}" if command else message)
-
-
-def os_error_text(err: OSError) -> str:
-    """What went wrong with a file, without its path: ``'No such file or directory'``.
-
-    Some libraries raise ``FileNotFoundError(path)`` with no ``strerror``; that still reads
-    as the missing file it is.
-
-    Parameters
-    ----------
-    err : OSError
-
-    Returns
-    -------
-    str
-    """
-    if err.strerror:
-        return str(err.strerror)
-    if isinstance(err, FileNotFoundError):
-        return "No such file or directory"
-    return str(err) or type(err).__name__
 
 
 def error_message(err: BaseException) -> str:

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import os_error_text
 from ..controller.kinds import schedule_of
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError
@@ -17,7 +18,6 @@ from ..model.plant import UncertainPlant, as_model
 from ..simulation.plants import PROFILES, PlantRun, parameter_profile, simulate_plant
 from ._common import CommandLineError, check_gain_options, resolve_design, write_text
 from ._options import option
-from ._parser import os_error_text
 from ._schedule import is_schedule_file, read_schedule
 
 __all__ = ["add_plant_run_options", "option_floats", "plant_gain", "plant_profiles", "plant_run", "run_inputs",

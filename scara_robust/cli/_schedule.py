@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import os_error_text
 from ..controller.scheduled import SCHEDULE_KIND, SampledScheduledGain, ScheduledGain, load_schedule
 from ..exceptions import ArgumentError, InputFileError
 from ..export import export_controller
@@ -30,7 +31,6 @@ from ..robustness.scheduled import (
 from ._board import run_board
 from ._common import CommandLineError
 from ._options import option
-from ._parser import os_error_text
 from ._system import LoadedSystem
 
 __all__ = ["is_schedule_file", "read_schedule", "add_schedule_options", "refuse_schedule_options",

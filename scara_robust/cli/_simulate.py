@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import os_error_text
 from ..exceptions import ArgumentError
 from ..io import PID_CONTROLLER_METHOD
 from ..lyapunov.gain import design
@@ -37,7 +38,7 @@ from ._common import (
     write_text,
 )
 from ._options import given
-from ._parser import COMMAND_HELP, os_error_text
+from ._parser import COMMAND_HELP
 from ._plant_run import add_plant_run_options, plant_gain, plant_run, series_output, summary
 from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import os_error_text
 from ..io import design_record, write_design
 from ..model.plant import as_model
 from ..robustness.lmi import NOT_INSTALLED
@@ -16,7 +17,7 @@ from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, STRUCTURES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
-from ._parser import COMMAND_HELP, os_error_text
+from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_synthesis
 from ._system import LoadedSystem
 

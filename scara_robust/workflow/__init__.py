@@ -1,0 +1,18 @@
+"""The workflow the front ends share: the system a design runs on, loaded from the files a user names.
+
+Below the design page and the command line, above the library: a front end chooses the
+kind of system and its files, and asks the :class:`LoadedSystem` for everything a design
+needs (its plant and uncertainty set, the sampled-data plants, decay rate, loop margins,
+input limits). Errors are :class:`~scara_robust.OptionError` naming the options.
+
+LoadedSystem, ScaraSystem, PlantFileSystem, ArmSystem -- the system, by kind
+SYSTEM_KINDS, open_system -- the kinds by name; a system over the files named
+Setup, Capabilities, PhysicalSet -- the SCARA's robot and signals; what a system can do; synthesis samples
+CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID -- the SCARA's samples of the sampled-data certificate
+load_input -- a file read with the option that named it in any error
+"""
+
+from .system import *  # noqa: F403
+from .system import __all__ as _system
+
+__all__ = [*_system]
