@@ -171,6 +171,10 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     Setup, Capabilities, PhysicalSet -- the SCARA's robot and signals; what a system can do; synthesis samples
     CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID -- the SCARA's samples of the sampled-data certificate
     load_input                      -- a file read with the option that named it in any error
+    design_answer, DesignAnswer     -- K(ρ, η) of a system, its certificate and the design file that records them
+    export_certified, ExportedDesign -- certify a controller at its Ts on the system, then write a target's files
+    export_pid                      -- K(ρ, η) with the PID's defaults, certified and written as C (the page's)
+    state_feedback_of, check_state_form -- static state feedback for a plant in the state form
 """
 
 from __future__ import annotations

@@ -31,7 +31,7 @@ WORK = Path("/tmp/scara_robust_cli_snapshot")
 # "(10 LMI steps, 2.8 s)", a table's "seconds" column) and the memory this machine has free when a request
 # is refused
 TIMING = [
-    (re.compile(r"\b\d+(\.\d+)? ?(s|ms|min)\b(?= (of solver|elapsed|wall))"), "<time>"),
+    (re.compile(r"\b\d+(\.\d+)? ?(s|ms|min)\b(?= (of solver|of computing|elapsed|wall))"), "<time>"),
     (re.compile(r"(\bin |took |elapsed |wall time |time: )\d+(\.\d+)?( ?(s|ms|min))"), r"\1<time>"),
     (re.compile(r'"(elapsed|seconds|wall_time|time_s|elapsed_s)": [0-9.e+-]+'), r'"\1": <time>'),
     (re.compile(r"(\(bound [^)]*\)); \d+(\.\d+)? s$", re.MULTILINE), r"\1; <time>"),

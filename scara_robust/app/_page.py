@@ -14,6 +14,7 @@ import html
 import math
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
@@ -270,6 +271,77 @@ def _schedule_panel(doc: Document, explorer: DesignExplorer) -> tuple[Any, Calla
     return column(check, *rows, name="schedule"), draw_fixed
 
 
+@dataclass(frozen=True)
+class _MapView:
+    """The (ρ, η) map's figure and the models its callbacks redraw."""
+
+    fmap: figure
+    mapper: LinearColorMapper
+    image_src: ColumnDataSource
+    contour: Any
+    colorbar: ColorBar
+    chosen: ColumnDataSource
+
+
+@dataclass(frozen=True)
+class _MapControls:
+    """The widgets under the map: the measure shown, the (ρ, η) to select, the map's grid, the message line."""
+
+    measure: Select
+    rho_in: TextInput
+    eta_in: TextInput
+    go: Button
+    rho_grid: TextInput
+    eta_grid: TextInput
+    regrid: Button
+    message: Div
+
+
+@dataclass(frozen=True)
+class _DesignPanels:
+    """The selected design's K, its response (text and plots), one line per slower answer, and the units."""
+
+    design_div: Div
+    response_div: Div
+    status: dict[str, Div]
+    err_src: ColumnDataSource
+    inp_src: ColumnDataSource
+    ferr: figure
+    finp: figure
+    out_unit: str
+    in_unit: str
+
+
+@dataclass(frozen=True)
+class _ExportControls:
+    """The export row's fields and buttons and the line their files go to."""
+
+    ts_in: TextInput
+    limit_in: TextInput
+    export_btn: Button
+    design_btn: Button
+    figures_btn: Button
+    export_div: Div
+
+
+@dataclass(frozen=True)
+class _Page:
+    """Everything the page's callbacks read and update: the document, the explorer, the widgets, the selection."""
+
+    doc: Document
+    explorer: DesignExplorer
+    #: "measure": the key of the map shown; "selected": the selected QuickAnswer, None before the first selection.
+    state: dict[str, Any]
+    view: _MapView
+    controls: _MapControls
+    panels: _DesignPanels
+    export: _ExportControls
+    initial: Select
+    payload: Select
+    draw_fixed: Callable[[Any], None] | None
+    robot: bool
+
+
 def build_page(doc: Document, explorer: DesignExplorer) -> None:
     """Fill `doc` with the page of `explorer`.
 
@@ -280,6 +352,25 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     """
     doc.title = f"scara_robust: {explorer.title}"
     state: dict[str, Any] = {"measure": "max_eig", "selected": None}
+    view = _map_view(explorer)
+    controls = _map_controls(explorer)
+    panels = _design_panels(explorer)
+    export = _export_controls(explorer, panels.in_unit)
+    initial = _initial_select()
+    draw_fixed: Callable[[Any], None] | None = None
+    extra: list[Any] = []
+    if explorer.schedule is not None:
+        panel, draw_fixed = _schedule_panel(doc, explorer)
+        extra.append(panel)
+    payload = _payload_select()
+    page = _Page(doc, explorer, state, view, controls, panels, export, initial, payload, draw_fixed,
+                 explorer.robot_signals is not None)
+    _wire_callbacks(page)
+    _add_roots(page, extra)
+
+
+def _map_view(explorer: DesignExplorer) -> _MapView:
+    """Lay out the (ρ, η) map in the first measure: its image, contour, colour bar, hover, tap and selection mark."""
     first = list(MEASURES)[0]
     values = explorer.measure(first)
     low, high = _color_range(first, values, 0.0)
@@ -293,7 +384,7 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     image = fmap.image(image="image", x="x", y="y", dw="dw", dh="dh", source=image_src,
                        color_mapper=mapper)
     # a tap selects no glyph (an image's selection would grow with every click and be sent to the server);
-    # the Tap event on_tap receives is the click's position
+    # the Tap event _on_tap receives is the click's position
     tap = TapTool(renderers=[])
     fmap.add_tools(tap)
     fmap.toolbar.active_tap = tap
@@ -305,12 +396,17 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     fmap.add_layout(colorbar, "right")
     chosen = ColumnDataSource({"x": [], "y": []})
     fmap.scatter("x", "y", source=chosen, marker="x", size=16, line_width=3, color="black")
+    return _MapView(fmap, mapper, image_src, contour, colorbar, chosen)
 
+
+def _map_controls(explorer: DesignExplorer) -> _MapControls:
+    """Lay out the map's controls: the measure choice, the (ρ, η) fields, the grid fields and the message line."""
     robot = explorer.robot_signals is not None
+    rhos, etas = explorer.rhos, explorer.etas
     shown = {"max_eig", "margin", *(["payload"] if robot else []),
              *(["deployable"] if explorer.has_input_limits else [])}
     options: list[str | tuple[Any, str]] = [(k, v[0]) for k, v in MEASURES.items() if k in shown]
-    measure = Select(title="Map colour", value=first, options=options, width=260,
+    measure = Select(title="Map colour", value=list(MEASURES)[0], options=options, width=260,
                      name="measure")
     rho_in = TextInput(title="ρ [-] (> 0)", value="3", width=120, name="rho")
     eta_in = TextInput(title="η [-] (>= 1)", value="90", width=120, name="eta")
@@ -321,7 +417,11 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                          name="eta-grid")
     regrid = Button(label="Recompute map", width=130, name="regrid")
     message = Div(text="", width=560, name="message", styles={"color": "#b31d28"})
+    return _MapControls(measure, rho_in, eta_in, go, rho_grid, eta_grid, regrid, message)
 
+
+def _design_panels(explorer: DesignExplorer) -> _DesignPanels:
+    """Lay out the selected design's panels: its K, its response's text and plots, one line per slower answer."""
     design_div = Div(text="Click the map, or type (ρ, η) and press Select.", width=560, name="design")
     response_div = Div(text="", width=560, name="response")
     status = {kind: Div(text="", width=560, name=kind)
@@ -342,6 +442,11 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
                      legend_label=label)
     ferr.yaxis.axis_label = f"tracking error [{out_unit}]"
     finp.yaxis.axis_label = f"controller output [{in_unit}]"
+    return _DesignPanels(design_div, response_div, status, err_src, inp_src, ferr, finp, out_unit, in_unit)
+
+
+def _export_controls(explorer: DesignExplorer, in_unit: str) -> _ExportControls:
+    """Lay out the export row: the sample time and limit fields, the three export buttons and their result line."""
     ts_in = TextInput(title="Ts [s]", value="0.001", width=110, name="ts")
     limit_in = TextInput(title=f"{explorer.limit_name} [{in_unit}] (blank: none)", value="", width=200,
                          name="torque-limit")
@@ -349,274 +454,334 @@ def build_page(doc: Document, explorer: DesignExplorer) -> None:
     design_btn = Button(label="Design file (JSON)", width=150, name="design-file")
     figures_btn = Button(label="Figures (PNG)", width=130, name="figures")
     export_div = Div(text="", width=560, name="export-result")
-    initial = Select(title="initial error", value="large", width=250, name="initial",
-                     options=[(name, f"{name} (e₀ = ({', '.join(f'{v:g}' for v in SCENARIOS[name].e0)}) rad)")
-                              for name in ("large", "small")])
-    draw_fixed: Callable[[Any], None] | None = None
-    extra: list[Any] = []
-    if explorer.schedule is not None:
-        panel, draw_fixed = _schedule_panel(doc, explorer)
-        extra.append(panel)
-    payload = Select(title="payload", value="on", width=200, name="payload",
-                     options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
+    return _ExportControls(ts_in, limit_in, export_btn, design_btn, figures_btn, export_div)
 
-    def set_measure(key: str) -> None:
-        state["measure"] = key
-        if key == "payload":
-            vals = explorer.payload_values
-            if vals is None:
-                vals = explorer.start_payload_map(lambda i, masses: doc.add_next_tick_callback(payload_column))
-            grid_r, grid_e = explorer.payload_grid(vals.shape[0])
-            level = explorer.payload_level
-        else:
-            vals, grid_r, grid_e = explorer.measure(key), explorer.rhos, explorer.etas
-            level = 1.0 if key == "margin" else 0.0
-        lo, hi = _color_range(key, vals, level)
-        mapper.update(low=lo, high=hi, palette=_PALETTE[key])
-        (x0, dw), (y0, dh) = _cells(grid_r), _cells(grid_e)
-        image_src.data = {"image": [vals.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]}
-        # the payload map fills in column by column; the deployable map is grey (NaN) where not certified
-        done = key == "deployable" or bool(np.isfinite(vals).all())
-        contour.visible = done
-        if done:
-            lines = np.where(np.isfinite(vals), vals, level - 1.0)
-            contour.set_data(contour_data(grid_r, grid_e, lines.T, levels=[level, level + 1e-12]))
-        colorbar.title = MEASURES[key][0]
-        what = {"max_eig": "certified where < 0", "margin": "certified where θ >= 1",
-                "deployable": "step within limits where >= 0; grey: not certified"}.get(key, "")
-        if key == "payload":
-            what = f"{vals.shape[0]} × {vals.shape[1]} points, to {PAYLOAD_MAP_TOL:.0%}; blue: >= {level:.3g} kg"
-            if not done:
-                what += f" (computing… {int(np.isfinite(vals).all(axis=1).sum())}/{vals.shape[0]})"
-        _title(fmap).text = f"{MEASURES[key][0]}: {what}"
 
-    def payload_column() -> None:  # a new column of the payload map: drawn if it is the map shown
-        if state["measure"] == "payload":
-            set_measure("payload")
+def _initial_select() -> Select:
+    """Lay out the robot's choice of initial error (the scenario's e₀)."""
+    return Select(title="initial error", value="large", width=250, name="initial",
+                  options=[(name, f"{name} (e₀ = ({', '.join(f'{v:g}' for v in SCENARIOS[name].e0)}) rad)")
+                           for name in ("large", "small")])
 
-    def draw_response(resp: Response, generation: int) -> None:
-        if generation != explorer.generation:
-            return
-        # the envelope of each signal: its peaks as drawn from every sample, a few hundred points sent
-        err_src.data = {name: v for j in range(resp.errors.shape[0])
-                        for name, v in zip((f"te{j}", f"e{j}"), envelope(resp.t, resp.errors[j]), strict=True)}
-        inp_src.data = {name: v for j in range(resp.inputs.shape[0])
-                        for name, v in zip((f"tu{j}", f"u{j}"), envelope(resp.t, resp.inputs[j]), strict=True)}
-        answer = state["selected"]
-        run = explorer.settings
-        scenario = "" if not robot else (
-            f" ({run.initial} initial error, payload {'on' if run.payload_on else 'off'}, "
-            + ("no torque limit" if run.torque_limit is None else
-               "torque limit " + ", ".join(f"{v:g}" for v in run.torque_limit) + " N·m") + ")")
-        response_div.text = (f"<b id='response-head'>Response at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b>"
-                             f"{scenario}: "
-                             f"<span id='response-status'>{resp.status}</span> "
-                             f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
-                             f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>"
-                             + _deployable_html(explorer.deployable(resp)))
 
-    def show_answer(answer: Answer) -> None:
-        if answer.generation != explorer.generation:
-            return
-        div = status.get(answer.kind)
-        if answer.kind == "response":
-            if answer.error:
-                response_div.text = f"<b>Response</b>: failed ({html.escape(answer.error)})"
-            else:
-                draw_response(answer.value, answer.generation)
-            return
-        assert div is not None
-        took = f" <span style='color:#666'>({answer.seconds:.1f} s)</span>"
-        if answer.error:
-            div.text = f"<b>{answer.kind.replace('_', ' ')}</b>: failed: {html.escape(answer.error)}"
-            return
-        if answer.kind == "certificates":
-            div.text = ("<b>Certificates</b> (max_eig: of the method's matrix, certified when < 0)" + took +
-                        _table_html(answer.value, ["method", "verdict", "max_eig", "decay_rate [1/s]"],
-                                    "certificate-table"))
-        elif answer.kind == "margins":
-            v = answer.value
-            upper = "no frozen instability found" if math.isinf(v["upper"]) else f"{v['upper']:.4g}"
-            div.text = (f"<b>Margin θ</b> (every element range scaled about the design plant){took}: certified "
-                        f"for θ <= <span id='margin-lower'>{v['lower']:.4g}</span> (Theorem 1 / vertex), a frozen "
-                        f"plant unstable at θ = {upper}: bracket [{v['lower']:.4g}, {upper}]")
-        elif answer.kind == "payload":
-            table = answer.value.set_index("method")
-            lo = float(table.loc["payload-design-P", "mass [kg]"])
-            hi = float(table.loc["payload-frozen", "mass [kg]"])
-            div.text = (f"<b>Payload</b>{took}: certified for a peak payload up to {lo:.4g} kg (the design's P); "
-                        f"a frozen payload of {hi:.4g} kg makes the loop unstable")
-        elif answer.kind == "decay":
-            div.text = f"<b>Decay rate</b>{took}: <span id='decay-rate'>{html.escape(answer.value.message)}</span>"
-        elif answer.kind == "loop_margins":
-            div.text = (f"<b>Loop margins</b>{took}: <span id='loop-margins'>{html.escape(answer.value.message)}"
-                        "</span>")
-        elif answer.kind == "sample_time":
-            div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
+def _payload_select() -> Select:
+    """Lay out the robot's choice of payload: on (the file's profile) or off."""
+    return Select(title="payload", value="on", width=200, name="payload",
+                  options=[("on", "on (the file's profile)"), ("off", "off (m_p = 0 kg)")])
 
-    def deliver(answer: Answer) -> None:  # on the worker thread: hand over to the document's thread
-        doc.add_next_tick_callback(partial(show_answer, answer))
 
-    def select(rho: float, eta: float) -> None:
-        try:
-            answer = explorer.quick(rho, eta)
-        except ArgumentError as err:
-            message.text = html.escape(f"{err.argument} {err.problem}".replace("rho", "ρ").replace("eta", "η"))
-            return
-        state["selected"] = answer
-        design_div.text = _gain_table(answer, out_unit, in_unit, explorer.elements)
-        if draw_fixed is not None:
-            draw_fixed(answer.design.K)
-        doc.add_next_tick_callback(partial(mark_pending, answer))  # K goes out first, alone
+def _wire_callbacks(page: _Page) -> None:
+    """Wire the map's clicks and the widgets' changes and clicks to the page's callbacks."""
+    controls, export = page.controls, page.export
+    controls.measure.on_change("value", lambda attr, old, new: _set_measure(page, new))
+    on_tap = partial(_on_tap, page)
+    page.view.fmap.on_event(Tap, on_tap)
+    page.view.fmap.on_event(DoubleTap, on_tap)  # a second click within the double-click time is a DoubleTap, not a Tap
+    controls.go.on_click(partial(_on_select, page))
+    controls.regrid.on_click(partial(_on_regrid, page))
+    export.export_btn.on_click(partial(_on_export, page))
+    export.design_btn.on_click(partial(_on_design_file, page))
+    export.figures_btn.on_click(partial(_on_figures, page))
+    # a plant file's run has no scenario choices
+    for widget in (page.initial, page.payload, export.limit_in) if page.robot else ():
+        widget.on_change("value", lambda attr, old, new: _on_scenario(page))
 
-    def mark_pending(answer: QuickAnswer) -> None:
-        if state["selected"] is not answer:
-            return
-        message.text = ""
-        try:
-            explorer.submit(answer.design, deliver)
-        except (RuntimeError, OSError) as err:  # no worker process could start
-            message.text = html.escape(f"the slower answers cannot be computed: {err}")
-        chosen.data = {"x": [answer.rho], "y": [answer.eta]}
-        rho_in.value, eta_in.value = f"{answer.rho:g}", f"{answer.eta:g}"
-        kinds = explorer.slow_answers(answer.design)
-        if "response" in kinds:  # before any answer: those are scheduled after this callback
-            response_div.text = "<b>Response</b>: computing…"
-        for kind, div in status.items():
-            div.text = f"<b>{kind.replace('_', ' ')}</b>: computing…" if kind in kinds else ""
-        export_div.text = ""
 
-    def on_tap(event: Event) -> None:  # the map's grid point nearest the click: its value is what was shown
-        assert isinstance(event, Tap | DoubleTap)
-        if event.x is None or event.y is None:
-            return
-        i, k = explorer.nearest(float(event.x), float(event.y))
-        select(float(explorer.rhos[i]), float(explorer.etas[k]))
-
-    def on_select() -> None:
-        try:
-            rho = _number(rho_in.value, "ρ", "-")
-            eta = _number(eta_in.value, "η", "-")
-        except ValueError as err:
-            message.text = html.escape(str(err))
-            return
-        select(rho, eta)
-
-    def on_regrid() -> None:
-        parse = explorer.parse_grid
-        if parse is None:
-            message.text = "this page's grid is fixed"
-            return
-        try:
-            r, e = parse(rho_grid.value), parse(eta_grid.value)
-            explorer.compute_map(r, e)
-        except ArgumentError as err:
-            problem = err.problem.replace("× `etas`", "× the η grid").replace("with `etas`", "with the η grid")
-            message.text = html.escape(f"map refused: the ρ grid {problem}" if err.argument == "rhos"
-                                       else f"map refused: the {'η' if err.argument == 'etas' else 'ρ'} grid "
-                                       f"{problem}")
-            return
-        except ValueError as err:  # the grid's text
-            message.text = html.escape(f"grid: {err}")
-            return
-        message.text = ""
-        set_measure(state["measure"])
-        (x0, dw), (y0, dh) = _cells(explorer.rhos), _cells(explorer.etas)
-        fmap.x_range.update(start=x0, end=x0 + dw)
-        fmap.y_range.update(start=y0, end=y0 + dh)
-
-    def limits() -> list[float] | None:
-        """The limit field's values (blank: none); raises ValueError with the field's message."""
-        if not limit_in.value.strip():
-            return None
-        values = [_number(v, f"the {explorer.limit_name}", in_unit) for v in limit_in.value.split(",")]
-        if min(values) <= 0:
-            raise ValueError(f"the {explorer.limit_name} must be > 0 {in_unit}, found {min(values):g}")
-        return values
-
-    def on_scenario() -> None:
-        try:
-            limit = limits()
-        except ValueError as err:
-            message.text = html.escape(str(err))
-            return
-        message.text = ""
-        settings = RunSettings(initial.value, payload.value == "on", None if limit is None else tuple(limit))
-        answer = state["selected"]
-        if answer is None:
-            explorer.settings = settings
-            return
-        response_div.text = "<b>Response</b>: computing…"
-        explorer.rerun(answer.design, settings, deliver)
-
-    def on_design_file() -> None:
-        answer = state["selected"]
-        if answer is None or explorer.design_file is None:
-            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
-            return
-        name = f"design-rho{answer.rho:g}-eta{answer.eta:g}.json"
-        export_div.text = "Design file (for --design and load_design): " + _link(name, explorer.design_file(
-            answer.rho, answer.eta).encode(), "application/json")
-
-    def on_figures() -> None:
-        answer = state["selected"]
-        if answer is None:
-            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
-            return
-        export_div.text = "Figures: drawing…"
-        future = explorer.figures(answer.design, state["measure"], (answer.rho, answer.eta))
-        future.add_done_callback(lambda done: doc.add_next_tick_callback(partial(show_figures, answer, done)))
-
-    def show_figures(answer: QuickAnswer, done: Any) -> None:
-        if state["selected"] is not answer:
-            return
-        files, error, _ = done.result()
-        if error:
-            export_div.text = f"<span style='color:#b31d28'>figures: {html.escape(error)}</span>"
-            return
-        export_div.text = "Figures: " + " ".join(_link(name, data, "image/png") for name, data in files.items())
-
-    def on_export() -> None:
-        answer = state["selected"]
-        if answer is None:
-            export_div.text = "<span style='color:#b31d28'>select a design first</span>"
-            return
-        try:
-            ts = _number(ts_in.value, "Ts", "s")
-            files = explorer.export(answer.rho, answer.eta, ts, limits())
-        except (ValueError, ArgumentError) as err:
-            export_div.text = f"<span style='color:#b31d28' id='export-error'>{html.escape(str(err))}</span>"
-            return
-        links = " ".join(_link(name, text.encode(), "text/plain;charset=utf-8") for name, text in files.items())
-        export_div.text = f"Controller at Ts = {ts:g} s, certified: {links}"
-
-    measure.on_change("value", lambda attr, old, new: set_measure(new))
-    fmap.on_event(Tap, on_tap)
-    fmap.on_event(DoubleTap, on_tap)  # a second click within the double-click time is a DoubleTap, not a Tap
-    go.on_click(on_select)
-    regrid.on_click(on_regrid)
-    export_btn.on_click(on_export)
-    design_btn.on_click(on_design_file)
-    figures_btn.on_click(on_figures)
-    for widget in (initial, payload, limit_in) if robot else ():  # a plant file's run has no scenario choices
-        widget.on_change("value", lambda attr, old, new: on_scenario())
-
+def _add_roots(page: _Page, extra: list[Any]) -> None:
+    """Lay out the page's roots (title, map column, K, response, plots, answers, export, schedule) in its template."""
+    explorer, controls, panels, export = page.explorer, page.controls, page.panels, page.export
     title = Div(text=f"<h2 style='margin:0'>Robust PID design: {html.escape(explorer.title)} (Theorem 1 over "
                 f"elements {html.escape(explorer.elements)})</h2>"
                 "<div style='color:#444'>Blue: certified by Theorem 1 (black contour: the boundary). "
                 "Hover for the value, click to select a design.</div>", width=1150)
-    left = column(measure, fmap, row(rho_in, eta_in, column(Div(text="&nbsp;"), go)),
-                  row(rho_grid, eta_grid, column(Div(text="&nbsp;"), regrid)), message, name="left")
-    plots = column(*([row(initial, payload)] if robot else []), ferr, finp, name="plots")
-    answers = column(*status.values(), name="answers")
-    export = column(row(ts_in, limit_in, column(Div(text="&nbsp;"), export_btn)),
-                    row(design_btn, figures_btn), export_div, name="export-root")
+    left = column(controls.measure, page.view.fmap,
+                  row(controls.rho_in, controls.eta_in, column(Div(text="&nbsp;"), controls.go)),
+                  row(controls.rho_grid, controls.eta_grid, column(Div(text="&nbsp;"), controls.regrid)),
+                  controls.message, name="left")
+    plots = column(*([row(page.initial, page.payload)] if page.robot else []), panels.ferr, panels.finp,
+                   name="plots")
+    answers = column(*panels.status.values(), name="answers")
+    export_root = column(row(export.ts_in, export.limit_in, column(Div(text="&nbsp;"), export.export_btn)),
+                         row(export.design_btn, export.figures_btn), export.export_div, name="export-root")
     # separate roots, placed by the page's template: a text that changes re-lays out its own root only
     # (in one root, every new K or "computing…" would lay out the map and the response plots again)
     title.name = "header"
-    for root in (title, left, design_div, response_div, plots, answers, export, *extra):
-        doc.add_root(root)
-    doc.template = _SCHEDULE_TEMPLATE if extra else _TEMPLATE
+    for root in (title, left, panels.design_div, panels.response_div, plots, answers, export_root, *extra):
+        page.doc.add_root(root)
+    page.doc.template = _SCHEDULE_TEMPLATE if extra else _TEMPLATE
+
+
+def _set_measure(page: _Page, key: str) -> None:
+    """Redraw the map in measure `key`: its image, colour scale, contour, colour bar and title."""
+    explorer, view = page.explorer, page.view
+    page.state["measure"] = key
+    if key == "payload":
+        vals = explorer.payload_values
+        if vals is None:
+            vals = explorer.start_payload_map(
+                lambda i, masses: page.doc.add_next_tick_callback(partial(_payload_column, page)))
+        grid_r, grid_e = explorer.payload_grid(vals.shape[0])
+        level = explorer.payload_level
+    else:
+        vals, grid_r, grid_e = explorer.measure(key), explorer.rhos, explorer.etas
+        level = 1.0 if key == "margin" else 0.0
+    lo, hi = _color_range(key, vals, level)
+    view.mapper.update(low=lo, high=hi, palette=_PALETTE[key])
+    (x0, dw), (y0, dh) = _cells(grid_r), _cells(grid_e)
+    view.image_src.data = {"image": [vals.T], "x": [x0], "y": [y0], "dw": [dw], "dh": [dh]}
+    # the payload map fills in column by column; the deployable map is grey (NaN) where not certified
+    done = key == "deployable" or bool(np.isfinite(vals).all())
+    view.contour.visible = done
+    if done:
+        lines = np.where(np.isfinite(vals), vals, level - 1.0)
+        view.contour.set_data(contour_data(grid_r, grid_e, lines.T, levels=[level, level + 1e-12]))
+    view.colorbar.title = MEASURES[key][0]
+    what = {"max_eig": "certified where < 0", "margin": "certified where θ >= 1",
+            "deployable": "step within limits where >= 0; grey: not certified"}.get(key, "")
+    if key == "payload":
+        what = f"{vals.shape[0]} × {vals.shape[1]} points, to {PAYLOAD_MAP_TOL:.0%}; blue: >= {level:.3g} kg"
+        if not done:
+            what += f" (computing… {int(np.isfinite(vals).all(axis=1).sum())}/{vals.shape[0]})"
+    _title(view.fmap).text = f"{MEASURES[key][0]}: {what}"
+
+
+def _payload_column(page: _Page) -> None:
+    """Redraw the payload map with its new column, if it is the map shown."""
+    if page.state["measure"] == "payload":
+        _set_measure(page, "payload")
+
+
+def _draw_response(page: _Page, resp: Response, generation: int) -> None:
+    """Draw the selected design's response: its signals' envelopes and its heading with the run's scenario."""
+    explorer, panels = page.explorer, page.panels
+    if generation != explorer.generation:
+        return
+    # the envelope of each signal: its peaks as drawn from every sample, a few hundred points sent
+    panels.err_src.data = {name: v for j in range(resp.errors.shape[0])
+                           for name, v in zip((f"te{j}", f"e{j}"), envelope(resp.t, resp.errors[j]), strict=True)}
+    panels.inp_src.data = {name: v for j in range(resp.inputs.shape[0])
+                           for name, v in zip((f"tu{j}", f"u{j}"), envelope(resp.t, resp.inputs[j]), strict=True)}
+    answer = page.state["selected"]
+    run = explorer.settings
+    scenario = "" if not page.robot else (
+        f" ({run.initial} initial error, payload {'on' if run.payload_on else 'off'}, "
+        + ("no torque limit" if run.torque_limit is None else
+           "torque limit " + ", ".join(f"{v:g}" for v in run.torque_limit) + " N·m") + ")")
+    panels.response_div.text = (f"<b id='response-head'>Response at ρ = {answer.rho:.4g}, η = {answer.eta:.4g}</b>"
+                                f"{scenario}: "
+                                f"<span id='response-status'>{resp.status}</span> "
+                                f"({html.escape(resp.reason)}) <span style='color:#666'>(run in "
+                                f"<span id='response-ms'>{1e3 * resp.seconds:.0f}</span> ms)</span>"
+                                + _deployable_html(explorer.deployable(resp)))
+
+
+def _show_answer(page: _Page, answer: Answer) -> None:
+    """Show a slower answer of the current selection: the response's plots, or its line of the answers."""
+    if answer.generation != page.explorer.generation:
+        return
+    div = page.panels.status.get(answer.kind)
+    if answer.kind == "response":
+        if answer.error:
+            page.panels.response_div.text = f"<b>Response</b>: failed ({html.escape(answer.error)})"
+        else:
+            _draw_response(page, answer.value, answer.generation)
+        return
+    assert div is not None
+    took = f" <span style='color:#666'>({answer.seconds:.1f} s)</span>"
+    if answer.error:
+        div.text = f"<b>{answer.kind.replace('_', ' ')}</b>: failed: {html.escape(answer.error)}"
+        return
+    if answer.kind == "certificates":
+        div.text = ("<b>Certificates</b> (max_eig: of the method's matrix, certified when < 0)" + took +
+                    _table_html(answer.value, ["method", "verdict", "max_eig", "decay_rate [1/s]"],
+                                "certificate-table"))
+    elif answer.kind == "margins":
+        v = answer.value
+        upper = "no frozen instability found" if math.isinf(v["upper"]) else f"{v['upper']:.4g}"
+        div.text = (f"<b>Margin θ</b> (every element range scaled about the design plant){took}: certified "
+                    f"for θ <= <span id='margin-lower'>{v['lower']:.4g}</span> (Theorem 1 / vertex), a frozen "
+                    f"plant unstable at θ = {upper}: bracket [{v['lower']:.4g}, {upper}]")
+    elif answer.kind == "payload":
+        table = answer.value.set_index("method")
+        lo = float(table.loc["payload-design-P", "mass [kg]"])
+        hi = float(table.loc["payload-frozen", "mass [kg]"])
+        div.text = (f"<b>Payload</b>{took}: certified for a peak payload up to {lo:.4g} kg (the design's P); "
+                    f"a frozen payload of {hi:.4g} kg makes the loop unstable")
+    elif answer.kind == "decay":
+        div.text = f"<b>Decay rate</b>{took}: <span id='decay-rate'>{html.escape(answer.value.message)}</span>"
+    elif answer.kind == "loop_margins":
+        div.text = (f"<b>Loop margins</b>{took}: <span id='loop-margins'>{html.escape(answer.value.message)}"
+                    "</span>")
+    elif answer.kind == "sample_time":
+        div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
+
+
+def _deliver(page: _Page, answer: Answer) -> None:
+    """Hand a slower answer over from the worker thread to the document's thread."""
+    page.doc.add_next_tick_callback(partial(_show_answer, page, answer))
+
+
+def _select(page: _Page, rho: float, eta: float) -> None:
+    """Select the design at (`rho`, `eta`): show its K at once, then mark its slower answers pending."""
+    explorer, panels = page.explorer, page.panels
+    try:
+        answer = explorer.quick(rho, eta)
+    except ArgumentError as err:
+        text = f"{err.argument} {err.problem}".replace("rho", "ρ").replace("eta", "η")
+        page.controls.message.text = html.escape(text)
+        return
+    page.state["selected"] = answer
+    panels.design_div.text = _gain_table(answer, panels.out_unit, panels.in_unit, explorer.elements)
+    if page.draw_fixed is not None:
+        page.draw_fixed(answer.design.K)
+    page.doc.add_next_tick_callback(partial(_mark_pending, page, answer))  # K goes out first, alone
+
+
+def _mark_pending(page: _Page, answer: QuickAnswer) -> None:
+    """Start the selection's slower answers and show them computing, unless a newer selection came first."""
+    explorer, controls, panels = page.explorer, page.controls, page.panels
+    if page.state["selected"] is not answer:
+        return
+    controls.message.text = ""
+    try:
+        explorer.submit(answer.design, partial(_deliver, page))
+    except (RuntimeError, OSError) as err:  # no worker process could start
+        controls.message.text = html.escape(f"the slower answers cannot be computed: {err}")
+    page.view.chosen.data = {"x": [answer.rho], "y": [answer.eta]}
+    controls.rho_in.value, controls.eta_in.value = f"{answer.rho:g}", f"{answer.eta:g}"
+    kinds = explorer.slow_answers(answer.design)
+    if "response" in kinds:  # before any answer: those are scheduled after this callback
+        panels.response_div.text = "<b>Response</b>: computing…"
+    for kind, div in panels.status.items():
+        div.text = f"<b>{kind.replace('_', ' ')}</b>: computing…" if kind in kinds else ""
+    page.export.export_div.text = ""
+
+
+def _on_tap(page: _Page, event: Event) -> None:
+    """Select the map's grid point nearest the click: its value is what was shown."""
+    assert isinstance(event, Tap | DoubleTap)
+    if event.x is None or event.y is None:
+        return
+    i, k = page.explorer.nearest(float(event.x), float(event.y))
+    _select(page, float(page.explorer.rhos[i]), float(page.explorer.etas[k]))
+
+
+def _on_select(page: _Page) -> None:
+    """Select the (ρ, η) typed in the fields, or say what is wrong with them."""
+    try:
+        rho = _number(page.controls.rho_in.value, "ρ", "-")
+        eta = _number(page.controls.eta_in.value, "η", "-")
+    except ValueError as err:
+        page.controls.message.text = html.escape(str(err))
+        return
+    _select(page, rho, eta)
+
+
+def _on_regrid(page: _Page) -> None:
+    """Recompute the map on the grids typed in the fields, or say why not."""
+    explorer, controls, fmap = page.explorer, page.controls, page.view.fmap
+    parse = explorer.parse_grid
+    if parse is None:
+        controls.message.text = "this page's grid is fixed"
+        return
+    try:
+        r, e = parse(controls.rho_grid.value), parse(controls.eta_grid.value)
+        explorer.compute_map(r, e)
+    except ArgumentError as err:
+        problem = err.problem.replace("× `etas`", "× the η grid").replace("with `etas`", "with the η grid")
+        controls.message.text = html.escape(f"map refused: the ρ grid {problem}" if err.argument == "rhos"
+                                            else f"map refused: the {'η' if err.argument == 'etas' else 'ρ'} grid "
+                                            f"{problem}")
+        return
+    except ValueError as err:  # the grid's text
+        controls.message.text = html.escape(f"grid: {err}")
+        return
+    controls.message.text = ""
+    _set_measure(page, page.state["measure"])
+    (x0, dw), (y0, dh) = _cells(explorer.rhos), _cells(explorer.etas)
+    fmap.x_range.update(start=x0, end=x0 + dw)
+    fmap.y_range.update(start=y0, end=y0 + dh)
+
+
+def _limits(page: _Page) -> list[float] | None:
+    """The limit field's values (blank: none); raises ValueError with the field's message."""
+    limit_in, explorer, in_unit = page.export.limit_in, page.explorer, page.panels.in_unit
+    if not limit_in.value.strip():
+        return None
+    values = [_number(v, f"the {explorer.limit_name}", in_unit) for v in limit_in.value.split(",")]
+    if min(values) <= 0:
+        raise ValueError(f"the {explorer.limit_name} must be > 0 {in_unit}, found {min(values):g}")
+    return values
+
+
+def _on_scenario(page: _Page) -> None:
+    """Run the selected design's response again in the scenario chosen (or keep it for the next selection)."""
+    try:
+        limit = _limits(page)
+    except ValueError as err:
+        page.controls.message.text = html.escape(str(err))
+        return
+    page.controls.message.text = ""
+    settings = RunSettings(page.initial.value, page.payload.value == "on", None if limit is None else tuple(limit))
+    answer = page.state["selected"]
+    if answer is None:
+        page.explorer.settings = settings
+        return
+    page.panels.response_div.text = "<b>Response</b>: computing…"
+    page.explorer.rerun(answer.design, settings, partial(_deliver, page))
+
+
+def _on_design_file(page: _Page) -> None:
+    """Link the selected design's file (for --design and load_design)."""
+    explorer, export_div = page.explorer, page.export.export_div
+    answer = page.state["selected"]
+    if answer is None or explorer.design_file is None:
+        export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+        return
+    name = f"design-rho{answer.rho:g}-eta{answer.eta:g}.json"
+    export_div.text = "Design file (for --design and load_design): " + _link(name, explorer.design_file(
+        answer.rho, answer.eta).encode(), "application/json")
+
+
+def _on_figures(page: _Page) -> None:
+    """Start drawing the map and the selected design's response as PNG files."""
+    export_div = page.export.export_div
+    answer = page.state["selected"]
+    if answer is None:
+        export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+        return
+    export_div.text = "Figures: drawing…"
+    future = page.explorer.figures(answer.design, page.state["measure"], (answer.rho, answer.eta))
+    future.add_done_callback(lambda done: page.doc.add_next_tick_callback(partial(_show_figures, page, answer, done)))
+
+
+def _show_figures(page: _Page, answer: QuickAnswer, done: Any) -> None:
+    """Link the drawn figures, unless a newer selection came first."""
+    export_div = page.export.export_div
+    if page.state["selected"] is not answer:
+        return
+    files, error, _ = done.result()
+    if error:
+        export_div.text = f"<span style='color:#b31d28'>figures: {html.escape(error)}</span>"
+        return
+    export_div.text = "Figures: " + " ".join(_link(name, data, "image/png") for name, data in files.items())
+
+
+def _on_export(page: _Page) -> None:
+    """Link the selected design's certified controller in C at the sample time typed, or say what is wrong."""
+    export_div = page.export.export_div
+    answer = page.state["selected"]
+    if answer is None:
+        export_div.text = "<span style='color:#b31d28'>select a design first</span>"
+        return
+    try:
+        ts = _number(page.export.ts_in.value, "Ts", "s")
+        files = page.explorer.export(answer.rho, answer.eta, ts, _limits(page))
+    except (ValueError, ArgumentError) as err:
+        export_div.text = f"<span style='color:#b31d28' id='export-error'>{html.escape(str(err))}</span>"
+        return
+    links = " ".join(_link(name, text.encode(), "text/plain;charset=utf-8") for name, text in files.items())
+    export_div.text = f"Controller at Ts = {ts:g} s, certified: {links}"
 
 
 def serve(explorer: DesignExplorer, port: int, *, address: str = "127.0.0.1",

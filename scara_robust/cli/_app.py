@@ -12,11 +12,9 @@ from typing import Any
 
 from .._validation import os_error_text
 from ..controller.scheduled import SCHEDULE_KIND
-from ._common import RANGE_HELP, CommandLineError, Parser, add_setup_options, parse_range
-from ._design import add_parser as add_design_parser
-from ._design import run as design_run
-from ._export import add_parser as add_export_parser
-from ._export import run as export_run
+from ..workflow.design import design_answer
+from ..workflow.export import export_pid
+from ._common import RANGE_HELP, CommandLineError, add_setup_options, parse_range
 from ._parser import COMMAND_HELP
 from ._schedule import is_schedule_file, read_schedule
 from ._system import LoadedSystem, load_system, plant_source
@@ -74,33 +72,14 @@ def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) ->
                                "model (elements with ranges, or physical parameters)")
     physical = system.require_physical(f"`--model` {system.file!r} has no physical parameters to simulate; the page "
                                        "needs a plant file with [parameters]")
-    setup_argv = system.argv("robot", "model", "bounds", "scenario")
-    parser = Parser(prog="scara_robust")
-    add_export_parser(parser.add_subparsers(dest="command", parser_class=Parser))
-
     def exporter(rho: float, eta: float, ts: float, torque_limit: list[float] | None) -> dict[str, str]:
         with tempfile.TemporaryDirectory() as folder:
-            argv = ["export", "--rho", repr(rho), "--eta", repr(eta), "--ts", repr(ts), "--output", folder,
-                    *setup_argv]
-            if torque_limit is not None:
-                argv += ["--torque-limit", ",".join(repr(v) for v in torque_limit)]
-            try:
-                export_args = parser.parse_args(argv)
-                export_run(export_args, load_system(export_args))
-            except CommandLineError as err:
-                raise ValueError(str(err)) from None
+            export_pid(system, rho, eta, ts, folder, torque_limit=torque_limit)
             return {name: open(os.path.join(folder, name), encoding="utf-8").read()
                     for name in sorted(os.listdir(folder))}
 
-    design_parser = Parser(prog="scara_robust")
-    add_design_parser(design_parser.add_subparsers(dest="command", parser_class=Parser))
-    plant_argv = system.argv("robot", "model", "bounds")
-
     def design_file(rho: float, eta: float) -> str:
-        argv = ["design", "--rho", repr(rho), "--eta", repr(eta), "--format", "json", "--elements", args.elements,
-                *plant_argv]
-        design_args = design_parser.parse_args(argv)
-        return design_run(design_args, load_system(design_args)) + "\n"
+        return design_answer(system, rho, eta, args.elements).file_text() + "\n"
 
     schedule = None
     if args.design is not None:

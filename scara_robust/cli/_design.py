@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from ..io import design_record
-from ..lyapunov.gain import design
-from ..lyapunov.theorem1 import certify
 from ..model.uncertain import ELEMENT_SETS
-from ..robustness.polytope import vertex_certificate
+from ..workflow.design import design_answer
 from ._common import CommandLineError, add_setup_options, finite_float, screen_table
 from ._parser import COMMAND_HELP
 from ._schedule import add_schedule_options, refuse_schedule_options, run_schedule_riccati
@@ -70,21 +66,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         raise CommandLineError(f"`--output` {args.output!r}: --format json writes a design file, which --design "
                                "reads as .json")
     model = system.model
-    d = design(model, args.rho, args.eta)
+    answer = design_answer(system, args.rho, args.eta, args.elements)
+    d, out = answer.design, answer.record
     source = system.source(model)
-    out: dict[str, Any] = {
-        "rho": d.rho,
-        "eta": d.eta,
-        "model": model.name,
-        "bounds": system.bounds,
-        "elements": args.elements,
-        "K": d.K.tolist(),
-        "closed_loop_poles_real": np.sort(d.poles.real).tolist(),
-        "closed_loop_hurwitz": d.hurwitz,
-        "care_residual": d.care_residual,
-    }
-    if d.n_joints is not None:
-        out.update(zip(("K_I", "K_P", "K_D"), (k.tolist() for k in d.pid_matrices())))
     lines = [
         f"design (rho, eta) = ({d.rho:g}, {d.eta:g}), {source}, elements: {args.elements}",
         "K (u = -K x) =",
@@ -95,21 +79,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                   for name in ("K_I", "K_P", "K_D")] + ["(u = K_I ∫e + K_P e + K_D ė)"]
     lines.append(f"closed loop Hurwitz: {d.hurwitz} (largest real part {max(out['closed_loop_poles_real']):.4g} 1/s)")
     if not system.interval_elements:  # a polytope: the exact test at its vertices
-        vertex = vertex_certificate(model, d)
-        out.update(max_eig_Z=None, certified=vertex.certified, vertex_test=vertex.message)
+        vertex = answer.certificate
         lines += [f"Theorem 1 needs interval elements; exact test over the {vertex.n_vertices} vertices: "
                   f"{vertex.message}"]
     else:
-        cert = certify(model, d, args.elements)
-        out.update(max_eig_Z=cert.max_eig, certified=cert.certified, lyapunov_residual=cert.lyapunov_residual,
-                   contributions=cert.contributions().to_dict(orient="records"))
         lines += [
-            f"max eig Z: {cert.max_eig:.6g}  ->  certified: {cert.certified}",
+            f"max eig Z: {answer.certificate.max_eig:.6g}  ->  certified: {answer.certificate.certified}",
             "",
             "contributions of each element to Z:",
             screen_table(pd.DataFrame(out["contributions"]), args.output, index=False, float_format="%.4g"),
         ]
     if args.format == "json":  # a design file (load_design, simulate --design) that also holds the certificate
-        return json.dumps(design_record(d.K, d.P, method="design", **{k: v for k, v in out.items() if k != "K"}),
-                          indent=2)
+        return answer.file_text()
     return "\n".join(lines)

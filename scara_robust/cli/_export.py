@@ -6,7 +6,6 @@ import argparse
 import math
 import os
 import tempfile
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -16,11 +15,11 @@ from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, Discrete
 from ..controller.kinds import check_controller
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
-from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_controller, export_targets, update_rate_of
+from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_targets, update_rate_of
 from ..export._common import check_prefix
 from ..io import PID_CONTROLLER_METHOD
 from ..lyapunov.gain import design
-from ..robustness.sampled import check_sample_time
+from ..workflow.export import check_state_form, export_certified, state_feedback_of
 from ._board import add_board_options, check_board_options, run_board
 from ._common import (
     CommandLineError,
@@ -201,23 +200,14 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                "N": args.filter_n, "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
                "anti_windup": not args.no_anti_windup}
     if system.state_feedback:
-        physical = system.physical
-        assert physical is not None
-        if physical.form == "integral":
-            raise CommandLineError(f"`--model` {system.file!r}: export writes a PID (form 'pid') or static state "
-                                   "feedback u = -K x (form 'state'); a gain on the integral form [∫(r - Cx), x] "
-                                   "needs its integrator on the controller and is not exported")
+        check_state_form(system)
         changed = _pid_options(args)
         if changed:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; --model {system.file!r} is in the state "
                                    "form, whose controller is u = -K x(t_k) held")
         d, gain = resolve_gain(args, model, system.joint_names())
-        controller: DiscretePID | SampledStateFeedback = SampledStateFeedback(d.K, args.ts)
-        # the controller's outputs are the plant's inputs; it reads the state: the plant's outputs when they are
-        # the state (no C), else x0..
-        signals = {"outputs": physical.inputs}
-        if physical.C is None and len(physical.outputs) == d.K.shape[1]:
-            signals["inputs"] = physical.outputs
+        controller: DiscretePID | SampledStateFeedback
+        controller, signals = state_feedback_of(system, d, args.ts)
         gain = f"static state feedback, {gain}"
         meta: dict[str, Any] = ({"design_file": args.design} if args.design is not None else
                                 {"rho": d.rho, "eta": d.eta})
@@ -250,35 +240,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         if coupled is not None:
             raise CommandLineError(f"`--format ros2` writes one PID per joint (pid_controller), and this gain is "
                                    f"coupled ({coupled}); synthesize --structure decentralized gives a per-joint PID")
-    plants, check, set_name = system.sampled()
-    result = check_sample_time(plants, controller, check=check, set_name=set_name)
-    if not result.certified and not args.allow_uncertified:
-        which = " (pid_controller's forward Euler)" if ros2 else ""
-        raise CommandLineError(f"`--ts` {result.message}{which}; nothing written (--allow-uncertified writes it "
-                               "anyway)")
-    own = None
-    if ros2:  # the package's own (Tustin) PID at the same Ts, reported beside pid_controller's
-        pid = check_controller("controller", controller, ("pid",))
-        own = check_sample_time(plants, replace(pid, integrator="tustin"), check=check, set_name=set_name)
-    meta["certificate"] = result.record()
-    meta["plant_file"] = system.file
-    meta["decay_rate"] = {"rate [1/s]": decay.rate if decay.certified else None, "from": decay.source,
-                          "set": decay.set_name}
-    notes = [f"Sampled-data certificate: {result.message}.", f"Continuous-time loop: {decay.message}."]
-    if own is not None:
-        notes[0] = f"Sampled-data certificate of pid_controller (forward Euler): {result.message}."
-        notes.insert(1, f"The same gain with the package's Tustin integrator: {own.message}.")
-    if not result.certified:
-        notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
-                        "without your own analysis.")
     source = system.source(model, sep=" ")
-    meta["precision"] = args.precision
-    board = run_board(args, controller, prefix)
-    if board is not None:
-        notes.append(f"Run on an emulated board: {board.message}.")
-    # export_controller dispatches through the registry (get_target) and writes the target's files, all or none
-    files = export_controller(controller, args.folder, format=args.format, prefix=prefix, metadata=meta, notes=notes,
-                              precision=args.precision, **signals)
+    exported = export_certified(system, controller, args.folder, meta=meta, decay=decay, prefix=prefix,
+                                format=args.format, precision=args.precision, signals=signals,
+                                allow_uncertified=args.allow_uncertified,
+                                board=lambda ctrl, name: run_board(args, ctrl, name))
+    files, result, own, board = exported.files, exported.certificate, exported.tustin, exported.board
     if controller.kind == "state feedback":
         lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
                  ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]

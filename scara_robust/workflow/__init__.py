@@ -10,9 +10,17 @@ SYSTEM_KINDS, open_system -- the kinds by name; a system over the files named
 Setup, Capabilities, PhysicalSet -- the SCARA's robot and signals; what a system can do; synthesis samples
 CERTIFICATE_GRID, CERTIFICATE_CHECK_GRID -- the SCARA's samples of the sampled-data certificate
 load_input -- a file read with the option that named it in any error
+design_answer, DesignAnswer -- K(ρ, η) of a system, its certificate and its design file
+export_certified, ExportedDesign -- certify a controller at its Ts on the system, then write a target's files
+export_pid -- K(ρ, η) discretized with the PID's defaults, certified and written as C (the page's export)
+state_feedback_of, check_state_form -- the controller of a plant in the state form
 """
 
+from .design import *  # noqa: F403
+from .design import __all__ as _design
+from .export import *  # noqa: F403
+from .export import __all__ as _export
 from .system import *  # noqa: F403
 from .system import __all__ as _system
 
-__all__ = [*_system]
+__all__ = [*_system, *_design, *_export]

@@ -428,19 +428,6 @@ class LoadedSystem:
                  "scenario": self.scenario}
         return [(f"--{name}", str(given[name])) for name in names if given[name] is not None]
 
-    def argv(self, *names: str) -> list[str]:
-        """The options among `names` that were given, as a command line (for another command).
-
-        Parameters
-        ----------
-        *names : str
-
-        Returns
-        -------
-        list of str
-        """
-        return [token for pair in self.options(*names) for token in pair]
-
     def robot_params(self, default: ScaraParams) -> ScaraParams:
         """The SCARA's parameters of ``--robot``, or `default` without a robot file.
 
