@@ -80,6 +80,6 @@ class CampaignSpecError(InputFileError):
 class OptionError(ScaraRobustError, ValueError):
     """Input of a front end (an option, or a file it names) that cannot be used together or read.
 
-    Raised by the workflow layer (:mod:`scara_robust.workflow`) that the command line and the
+    Raised by the workflow layer (``scara_robust.workflow``) that the command line and the
     design page share; the message names the option as the user gave it (``--robot``).
     """

@@ -149,8 +149,14 @@ def _page_id(page: str) -> str:
     return Path(page).stem
 
 
-@pytest.mark.parametrize("index", range(len(PYTHON)),
-                         ids=[f"{_page_id(page)}-python-{i}" for i, (page, _) in enumerate(PYTHON)])
+def _python_param(index: int) -> object:
+    """A block that runs the C on the emulated board needs the board's tools (the ``board`` marker)."""
+    page, code = PYTHON[index]
+    marks = [pytest.mark.board] if "run_on_board(" in code else []
+    return pytest.param(index, id=f"{_page_id(page)}-python-{index}", marks=marks)
+
+
+@pytest.mark.parametrize("index", [_python_param(i) for i in range(len(PYTHON))])
 def test_python_block_runs(scratch, index):
     page, code = PYTHON[index]
     for call, reduced in REDUCED_PYTHON.items():
