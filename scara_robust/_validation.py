@@ -208,6 +208,7 @@ def field_table(
     -------
     dict
     """
+    where = where.rstrip(":")  # a caller's "'F.toml':" reads as the file, once
     table = data.get(key, {})
     if not isinstance(table, Mapping):
         raise error(f"{where}: `{key}` must be a table, found {describe(table)}")

@@ -702,7 +702,7 @@ def _load_elements(
     elements = []
     for k, table in enumerate(raw):
         label = f"elements[{k}]"
-        fields_ = field_table(where.rstrip(":"), {label: table}, label, _ELEMENT_KEYS)
+        fields_ = field_table(where, {label: table}, label, _ELEMENT_KEYS)
         for key in _ELEMENT_KEYS:
             if key not in fields_:
                 raise InputFileError(f"{where} missing field `{label}.{key}`")

@@ -44,7 +44,7 @@ def test_surface_json_to_file(capsys, tmp_path):
     code, out, _ = run(
         capsys, ["surface", "--rho", "1:2:2", "--eta", "1:2:2", "--format", "json", "--output", str(target)]
     )
-    assert code == 0 and out == ""
+    assert code == 0 and out == f"wrote {target}\n"  # the table in the file, one line saying so
     rows = json.loads(target.read_text())
     assert len(rows) == 4 and {"rho", "eta", "max_eig_Z", "closed_loop_hurwitz"} <= set(rows[0])
     assert not list(tmp_path.glob(".tmp-*"))

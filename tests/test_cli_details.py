@@ -5,11 +5,13 @@ Each bad input exits 2 with one line on stderr naming the option, and writes not
 
 import argparse
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import scara_robust as sr
+import scara_robust.cli._system as loader
 from scara_robust.cli import build_parser, main
 from scara_robust.cli._common import per_joint_values
 from scara_robust.exceptions import ArgumentValueError
@@ -205,3 +207,19 @@ def test_a_long_table_prints_its_head_on_the_screen_and_all_of_it_into_a_file(tm
     whole = out.read_text(encoding="utf-8").rstrip("\n").splitlines()
     assert len(whole) == 1 + 1 + 400 and not whole[-1].startswith("...")  # header, column names, every point
     assert screen[:-1] == whole[: len(screen) - 1]
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["design", "--rho", "3", "--eta", "90"], "scara_robust: interrupted; nothing was written\n"),
+    (["campaign", "examples/campaign.toml", "--runs", "2", "--output", "never.csv"],
+     "scara_robust: interrupted; the runs finished so far are kept in --output (continue with --resume)\n"),
+], ids=["design", "campaign"])
+def test_an_interrupt_says_what_is_kept(monkeypatch, capsys, argv, said):
+    """Ctrl-C: exit 130 and one line; only a campaign keeps finished work (it said so for every command)."""
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    monkeypatch.setattr(loader, "open_system", lambda *a, **k: interrupted(a))
+    assert main(argv) == 130
+    assert capsys.readouterr().err == said

@@ -243,3 +243,16 @@ def test_the_kind_checker_passes_other_options():
 def test_the_system_module_is_where_the_kind_is_chosen():
     source = (CLI / "_system.py").read_text(encoding="utf-8")
     assert "is_arm_file" in source and kind_probes(source) != []
+
+
+def test_an_unknown_field_of_an_arm_file_names_the_file_once(tmp_path, capsys):
+    """The file is named once, with one colon (it read "'F.toml':: unknown field")."""
+    text = (ROOT / "examples" / "robot-arm6.toml").read_text(encoding="utf-8")
+    path = tmp_path / "arm.toml"
+    path.write_text(text.replace("[robot]\n", "[robot]\narmatrue = 1\n", 1).replace(
+        'urdf = "arm6.urdf"', f'urdf = "{ROOT / "examples" / "arm6.urdf"}"'), encoding="utf-8")
+    with pytest.raises(sr.InputFileError, match=r"^'[^']*arm\.toml': unknown field `robot\.armatrue`; valid: "):
+        sr.load_arm(str(path))
+    assert main(["design", *GAIN, "--robot", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"`--robot` {str(path)!r}: unknown field `robot.armatrue`" in err and "::" not in err

@@ -151,7 +151,12 @@ def test_full_synthesis_certifies_at_least_the_decentralized_decay():
     assert np.all(per_joint.P[sq == 0] == 0) or np.abs(per_joint.P[sq == 0]).max() < 1e-12 * np.abs(per_joint.P).max()
 
 
-def test_coupled_gain_is_refused_on_format_ros2(tmp_path, capsys):
+def test_coupled_gain_is_refused_on_format_ros2(tmp_path, capsys, monkeypatch):
+    def no_lmi(*args, **kwargs):
+        raise AssertionError("the refusal comes before any certificate is computed")
+
+    monkeypatch.setattr(sr.LoadedSystem, "decay_rate", no_lmi)
+    monkeypatch.setattr("scara_robust.workflow.export.check_sample_time", no_lmi)
     assert main(["export", "--rho", "3", "--eta", "90", "--ts", "0.001", "--format", "ros2",
                  "--output", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()

@@ -168,6 +168,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"scara_robust: error: {error_message(err)}\n")
         return 2
     except KeyboardInterrupt:
-        sys.stderr.write("scara_robust: interrupted; finished work is kept (a campaign continues with --resume)\n")
+        # a campaign checkpoints its finished runs; every other command writes its outputs only when it completes
+        kept = ("the runs finished so far are kept in --output (continue with --resume)"
+                if command == "campaign" else "nothing was written")
+        sys.stderr.write(f"scara_robust: interrupted; {kept}\n")
         return 130
     return 0

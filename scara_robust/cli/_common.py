@@ -237,7 +237,7 @@ def write_text(option: str, path: str, text: str) -> None:
 
 
 def emit(text: str, output: str | None) -> None:
-    """Print `text` (nothing if empty), or write it atomically to `output` (the ``--output`` file).
+    """Print `text` (nothing if empty), or write it atomically to `output` (the ``--output`` file) and say so.
 
     Parameters
     ----------
@@ -246,6 +246,7 @@ def emit(text: str, output: str | None) -> None:
     """
     if output is not None:
         write_text("--output", output, text)
+        sys.stdout.write(f"wrote {output}\n")  # one line, as every command that writes a file says
     elif text:
         sys.stdout.write(text if text.endswith("\n") else text + "\n")
 

@@ -212,7 +212,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         meta: dict[str, Any] = ({"design_file": args.design} if args.design is not None else
                                 {"rho": d.rho, "eta": d.eta})
         meta["model"] = model.name
-        decay = system.decay_rate(d)
+        decay_of: tuple[Any, Any] = (d, None)
     elif args.design is not None:
         # a pid_controller file's joints come in the plant's order
         loaded = resolve_design(args, (model.n_states // 3, model.n_states), "this plant's PID (x = [∫e, e, ė])",
@@ -228,18 +228,19 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         controller = DiscretePID(args.ts, -loaded.K[:, :p], -loaded.K[:, p:2 * p], -loaded.K[:, 2 * p:], **options)
         gain = f"gain of {args.design!r}"
         meta = {"design_file": args.design, "model": model.name}
-        decay = system.decay_rate(loaded.K, P=loaded.P)
+        decay_of = (loaded.K, loaded.P)
     else:
         d = design(model, args.rho, args.eta)
         controller = d.discretize(args.ts, **options)
         gain = f"PID at (rho, eta) = ({d.rho:g}, {d.eta:g})"
         meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
-        decay = system.decay_rate(d)
-    if ros2:  # a PID: export refused state feedback and schedules above
+        decay_of = (d, None)
+    if ros2:  # a PID: export refused state feedback and schedules above; refused before the decay rate's LMI
         coupled = coupling_of(check_controller("controller", controller, ("pid",)))
         if coupled is not None:
             raise CommandLineError(f"`--format ros2` writes one PID per joint (pid_controller), and this gain is "
                                    f"coupled ({coupled}); synthesize --structure decentralized gives a per-joint PID")
+    decay = system.decay_rate(decay_of[0], P=decay_of[1])
     source = system.source(model, sep=" ")
     exported = export_certified(system, controller, args.folder, meta=meta, decay=decay, prefix=prefix,
                                 format=args.format, precision=args.precision, signals=signals,
