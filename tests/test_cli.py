@@ -4,6 +4,8 @@ import sys
 
 import pytest
 
+import scara_robust as sr
+import scara_robust.cli._surface as surface_command
 from scara_robust.cli import main
 
 
@@ -168,3 +170,19 @@ def test_simulate_plot_and_csv(capsys, tmp_path):
     assert code == 0 and png.stat().st_size > 5000
     header = csv.read_text().splitlines()[0]
     assert header == "t,e1,e2,e1_dot,e2_dot,Tc1,Tc2,Td1,Td2,m_p"
+
+
+def test_surface_margin_plot_draws_the_margin(capsys, tmp_path, monkeypatch):
+    """--measure margin --plot draws θ (plot_margin_map), marked at its largest; it drew max λ(Z)."""
+    drawn = []
+
+    def spy(surface, mark=None):
+        drawn.append((surface.margin is not None, mark, surface.best_margin()[:2]))
+        return sr.plot_margin_map(surface, mark=mark)
+
+    monkeypatch.setattr(surface_command, "plot_margin_map", spy)
+    png = tmp_path / "m.png"
+    code, out, _ = run(capsys, ["surface", "--rho", "1:5:3", "--eta", "1:200:3", "--measure", "margin",
+                                "--plot", str(png)])
+    assert code == 0 and png.stat().st_size > 1000
+    assert len(drawn) == 1 and drawn[0][0] and drawn[0][1] == drawn[0][2]  # θ, marked at its largest

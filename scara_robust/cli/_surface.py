@@ -16,7 +16,7 @@ from ..lyapunov.surface import (
     surface_memory,
 )
 from ..model.plant import as_box
-from ..plotting import plot_surface
+from ..plotting import plot_margin_map, plot_surface
 from ._common import (
     RANGE_HELP,
     CommandLineError,
@@ -117,10 +117,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     frame = surface.to_pandas()
     if args.plot is not None:
         mark = args.mark
-        if mark is None and surface.hurwitz.any():
-            rho, eta, _ = surface.best()
-            mark = (rho, eta)
-        save_figure("--plot", args.plot, plot_surface(surface, mark=mark).figure)
+        if surface.margin is not None:  # --measure margin: the map of θ, marked at its largest
+            if mark is None:
+                rho, eta, _ = surface.best_margin()
+                mark = (rho, eta)
+            save_figure("--plot", args.plot, plot_margin_map(surface, mark=mark).figure)
+        else:
+            if mark is None and surface.hurwitz.any():
+                rho, eta, _ = surface.best()
+                mark = (rho, eta)
+            save_figure("--plot", args.plot, plot_surface(surface, mark=mark).figure)
     if args.format == "json":
         return json.dumps(frame.to_dict(orient="records"))
     if args.format == "csv":
