@@ -141,10 +141,34 @@ def test_export_writes_the_pid_with_the_systems_signals(arm, tmp_path):
      sr.ArgumentValueError, r"`x_eq`"),
     (lambda: sr.UncertainPlant.from_nonlinear(SYSTEM, [PAYLOAD], reference=([0.5], 0.0)),
      sr.ArgumentValueError, r"`reference\[1\]`"),
+    (lambda: sr.UncertainPlant.from_nonlinear(SYSTEM, [PAYLOAD], reference=([0.5, 0.3], 1.0)),
+     sr.ArgumentValueError, r"`reference\[0\]` must give one amplitude or one per output \(1\), found 2"),
+    (lambda: sr.UncertainPlant.from_nonlinear(SYSTEM, [PAYLOAD], reference=[0.5, 1.0]),
+     sr.ArgumentValueError, r"`reference` must be \(amplitudes, omega\)"),
+    (lambda: sr.UncertainPlant.from_nonlinear(SYSTEM, [PAYLOAD], x_eq=[0.3, 0.0]),
+     sr.ArgumentValueError, r"`x_eq` and `u_eq` must be an equilibrium of `sys` at the nominal parameters"),
     (lambda: sr.UncertainPlant.from_nonlinear(
         ct.nlsys(lambda t, x, u, p: [x[1], x[0], 0.0], None, states=3, inputs=1, outputs=3), []),
      sr.ArgumentValueError, r"must have the state \[q, q̇\] of 2p states, found 3"),
-], ids=["a-function", "unknown-parameter", "x_eq-shape", "omega-zero", "odd-states"])
+], ids=["a-function", "unknown-parameter", "x_eq-shape", "omega-zero", "amplitudes-size", "no-omega",
+        "not-an-equilibrium", "odd-states"])
 def test_bad_systems_are_refused_naming_the_argument(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_an_equilibrium_off_zero_is_the_origin_of_the_plant(arm):
+    """At q = 0.3 rad the input that holds the arm is k g sin 0.3: with it, the plant regulates about there."""
+    u_eq = [_gravity(0.0) * math.sin(0.3)]
+    plant = sr.UncertainPlant.from_nonlinear(SYSTEM, [PAYLOAD], x_eq=[0.3, 0.0], u_eq=u_eq, **SIGNALS)
+    A, _ = plant.plant_matrices({"m_p": 0.0})
+    # control.linearize differentiates forward with a step of 1e-6: about 1.5e-7 relative here
+    assert A[1, 0] == pytest.approx(-_gravity(0.0) * math.cos(0.3) / _inertia(0.0), rel=1e-5)
+
+
+def test_a_plant_linearized_along_a_reference_runs_along_it(tracking):
+    d = sr.design(tracking, 1.0, 10.0)
+    run = sr.simulate_plant(tracking, d.K, profiles={"m_p": lambda t: 0.0}, t_final=20.0)  # its own by default
+    assert run.status == "tracking" and run.max_abs_error < 1e-4, run.reason
+    with pytest.raises(sr.ArgumentValueError, match=r"`reference` must be the one the plant was linearized along"):
+        sr.simulate_plant(tracking, d.K, reference=([0.0], 0.0), t_final=5.0)

@@ -668,7 +668,9 @@ class UncertainPlant:
 
         The system's state is ``[q, q̇]`` (2p states, p controlled outputs q) and it has m
         inputs. Its matrices at a parameter value are ``control.linearize`` of `sys` at the
-        operating point, with ``params`` the system's own defaults updated by the value:
+        operating point (forward differences with python-control's step, 1e-6: entries
+        accurate to about 1e-6 relative where the dynamics curve), with ``params`` the system's
+        own defaults updated by the value:
 
         - without `reference`: at the equilibrium ``(x_eq, u_eq)`` (default zeros);
         - with ``reference = (a, ω)``: along ``q_r(t) = a sin ωt`` (in coordinates relative
@@ -688,7 +690,9 @@ class UncertainPlant:
         u_eq : array_like, shape (m,), optional
             The input holding it at the nominal parameters (default 0).
         reference : (array_like of shape (p,), float), optional
-            Amplitudes ``a`` (output units) and ``ω`` (rad/s, > 0) of a sinusoidal reference.
+            Amplitudes ``a`` (output units; one value for every output, or one per output)
+            and ``ω`` (rad/s, > 0) of a sinusoidal reference. :func:`scara_robust.simulate_plant`
+            runs the plant along this reference (its default for the plant), and refuses another.
         n_times : int
             Samples of ``t_ref`` over the period (with `reference`).
         name : str, optional
@@ -707,7 +711,8 @@ class UncertainPlant:
             If `sys` is not a ``control.NonlinearIOSystem``.
         ArgumentValueError
             For a discrete-time system, an odd number of states, a parameter `sys` does not
-            have, or operating points of the wrong size.
+            have, operating points of the wrong size, an operating point that is no
+            equilibrium, a reference of the wrong size, or one the input cannot hold.
 
         Examples
         --------
@@ -737,7 +742,14 @@ class UncertainPlant:
         u0 = np.zeros(m) if u_eq is None else check_array("u_eq", u_eq, shape=(m,))
         wave = None
         if reference is not None:
-            amp = check_array("reference[0]", np.broadcast_to(reference[0], (n // 2,)))
+            if not isinstance(reference, tuple) or len(reference) != 2:
+                raise ArgumentValueError("reference", f"must be (amplitudes, omega): the amplitudes of the {n // 2} "
+                                                      f"outputs and ω in rad/s, found {describe(reference)}")
+            amp = check_array("reference[0]", np.atleast_1d(reference[0]))
+            if amp.shape not in ((1,), (n // 2,)):
+                raise ArgumentValueError("reference[0]", f"must give one amplitude or one per output ({n // 2}), "
+                                                         f"found {amp.size}")
+            amp = np.broadcast_to(amp, (n // 2,)).copy()
             omega = check_real("reference[1]", reference[1], positive=True)
             wave = (amp, omega)
             n_times = check_int("n_times", n_times, 2)
@@ -745,6 +757,12 @@ class UncertainPlant:
                                 coarse=min(n_times, 9), scales=False,
                                 description="reference time over one period (the linearization point)"), *params)
         nominal = {prm.name: float(prm.nominal) for prm in params if prm.name != "t_ref"}  # type: ignore[arg-type]
+        if wave is None:  # an operating point that is not an equilibrium would be linearized all the same: refuse it
+            rate = np.asarray(sys.dynamics(0.0, x0, u0, {**sys.params, **nominal}), dtype=float)
+            scale = max(1.0, float(np.abs(x0).max(initial=0.0)))
+            if not np.all(np.abs(rate) <= 1e-9 * scale):
+                raise ArgumentValueError("x_eq", f"and `u_eq` must be an equilibrium of `sys` at the nominal "
+                                                 f"parameters (ẋ = 0), found ẋ = {np.round(rate, 6).tolist()}")
         dynamics = NonlinearDynamics(sys, x0, u0, wave, nominal)
 
         def linearized(point: dict[str, float]) -> tuple[Array, Array]:

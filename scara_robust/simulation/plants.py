@@ -285,7 +285,9 @@ def simulate_plant(
     reference : (amplitude, omega), optional
         ``r(t) = a·sin(ωt)`` per output, or a step of height a at t = 0 for ω = 0;
         amplitude array_like, shape (q,), in the outputs' units, ω in rad/s (default: a
-        unit step). Not used for ``form='state'`` (regulation).
+        unit step). Not used for ``form='state'`` (regulation). A plant of
+        :meth:`UncertainPlant.from_nonlinear` linearized along a reference runs along that
+        one (the default) and refuses another.
     disturbance : array_like, shape (m,), optional
         A constant input disturbance added from ``t_final/4`` on, in the inputs' units.
     t_final : float
@@ -581,8 +583,19 @@ def _solve(sys: ct.NonlinearIOSystem, T: Array, Ts: float | None, t_on: float, x
 
 
 def _reference_wave(plant: UncertainPlant, reference: tuple[ArrayLike, float] | None) -> tuple[Array, float]:
-    """``(a, ω)`` of the run's reference ``a sin ωt`` (default a unit step; none for the state form)."""
+    """``(a, ω)`` of the run's reference ``a sin ωt`` (default a unit step, or the one a nonlinear plant was
+    linearized along; none for the state form)."""
     q = len(plant.outputs)
+    own = None if plant.dynamics is None else plant.dynamics.reference
+    if own is not None:  # its feedforward holds that reference alone: another would be run without its model
+        if reference is None:
+            return own[0].copy(), float(own[1])
+        given = np.broadcast_to(np.asarray(reference[0], dtype=float), (q,))
+        if not (np.array_equal(given, own[0]) and float(reference[1]) == float(own[1])):
+            raise ArgumentValueError("reference", f"must be the one the plant was linearized along, a = "
+                                                  f"{own[0].tolist()}, ω = {float(own[1]):g} rad/s (its feedforward "
+                                                  f"holds that one), found a = {given.tolist()}, ω = "
+                                                  f"{float(reference[1]):g}")
     amp = np.ones(q) if reference is None else check_array("reference[0]", np.broadcast_to(reference[0], (q,)))
     omega = 0.0 if reference is None else check_real("reference[1]", reference[1], nonnegative=True)
     return (np.zeros(q) if plant.form == "state" else amp), omega
