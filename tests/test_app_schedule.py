@@ -73,7 +73,9 @@ def test_the_schedule_on_the_page_in_chromium(arm_schedule, tmp_path):
         watch(page, "design", design_label(rho, eta))
         click_grid_point(page, explorer.rhos, explorer.etas, int(i), int(k))
         painted_after_release(page, design_label(rho, eta), 10_000)
-        shown = page.evaluate("() => Bokeh.documents[0].get_model_by_name('schedule-fixed').data")
+        fixed = "() => Bokeh.documents[0].get_model_by_name('schedule-fixed').data"
+        page.wait_for_function(f"() => ({fixed})()['x'].length > 0", timeout=10_000)
+        shown = page.evaluate(fixed)
         K = sr.design(explorer.model, rho, eta).K
         drawn = {float(v[0]) for key, v in shown.items() if key.startswith("k")}
         assert drawn == {float(v) for v in K.ravel() if v != 0} and shown["x"] == list(gain.range)

@@ -631,9 +631,9 @@ def _select(page: _Page, rho: float, eta: float) -> None:
         page.controls.message.text = html.escape(text)
         return
     page.state["selected"] = answer
-    panels.design_div.text = _gain_table(answer, panels.out_unit, panels.in_unit, explorer.elements)
-    if page.draw_fixed is not None:
+    if page.draw_fixed is not None:  # before the table: each change is its own message, sent in order
         page.draw_fixed(answer.design.K)
+    panels.design_div.text = _gain_table(answer, panels.out_unit, panels.in_unit, explorer.elements)
     page.doc.add_next_tick_callback(partial(_mark_pending, page, answer))  # K goes out first, alone
 
 
