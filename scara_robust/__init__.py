@@ -113,6 +113,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     MAX_SAMPLE_TIME_CAP             -- where max_sample_time stops looking for a frozen instability, s
     check_sample_time, SampleTimeCheck -- is this Ts safe? (run by ``export``)
 Simulation (:mod:`scara_robust.simulation`)
+    Run                             -- what every run has: t, e, u, status, reason, max_abs_error, peak_input, to_pandas
     simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)
     simulate_arm, ArmRun, ARM_ENGINES -- an arm from its URDF (Pinocchio's ABA) under the PID, with a varying payload
     parameter_profile, PROFILES     -- p(t): constant, sinusoid, ramp, random walk within the rate bound, CSV column
@@ -175,6 +176,7 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     export_certified, ExportedDesign -- certify a controller at its Ts on the system, then write a target's files
     export_pid                      -- K(ρ, η) with the PID's defaults, certified and written as C (the page's)
     state_feedback_of, check_state_form -- static state feedback for a plant in the state form
+    simulate_system                 -- one closed-loop run of any system under any controller: a Run
 """
 
 from __future__ import annotations

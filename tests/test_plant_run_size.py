@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import scara_robust as sr
-from scara_robust.cli import main
+from scara_robust.cli import _plant_run, main
 
 ROOT = Path(__file__).resolve().parents[1]
 MOTOR = str(ROOT / "examples" / "plant-dc-motor.toml")
@@ -63,5 +63,5 @@ def test_a_metric_without_samples_is_not_resolved_not_zero(motor):
     run = sr.simulate_plant(plant, K, t_final=2.0, t_transient=2.0)  # one sample after t_transient
     assert run.status == "too-short" and math.isnan(run.max_abs_error)
     assert "not resolved" in run.reason
-    lines = sr.cli._plant_run.summary(run, plant, "head")
+    lines = _plant_run.summary(run, plant, "head")
     assert "  max |e| after the transient not resolved (fewer than 2 samples after it)" in lines

@@ -18,7 +18,9 @@ from .metrics import *  # noqa: F403
 from .metrics import __all__ as _metrics
 from .plants import *  # noqa: F403
 from .plants import __all__ as _plants
+from .result import *  # noqa: F403
+from .result import __all__ as _result
 from .run import *  # noqa: F403
 from .run import __all__ as _run
 
-__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics, *_plants, *_arm]
+__all__ = [*_controllers, *_loop, *_engines, *_compiled, *_run, *_metrics, *_plants, *_arm, *_result]

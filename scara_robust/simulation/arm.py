@@ -13,6 +13,7 @@ Angles in rad, rates in rad/s, torques in N·m, masses in kg, times in s.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -35,6 +36,7 @@ from .compiled_arm import compiled_arm_run
 from .engines import ENGINES, integrate
 from .loop import DIVERGENCE_LIMIT, STATE_LIMIT
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
+from .result import peak
 
 __all__ = ["simulate_arm", "ArmRun", "ARM_ENGINES"]
 
@@ -213,6 +215,26 @@ class ArmRun:
     def has_metrics(self) -> bool:
         """True if at least two samples follow the transient (so :meth:`metrics` exists)."""
         return int((self.t >= self.t_transient).sum()) >= 2
+
+    @property
+    def u(self) -> Array:
+        """The controller's torque, shape (n, k), N·m: `torque` under :class:`~scara_robust.Run`'s name."""
+        return self.torque
+
+    @property
+    def reason(self) -> str:
+        """`status_reason` under :class:`~scara_robust.Run`'s name."""
+        return self.status_reason
+
+    @property
+    def max_abs_error(self) -> float:
+        """``max |e|`` after `t_transient` over joints, rad (NaN when the transient fills the run)."""
+        return self.metrics().max_abs_error if self.has_metrics else math.nan
+
+    @property
+    def peak_input(self) -> float:
+        """``max |u|`` over the run and joints, N·m."""
+        return peak(self.torque)
 
     def to_pandas(self) -> pd.DataFrame:
         """One row per sample: ``t [s]``, ``m_p [kg]``, then ``e_<joint> [rad]`` and ``tau_<joint> [N·m]``."""

@@ -378,11 +378,11 @@ def simulate_plant(
         A, B = plant.plant_matrices(params_at(t))
         return np.concatenate([A @ x + B @ u, dz])
 
-    n_in = 0 if Ts is None else m
-    sys = ct.nlsys(update, None, states=n_x + n_int, inputs=n_in, outputs=n_x + n_int, name=plant.name)
+    sys = ct.nlsys(update, None, states=n_x + n_int, inputs=m if Ts else 0, outputs=n_x + n_int, name=plant.name)
     T = np.linspace(0.0, t_final, n_points)
     states, held, ok, message = _solve(sys, T, Ts, t_on, np.concatenate([x_init, np.zeros(n_int)]), m,
-                                       lambda t, xs: control(t, xs[:n_x], xs[n_x:]))
+                                       lambda t, xs: control(t, xs[:n_x], xs[n_x:]), _DIVERGED * _scale(amp, x_init))
+    T, stopped = T[:states.shape[1]], (float(T[states.shape[1]]) if states.shape[1] < T.size else None)
     x, z = states[:n_x], states[n_x:]
     r = np.array([ref(t)[0] for t in T]).T.reshape(q, -1)
     y = C[:q] @ x if plant.form != "state" else x[:q]
@@ -393,7 +393,7 @@ def simulate_plant(
     p = np.array([[params_at(t)[name] for t in T] for name in plant.names]).reshape(len(plant.names), -1)
     rates = np.abs(np.diff(p, axis=1) / np.diff(T)).max(axis=1) if p.size else np.zeros(0)
     finite = bool(np.isfinite(states).all())
-    status, reason, worst = _judge(plant, T, e, amp, x_init, finite, ok, message, tolerance, t_transient)
+    status, reason, worst = _judge(plant, T, e, amp, x_init, finite, ok, message, tolerance, t_transient, stopped)
     return PlantRun(T, y, r, e, u, p, status, reason, worst, float(np.abs(u).max()) if finite else math.inf,
                     rates, _labels(plant))
 
@@ -455,13 +455,16 @@ def _integrate(sys: ct.NonlinearIOSystem, T: Array, U: Array, x0: Array) -> Arra
 
 
 def _integrate_sampled(
-    sys: ct.NonlinearIOSystem, T: Array, Ts: float, t_on: float, x0: Array, control: Callable[[float, Array], Array]
+    sys: ct.NonlinearIOSystem, T: Array, Ts: float, t_on: float, x0: Array, control: Callable[[float, Array], Array],
+    limit: float,
 ) -> tuple[Array, Array]:
     """The loop with the input sampled every Ts (s) and held: segment by segment, on output times T.
 
     The input ``control(t_k, x(t_k))`` is held over ``[t_k, t_k + Ts)``; the segments also
     break at `t_on` (s), where the disturbance steps, so no input is interpolated across a
-    step. Returns the states on T, shape (n, len(T)), and the held input on T, shape (m, len(T)).
+    step. Returns the states on T, shape (n, k), and the held input on T, shape (m, k):
+    k = len(T), or fewer when a state left ``±limit`` (or became NaN) at the end of a
+    segment, where the run stops.
     """
     samples = np.arange(0.0, T[-1], Ts)
     breaks = np.union1d(np.append(samples, T[-1]), [t_on] if 0.0 < t_on < T[-1] else [])
@@ -479,6 +482,9 @@ def _integrate_sampled(
         states[:, inside] = out[:, keep]
         held[:, inside] = u[:, None]
         x = out[:, -1]
+        if not np.abs(x).max(initial=0.0) <= limit:  # diverged (or NaN): stop after this segment's samples
+            kept = int(np.flatnonzero(inside)[-1]) + 1 if inside.any() else int((T < a).sum())
+            return states[:, :kept], held[:, :kept]
     return states, held
 
 
@@ -515,8 +521,12 @@ def _output_points(plant: UncertainPlant, K: Array, omega: float, Ts: float | No
 
 
 def _judge(plant: UncertainPlant, T: Array, e: Array, amp: Array, x_init: Array, finite: bool, ok: bool,
-           message: str, tolerance: float | None, t_transient: float | None) -> tuple[str, str, float]:
-    """``(status, reason, max |e| after the transient)`` of a plant's run."""
+           message: str, tolerance: float | None, t_transient: float | None,
+           stopped: float | None = None) -> tuple[str, str, float]:
+    """``(status, reason, max |e| after the transient)`` of a run (`stopped`: when a diverging run stopped, s)."""
+    if stopped is not None:
+        return "diverged", (f"the state grew beyond {_DIVERGED:g} times its scale by t = {stopped:.4g} s; the run "
+                            "stopped there"), math.inf
     t_final = float(T[-1])
     peak_r = float(np.abs(amp).max()) if amp.size else 0.0
     tol = (PLANT_TRACKING_RTOL * peak_r if peak_r > 0 else PLANT_TRACKING_RTOL) if tolerance is None else \
@@ -525,7 +535,7 @@ def _judge(plant: UncertainPlant, T: Array, e: Array, amp: Array, x_init: Array,
     after = T >= start
     judged = int(after.sum()) >= 2
     worst = (float(np.abs(e[:, after]).max()) if judged else math.nan) if finite else math.inf
-    scale = max(1.0, peak_r, float(np.abs(x_init).max()) if x_init.size else 0.0)
+    scale = _scale(amp, x_init)
     unit = plant.outputs[0].unit
     if not ok:
         status, reason = "failed", message
@@ -540,6 +550,11 @@ def _judge(plant: UncertainPlant, T: Array, e: Array, amp: Array, x_init: Array,
         status, reason = "not-tracking", f"max |e| after {start:g} s = {worst:.3g} {unit} > {tol:.3g} {unit}"
     assert status in STATUSES
     return status, reason, worst
+
+
+def _scale(amp: Array, x_init: Array) -> float:
+    """The scale a run's divergence is measured on: 1, the reference's peak or the initial state's."""
+    return max(1.0, float(np.abs(amp).max()) if amp.size else 0.0, float(np.abs(x_init).max()) if x_init.size else 0.0)
 
 
 def _gain_parts(plant: UncertainPlant, K: Any, bias: float) -> tuple[ScheduledGain | None, Array, float | None]:
@@ -566,17 +581,18 @@ def _labels(plant: UncertainPlant) -> tuple[str, ...]:
 
 
 def _solve(sys: ct.NonlinearIOSystem, T: Array, Ts: float | None, t_on: float, xs0: Array, m: int,
-           law: Callable[[float, Array], Array]) -> tuple[Array, Array, bool, str]:
+           law: Callable[[float, Array], Array], limit: float) -> tuple[Array, Array, bool, str]:
     """``(states, held inputs, ok, message)`` of a plant's loop: continuous, or `law` sampled every `Ts` and held.
 
-    A failed solve (python-control raises) gives NaN states and the error as the message.
+    A failed solve (python-control raises) gives NaN states and the error as the message; a
+    sampled loop whose state leaves ``±limit`` stops there (fewer columns than `T`).
     """
     held = np.zeros((m, T.size))
     try:
         if Ts is None:
             states = _integrate(sys, T, np.zeros((0, T.size)), xs0)
         else:
-            states, held = _integrate_sampled(sys, T, Ts, t_on, xs0, law)
+            states, held = _integrate_sampled(sys, T, Ts, t_on, xs0, law, limit)
         return states, held, True, "integrated"
     except (ValueError, RuntimeError, OverflowError) as err:  # python-control raises on a failed solve
         return np.full((xs0.size, T.size), np.nan), held, False, f"the integrator failed: {err}"

@@ -11,6 +11,7 @@ Times in s, angles in rad, torques in N·m, masses in kg.
 from __future__ import annotations
 
 import inspect
+import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -34,6 +35,7 @@ from .controllers import CONTROLLERS, make_controller
 from .engines import DEFAULT_ENGINE, ENGINES, SAMPLED_ENGINE, Engine, Trajectory, integrate
 from .loop import DIVERGENCE_LIMIT, OUTPUT_LABELS, ClosedLoop
 from .metrics import TRACKING_TOLERANCE, TrackingMetrics, run_status, tracking_metrics
+from .result import peak
 
 __all__ = ["SimulationResult", "simulate", "run_scenario", "run_scenarios"]
 
@@ -119,6 +121,26 @@ class SimulationResult:
     def has_metrics(self) -> bool:
         """True if at least two samples follow the transient (so :meth:`metrics` exists)."""
         return int((self.t >= self.t_transient).sum()) >= 2
+
+    @property
+    def u(self) -> Array:
+        """The controller's torque, shape (2, k), N·m: `torque` under :class:`~scara_robust.Run`'s name."""
+        return self.torque
+
+    @property
+    def reason(self) -> str:
+        """`status_reason` under :class:`~scara_robust.Run`'s name."""
+        return self.status_reason
+
+    @property
+    def max_abs_error(self) -> float:
+        """``max |e|`` after `t_transient` over joints, rad (NaN when the transient fills the run)."""
+        return self.metrics().max_abs_error if self.has_metrics else math.nan
+
+    @property
+    def peak_input(self) -> float:
+        """``max |u|`` over the run and joints, N·m (`peak_torque` where computed)."""
+        return self.peak_torque if math.isfinite(self.peak_torque) else peak(self.torque)
 
     def to_pandas(self) -> pd.DataFrame:
         """Time series: t, e1, e2, e1_dot, e2_dot, Tc1, Tc2, Td1, Td2, m_p."""

@@ -14,13 +14,16 @@ design_answer, DesignAnswer -- K(ρ, η) of a system, its certificate and its de
 export_certified, ExportedDesign -- certify a controller at its Ts on the system, then write a target's files
 export_pid -- K(ρ, η) discretized with the PID's defaults, certified and written as C (the page's export)
 state_feedback_of, check_state_form -- the controller of a plant in the state form
+simulate_system -- one closed-loop run of any system under any controller, a Run
 """
 
 from .design import *  # noqa: F403
 from .design import __all__ as _design
 from .export import *  # noqa: F403
 from .export import __all__ as _export
+from .simulate import *  # noqa: F403
+from .simulate import __all__ as _simulate
 from .system import *  # noqa: F403
 from .system import __all__ as _system
 
-__all__ = [*_system, *_design, *_export]
+__all__ = [*_system, *_design, *_export, *_simulate]
