@@ -46,6 +46,7 @@ Model (:mod:`scara_robust.model`)
     POSITIVE_UNITS                  -- units of a mass, a length, an inertia: a parameter positive by its unit
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
     RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
+    effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install
 The controller on a board (:mod:`scara_robust.controller`)

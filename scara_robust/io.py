@@ -244,6 +244,7 @@ ARM_KEYS: dict[str, str] = {
     "gravity": "true/false", "armature": "kg·m²", "feedforward": "/".join(FEEDFORWARDS), "reference_samples": "count",
     "payload_samples": "count", "prefix": "identifier", "design_plant": "center/lower",
     "payload_measurement_error": "kg", "payload_measurement_delay": "s",
+    "position_limits": "rad", "velocity_limits": "rad/s", "effort_limits": "N·m",
 }
 _REFERENCE_KEYS = {"center": "rad", "amplitude": "rad", "omega": "rad/s", "phase": "rad"}
 #: An arm's ``[initial]`` and ``[disturbance]`` tables: the scenario file's fields, one value per joint.
@@ -322,11 +323,14 @@ def is_arm_file(path: str | os.PathLike[str]) -> bool:
     return isinstance(robot, Mapping) and "urdf" in robot
 
 
-def _numbers(where: str, field: str, value: Any, unit: str, length: int | None = None) -> list[float]:
+def _numbers(where: str, field: str, value: Any, unit: str, length: int | None = None,
+             infinite: bool = False) -> list[float]:
+    """A list field of numbers (``infinite``: ``inf`` and ``-inf`` accepted, meaning no limit)."""
     if not isinstance(value, list) or (length is not None and len(value) != length):
         size = f"{length} numbers" if length is not None else "a list of numbers"
         raise InputFileError(f"{where} field `{field}` must be {size} in {unit}, found {describe(value)}")
-    return [field_number(where, f"{field}[{k}]", v, unit) for k, v in enumerate(value)]
+    return [v if infinite and isinstance(v, float) and math.isinf(v) else
+            field_number(where, f"{field}[{k}]", v, unit) for k, v in enumerate(value)]
 
 
 def _resolve_urdf(where: str, folder: str, urdf: str) -> str:
@@ -485,17 +489,34 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
             raise InputFileError(f"{where} missing field `reference.{key}` [{unit}], one value per joint")
         values[key] = tuple(_numbers(where, f"reference.{key}", ref_table[key], unit, n))
     e0, edot0, disturbance = _arm_run_tables(where, data, n)
+    limits = _limit_fields(where, robot, n)
     try:
         reference = JointSinusoids(values["center"], values["amplitude"], values["omega"], values["phase"])
         reference.period  # noqa: B018 - commensurate frequencies, checked here to name the file
         arm = RobotArm(urdf_path, joints, locked=locked, payload_frame=frame, payload_com=com,
-                       payload_inertia_per_kg=per_kg, gravity=gravity, armature=armature, name=name)
+                       payload_inertia_per_kg=per_kg, gravity=gravity, armature=armature, name=name, **limits)
+        return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
+                        prefix, design_plant, e0, edot0, disturbance, delta if measured else None, delay)
     except ArgumentError as err:
         raise InputFileError(f"{where} field `robot.{err.argument}`: {err.problem}"
                              if not err.argument.startswith("reference") else f"{where} field `{err.argument}`: "
                              f"{err.problem}") from err
-    return ArmSetup(arm, reference, (mass[0], mass[1]), rate, nominal, feedforward, counts[0], counts[1], name,
-                    prefix, design_plant, e0, edot0, disturbance, delta if measured else None, delay)
+
+
+def _limit_fields(where: str, robot: Mapping[str, Any], n: int) -> dict[str, Any]:
+    """A robot file's overrides of the URDF's joint limits (``inf`` in TOML: none), as RobotArm's arguments."""
+    out: dict[str, Any] = {}
+    if "position_limits" in robot:
+        pairs = robot["position_limits"]
+        if not isinstance(pairs, list) or len(pairs) != n:
+            raise InputFileError(f"{where} field `robot.position_limits` must be {n} pairs [lower, upper] in rad, "
+                                 f"found {describe(pairs)}")
+        out["position_limits"] = [_numbers(where, f"robot.position_limits[{k}]", pair, "rad", 2, infinite=True)
+                                  for k, pair in enumerate(pairs)]
+    for key, unit in (("velocity_limits", "rad/s"), ("effort_limits", "N·m")):
+        if key in robot:
+            out[key] = _numbers(where, f"robot.{key}", robot[key], unit, n, infinite=True)
+    return out
 
 
 def load_scenario(path: str | os.PathLike[str]) -> ScenarioFile:

@@ -27,10 +27,10 @@ from ._plant_run import option_floats, plant_gain, plant_profiles, series_output
 from ._system import LoadedSystem
 
 __all__ = ["run_arm", "compare_arm", "add_arm_run_options", "refuse_arm_options", "arm_run_inputs",
-           "check_arm_options"]
+           "check_arm_options", "torque_limit_text"]
 
 #: Options of the SCARA's or a plant file's runs that mean nothing for an arm.
-_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload", "torque_limit")
+_NOT_FOR_ARMS = ("controller", "from_campaign", "index", "payload")
 #: Options of an arm's run only: its initial error.
 _ARM_ONLY = ("e0", "edot0")
 
@@ -90,6 +90,16 @@ def arm_run_inputs(args: argparse.Namespace, setup: ArmSetup) -> dict[str, Any]:
         inputs["disturbance"] = square_wave(amplitudes, PAPER_DISTURBANCE_PERIOD if wave is None else wave.period,
                                             0.0 if wave is None else wave.phase)
     return inputs
+
+
+def torque_limit_text(setup: ArmSetup, given: list[float] | None) -> str:
+    """How a run's head names the torque limits it clips to: ``--torque-limit``'s, else the arm's effort limits."""
+    limits = given if given is not None else setup.torque_limit
+    if limits is None:
+        return ""
+    values = ", ".join("none" if np.isinf(v) else f"{v:g}" for v in limits)
+    source = "--torque-limit" if given is not None else "the arm's effort limits, from its URDF or robot file"
+    return f", total torque clipped to ±[{values}] N·m ({source})"
 
 
 def _describe_inputs(inputs: dict[str, Any], setup: ArmSetup) -> str:
@@ -167,6 +177,8 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     engine: dict[str, Any] = {} if args.method is None else {"method": args.method}
     if option(args, "measurement_bias") is not None:
         engine["measurement_bias"] = args.measurement_bias  # a schedule file's (plant_gain refuses it otherwise)
+    if option(args, "torque_limit") is not None:
+        engine["torque_limit"] = _per_joint("--torque-limit", args.torque_limit, n, "N·m")
     run = simulate_arm(setup, K, _payload(args, setup, t_final), t_final=t_final,
                        tracking_tolerance=TRACKING_TOLERANCE if args.tolerance is None else args.tolerance,
                        **engine, **inputs)
@@ -183,7 +195,7 @@ def run_arm(args: argparse.Namespace, system: LoadedSystem) -> str:
     files += [written] if written else []
     measured = f" measured {args.measurement_bias:+g} kg off" if "measurement_bias" in engine else ""
     head = (f"{setup.name} ({n} joints, feedforward {setup.feedforward}), {gain}, {t_final:g} s, payload {args.profile}"
-            f"{measured}{_describe_inputs(inputs, setup)}")
+            f"{measured}{_describe_inputs(inputs, setup)}{torque_limit_text(setup, engine.get('torque_limit'))}")
     return "\n".join([head, *_lines(run, elapsed),
                       *(files or ["time series: not written (use --output FILE or --format csv|json)"])])
 

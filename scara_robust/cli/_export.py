@@ -196,9 +196,10 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)
     signals: dict[str, Any] = system.signal_names()
+    effort = system.effort_limits() if args.torque_limit is None else None  # an arm's, its default limit
     options = {"integrator": args.integrator or ("forward" if ros2 else "tustin"), "derivative": args.derivative,
-               "N": args.filter_n, "torque_limit": args.torque_limit, "tracking_time": args.tracking_time,
-               "anti_windup": not args.no_anti_windup}
+               "N": args.filter_n, "torque_limit": args.torque_limit if effort is None else list(effort),
+               "tracking_time": args.tracking_time, "anti_windup": not args.no_anti_windup}
     if system.state_feedback:
         check_state_form(system)
         changed = _pid_options(args)
@@ -264,7 +265,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     lines.append(decay.message)
     if pid.torque_limit is not None:
         tt = [round(float(v), 4) for v in np.atleast_1d(np.asarray(pid.tracking_time, dtype=float))]
-        lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m, anti-windup "
+        lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m"
+                     + (" (the arm's effort limits)" if effort is not None else "") + ", anti-windup "
                      + ("off" if not pid.anti_windup else f"T_t = {tt} s"))
     lines += [] if board is None else [board.message]
     lines += [f"wrote {f}" for f in files]

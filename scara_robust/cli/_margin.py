@@ -11,6 +11,7 @@ from typing import Any
 import pandas as pd
 
 from ..lyapunov.gain import Design
+from ..model.arm import effort_limited_payload
 from ..model.plant import UncertainPlant, as_model
 from ..model.uncertain import ANCHORS
 from ..robustness.margins import MARGIN_TOL, margin_table, robustness_margin
@@ -184,8 +185,11 @@ def _margin_arm(args: argparse.Namespace, system: LoadedSystem, plant: Uncertain
     if args.rate:
         rate, rate_text = _rate(plant, d)
     m = plant.parameter("m_p")
+    effort = effort_limited_payload(system.arm())
     if args.format == "json":
         rows = [{"table": "payload", **{k: _number(v) for k, v in row.items()}} for row in table.to_dict("records")]
+        rows.append({"table": "effort", "mass [kg]": _number(effort.mass), "joint": effort.joint,
+                     "t_ref [s]": _number(effort.t), "message": effort.message})
         if rate is not None:
             rows.append({"table": "rate", **{k: _number(v) for k, v in rate.items()}})
         return json.dumps(rows, indent=2)
@@ -194,7 +198,9 @@ def _margin_arm(args: argparse.Namespace, system: LoadedSystem, plant: Uncertain
              "reference time kept whole; the range each method certifies:",
              table.drop(columns=[c for c in table.columns if c.startswith("t_ref")] + ["message"]).to_string(
                  index=False, float_format="%.6g"),
-             *[f"  {row.method}: {row.message}" for row in table.itertuples()]]
+             *[f"  {row.method}: {row.message}" for row in table.itertuples()],
+             "", f"effort: {effort.message} (the torque that holds the reference, e = 0; the stability margin above "
+                 "does not look at the limits)"]
     if rate_text is not None:
         lines += ["", rate_text]
     return "\n".join(lines)

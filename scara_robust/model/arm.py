@@ -45,7 +45,8 @@ from ..exceptions import ArgumentValueError
 from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
-__all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio"]
+__all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio",
+           "effort_limited_payload", "EffortPayload"]
 
 Array = NDArray[np.float64]
 
@@ -306,6 +307,13 @@ class RobotArm:
         it often dominates the wrist's inertia.
     name : str, optional
         Defaults to the URDF's robot name.
+    position_limits : array_like, shape (n, 2), optional
+        ``[lower, upper]`` of each controlled joint, rad, overriding the URDF's ``<limit>``
+        (``±inf``: none). Default: the URDF's, none for a ``continuous`` joint.
+    velocity_limits, effort_limits : array_like, shape (n,), optional
+        ``|q̇|`` bound (rad/s) and torque bound (N·m) of each controlled joint, overriding
+        the URDF's (> 0; ``inf``: none). Default: the URDF's ``velocity`` and ``effort``,
+        none where it gives none or 0.
 
     Raises
     ------
@@ -341,6 +349,9 @@ class RobotArm:
         gravity: bool = True,
         armature: Sequence[float] | None = None,
         name: str | None = None,
+        position_limits: ArrayLike | None = None,
+        velocity_limits: ArrayLike | None = None,
+        effort_limits: ArrayLike | None = None,
     ) -> None:
         pin = require_pinocchio()
         path = os.fspath(urdf)
@@ -446,6 +457,8 @@ class RobotArm:
         self.armature = tuple(float(v) for v in arm_inertia)
         if model.nv != len(joints):  # pragma: no cover - every other joint was locked above
             raise ArgumentValueError("joints", f"leave {model.nv} free degrees of freedom, expected {len(joints)}")
+        self.position_limits, self.velocity_limits, self.effort_limits = _joint_limits(
+            full, joints, position_limits, velocity_limits, effort_limits)
 
     def __repr__(self) -> str:
         return f"RobotArm({self.name!r}, joints={list(self.joints)}, payload_frame={self.payload_frame!r})"
@@ -612,6 +625,42 @@ class RobotArm:
                            gravity=np.array(model.gravity.linear, dtype=float),
                            joint_index=np.array(self._iv, dtype=np.int64))
 
+
+def _joint_limits(full: Any, joints: Sequence[str], position: ArrayLike | None, velocity: ArrayLike | None,
+                  effort: ArrayLike | None) -> tuple[Array, Array, Array]:
+    """The controlled joints' position (n, 2), velocity (n,) and effort (n,) limits: the URDF's, or those given.
+
+    A ``continuous`` joint has no position limit; a velocity or effort of 0 (or none) in the
+    URDF is no limit (inf).
+    """
+    n = len(joints)
+    pos, vel, eff = np.empty((n, 2)), np.empty(n), np.empty(n)
+    for k, joint in enumerate(joints):
+        jm = full.joints[full.getJointId(joint)]
+        bounded = jm.nq == 1
+        pos[k] = ((full.lowerPositionLimit[jm.idx_q], full.upperPositionLimit[jm.idx_q]) if bounded
+                  else (-math.inf, math.inf))
+        vel[k], eff[k] = full.velocityLimit[jm.idx_v], full.effortLimit[jm.idx_v]
+    vel[~(vel > 0)] = math.inf
+    eff[~(eff > 0)] = math.inf
+    if position is not None:
+        pos = check_array("position_limits [rad]", position, shape=(n, 2), finite=False)
+        if not np.all(pos[:, 0] < pos[:, 1]):
+            raise ArgumentValueError("position_limits [rad]", f"must be [lower, upper] with lower < upper per joint, "
+                                                              f"found {pos.tolist()}")
+    for name, given, unit in (("velocity_limits", velocity, "rad/s"), ("effort_limits", effort, "N·m")):
+        if given is None:
+            continue
+        values = check_array(f"{name} [{unit}]", given, shape=(n,), finite=False)
+        if not np.all(values > 0):
+            raise ArgumentValueError(f"{name} [{unit}]", f"must be > 0 (inf: none), found {values.tolist()}")
+        if name == "velocity_limits":
+            vel = values
+        else:
+            eff = values
+    return pos, vel, eff
+
+
 @contextmanager
 def _quiet_stderr() -> Iterator[None]:
     """Silence what C libraries write to file descriptor 2 (Python's own stderr is untouched)."""
@@ -760,6 +809,116 @@ def arm_uncertain_plant(
 
 
 @dataclass(frozen=True)
+class EffortPayload:
+    """The largest payload the effort limits can carry along the reference (:func:`effort_limited_payload`).
+
+    Attributes
+    ----------
+    mass : float
+        kg: every payload in ``[0, mass]`` needs at most each joint's effort limit; inf when no
+        joint's limit binds; 0 when the arm alone needs more than a limit somewhere.
+    joint : str or None
+        The joint whose limit binds first (None when none binds).
+    t : float
+        s: where on the reference it binds (NaN when none binds).
+    torque : ndarray, shape (n,)
+        ``max_t |τ*(t, mass)|`` per joint, N·m (at the nominal payload when `mass` is inf).
+    n_times : int
+        Reference times of the check over one period.
+    """
+
+    mass: float
+    joint: str | None
+    t: float
+    torque: Array
+    n_times: int
+
+    @property
+    def message(self) -> str:
+        """The answer in one line."""
+        if self.joint is None:
+            return f"no joint's effort limit binds for any payload along the reference ({self.n_times} times)"
+        if self.mass == 0.0:
+            return (f"the arm alone needs more than joint {self.joint!r}'s effort limit along the reference "
+                    f"(at t = {self.t:.4g} s)")
+        return (f"the effort limits carry a payload up to {self.mass:.6g} kg along the reference: joint "
+                f"{self.joint!r} reaches its limit at t = {self.t:.4g} s ({self.n_times} times over a period)")
+
+
+def effort_limited_payload(setup: ArmSetup, n_times: int = 2881) -> EffortPayload:
+    """The largest payload whose reference torque stays within every joint's effort limit.
+
+    The torque that holds the reference, ``τ*(t, m) = RNEA(r(t), ṙ(t), r̈(t), m)`` (the arm's
+    inverse dynamics with a payload of mass m, Pinocchio's RNEA), is affine in m:
+    ``τ*(t, m) = a(t) + m b(t)``; each joint's ``|τ*_j| <= E_j`` is an interval of m at each
+    time, and the answer is the largest m with ``[0, m]`` inside all of them, on `n_times`
+    times over one period of the reference. It is what the motors must give at e = 0; the
+    feedback's transients come on top.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+    n_times : int
+        Reference times over one period (>= 2).
+
+    Returns
+    -------
+    EffortPayload
+    """
+    arm, ref = setup.arm, setup.reference
+    times = np.linspace(0.0, ref.period, int(n_times), endpoint=False)
+    r, rd, rdd = ref.sample(times)
+    a = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 0.0) for k in range(times.size)])
+    b = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 1.0) for k in range(times.size)]) - a
+    E = arm.effort_limits[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # |a + m b| <= E for m in [0, M]: at m = 0 |a| <= E, then m <= (sign(b) E − a)/b where b != 0
+        upper = np.where(b > 0, (E - a) / b, np.where(b < 0, (-E - a) / b, np.inf))
+    upper = np.where(np.abs(a) > E, 0.0, upper)
+    upper = np.where(np.isinf(E), np.inf, upper)
+    k, j = np.unravel_index(int(np.argmin(upper)), upper.shape)
+    mass = float(max(upper[k, j], 0.0))
+    at = mass if math.isfinite(mass) else setup.payload_nominal
+    torque = np.abs(a + at * b).max(axis=0)
+    if math.isinf(mass):
+        return EffortPayload(math.inf, None, math.nan, torque, times.size)
+    return EffortPayload(mass, arm.joints[int(j)], float(times[k]), torque, times.size)
+
+
+def _check_reference_limits(arm: RobotArm, reference: JointSinusoids) -> None:
+    """Refuse a reference that leaves a joint's position or velocity limit, naming joint, limit and value.
+
+    ``r_i(t) = c_i + a_i sin(ω_i t + φ_i)`` spans ``c_i ± |a_i|`` and its rate reaches
+    ``|a_i| ω_i``: both exactly, over a period.
+
+    Parameters
+    ----------
+    arm : RobotArm
+    reference : JointSinusoids
+
+    Raises
+    ------
+    ArgumentValueError
+        Naming ``reference``.
+    """
+    if reference.n_joints != arm.n_joints:
+        return  # the plant's own check names the size
+    c, a, w = (np.asarray(v, dtype=float) for v in (reference.center, reference.amplitude, reference.omega))
+    for k, joint in enumerate(arm.joints):
+        lo, hi = arm.position_limits[k]
+        low, high = c[k] - abs(a[k]), c[k] + abs(a[k])
+        if low < lo or high > hi:
+            value = low if low < lo else high
+            raise ArgumentValueError("reference", f"leaves the position limit [{lo:g}, {hi:g}] rad of joint {joint!r}: "
+                                                  f"center ± amplitude reaches {value:.6g} rad")
+        rate = abs(a[k]) * w[k]
+        if rate > arm.velocity_limits[k]:
+            raise ArgumentValueError("reference", f"leaves the velocity limit {arm.velocity_limits[k]:g} rad/s of "
+                                                  f"joint {joint!r}: amplitude × omega reaches "
+                                                  f"{rate:.6g} rad/s")
+
+
+@dataclass(frozen=True)
 class ArmSetup:
     """An arm with its payload range, reference and feedforward: what a robot file holds.
 
@@ -810,6 +969,15 @@ class ArmSetup:
     disturbance: SquareWave | None = None
     payload_measurement_error: float | None = None
     payload_measurement_delay: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_reference_limits(self.arm, self.reference)
+
+    @property
+    def torque_limit(self) -> Array | None:
+        """Each joint's effort limit, N·m, shape (n,) (inf where the URDF gives none); None when it gives none."""
+        limits = self.arm.effort_limits
+        return None if np.all(np.isinf(limits)) else limits.copy()
 
     @cached_property
     def plant(self) -> UncertainPlant:

@@ -180,8 +180,9 @@ def output(th: Array, t: float, x: Array, tc: Array, TC: Array, ER: Array, j: in
 #           the parent's frame, axis (3), armature (kg·m²)
 #   3 BODY  float (n + 1, 13): mass (kg), first moment m·c (3, kg·m) and inertia about the
 #           joint frame's origin (9, kg·m²); the last row is the payload per kg
-#   4 REF   float (5, n): the reference's centre, amplitude (rad), ω (rad/s), phase (rad);
-#           the disturbance's sign per joint
+#   4 REF   float (6, n): the reference's centre, amplitude (rad), ω (rad/s), phase (rad);
+#           the disturbance's sign per joint; each joint's torque limit (N·m, inf: none; the
+#           smaller of it and P's limit applies)
 #   5 GAIN  float (n, 3n): the PID gain on [∫e, e, ė]
 #   6 TAB   float (2, k): times (s) and masses (kg) of a tabulated payload
 #   7 WB    float (n, 40) scratch per body: rotation to the parent's frame (9), velocity (6),
@@ -548,11 +549,11 @@ def arm_law(th: Any, t: float, x: Array, tc: Array) -> None:
     The errors are the measured ones (``q + n(t)``, ``q̇ + ṅ(t)``); the torque is clipped
     to ± the torque limit.
     """
-    P, IX, K, WS = th[_P], th[_IX], th[_GAIN], th[_WS]
+    P, IX, K, WS, REF = th[_P], th[_IX], th[_GAIN], th[_WS], th[_REFS]
     n = IX[0]
     arm_reference(th, t)
-    limit = P[_A_LIMIT]
     for i in range(n):
+        limit = min(P[_A_LIMIT], REF[5, i])
         acc = 0.0
         for k in range(n):
             acc += K[i, k] * x[2 * n + k]

@@ -84,8 +84,8 @@ class ArmLoop:
         Disturbance torque (one sign per joint), or none.
     Ts : float or None
         Period (s) of a sampled PID, held between samples; None if continuous.
-    torque_limit : float or None
-        Each joint's torque is clipped to ± this, N·m; None: no limit.
+    torque_limit : ndarray, shape (n,), or None
+        Each joint's torque is clipped to ± its entry, N·m (inf: none); None: no limit.
     noise : MeasurementNoise or None
         Noise on the measured angles (its rate on the measured rates); the PID and its
         integrator see ``q + n(t)``.
@@ -98,7 +98,7 @@ class ArmLoop:
     payload: Callable[[float], Any]
     disturbance: Any
     Ts: float | None = None
-    torque_limit: float | None = None
+    torque_limit: Array | None = None
     noise: MeasurementNoise | None = None
     measurement_bias: float = 0.0
 
@@ -265,7 +265,7 @@ def simulate_arm(
     divergence_limit: float = DIVERGENCE_LIMIT,
     t_transient: float = PAPER_TRANSIENT,
     tracking_tolerance: float = TRACKING_TOLERANCE,
-    torque_limit: float | None = None,
+    torque_limit: float | ArrayLike | None = None,
     noise: MeasurementNoise | None = None,
     measurement_bias: float = 0.0,
 ) -> ArmRun:
@@ -313,8 +313,11 @@ def simulate_arm(
         `tracking_tolerance` (rad) there.
     sample_time : float, optional
         Deprecated name of `Ts`.
-    torque_limit : float, optional
-        Actuator limit: each joint's torque is clipped to ± this, N·m (> 0; default none).
+    torque_limit : float or array_like, shape (n,), optional
+        Actuator limit: each joint's total torque (feedforward and PID) is clipped to ± this,
+        N·m (> 0; one number for every joint, or one per joint; ``inf``: none). Default: the
+        arm's effort limits (its URDF's, or its robot file's ``effort_limits``), none on a
+        joint without one.
     noise : MeasurementNoise, optional
         Noise on the measured joint angles (one row per joint); the PID, its integrator
         and the derivative term see ``q + n(t)`` and ``q̇ + ṅ(t)``, the metrics the true
@@ -359,8 +362,7 @@ def simulate_arm(
     if disturbance is not None and len(disturbance.signs) != n:
         raise ArgumentValueError("disturbance", f"must have one sign per joint ({n}), found {len(disturbance.signs)}")
     x0 = _initial_state(setup, e0, edot0)
-    if torque_limit is not None:
-        torque_limit = check_real("torque_limit [N·m]", torque_limit, positive=True)
+    torque_limit = _torque_limit(setup, torque_limit)
     if noise is not None:
         check_instance("noise", noise, MeasurementNoise, "a MeasurementNoise")
         if noise.n != n:
@@ -393,6 +395,19 @@ def simulate_arm(
                   t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)
 
 
+def _torque_limit(setup: ArmSetup, torque_limit: float | ArrayLike | None) -> Array | None:
+    """Each joint's torque limit (n,), N·m: the one given (a number for all joints), else the arm's effort
+    limits; None when no joint has one."""
+    n = setup.arm.n_joints
+    if torque_limit is None:
+        return setup.torque_limit
+    limits = check_array("torque_limit [N·m]", np.broadcast_to(np.asarray(torque_limit, dtype=float), (n,))
+                         if np.ndim(torque_limit) == 0 else torque_limit, shape=(n,), finite=False)
+    if not np.all(limits > 0):
+        raise ArgumentValueError("torque_limit [N·m]", f"must be > 0 per joint (inf: none), found {limits.tolist()}")
+    return None if np.all(np.isinf(limits)) else limits.copy()
+
+
 def _initial_state(setup: ArmSetup, e0: ArrayLike | None, edot0: ArrayLike | None) -> Array:
     """The loop's state ``[q, q̇, ∫e]`` at t = 0 from the initial errors (default the setup's, else 0)."""
     n = setup.arm.n_joints
@@ -405,7 +420,7 @@ def _initial_state(setup: ArmSetup, e0: ArrayLike | None, edot0: ArrayLike | Non
 
 
 def _samples(setup: ArmSetup, gain: Array | ScheduledGain, load: Callable[[float], Any], t: Array, X: Array,
-             torque_limit: float | None, noise: MeasurementNoise | None,
+             torque_limit: Array | None, noise: MeasurementNoise | None,
              bias: float) -> tuple[Array, Array, Array, Array, Array]:
     """``(e, ė, τ, τ_ff, m_p)`` at the samples of a run: the law of :meth:`ArmLoop.torque` at every sample at once.
 
@@ -426,5 +441,5 @@ def _samples(setup: ArmSetup, gain: Array | ScheduledGain, load: Callable[[float
     else:
         tau = ff - gain @ states
     if torque_limit is not None:
-        tau = np.clip(tau, -torque_limit, torque_limit)
+        tau = np.clip(tau, -torque_limit[:, None], torque_limit[:, None])
     return e, edot, tau, ff, masses

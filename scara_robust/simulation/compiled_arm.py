@@ -149,7 +149,8 @@ def _model(ix: NDArray[np.int64], tree: Array, body: Array, gravity: Array, *, r
     P[_A_FF], P[_A_NOMINAL], P[_A_TS] = feedforward, nominal, Ts
     P[_A_LIMIT], P[_A_NOISY] = limit, 0.0 if noise is None else 1.0
     P[_A_SCHEDULED], P[_A_BIAS] = (0.0, 0.0) if schedule is None else (1.0, bias)
-    refs = np.zeros((5, n)) if reference is None else np.ascontiguousarray(reference, dtype=float)
+    refs = np.vstack([np.zeros((5, n)), np.full((1, n), math.inf)]) if reference is None else \
+        np.ascontiguousarray(reference, dtype=float)
     # the kernels write a scheduled K(m̂_p(t)) into this array: always the tuple's own
     K = np.zeros((n, 3 * n)) if gain is None else np.array(gain, dtype=float, order="C")
     sched = np.zeros((1, 1 + 9 * n * n)) if schedule is None else np.hstack(
@@ -270,7 +271,7 @@ def _payload_spec(payload: Any, nominal: float) -> tuple[tuple[float, ...], Arra
 
 
 def pack_arm_loop(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, disturbance: SquareWave | None,
-                  Ts: float | None, torque_limit: float | None = None,
+                  Ts: float | None, torque_limit: float | ArrayLike | None = None,
                   noise: MeasurementNoise | None = None, measurement_bias: float = 0.0) -> tuple[Any, ...]:
     """The model tuple of one arm loop (checking the arm's compiled dynamics the first time).
 
@@ -284,8 +285,9 @@ def pack_arm_loop(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, distu
     disturbance : SquareWave or None
     Ts : float or None
         Sample time of a sampled PID, s.
-    torque_limit : float, optional
-        Each joint's torque is clipped to ± this, N·m (None: no limit).
+    torque_limit : float or array_like, shape (n,), optional
+        Each joint's torque is clipped to ± this, N·m (one for all or one per joint; inf or
+        None: no limit).
     noise : MeasurementNoise, optional
         Noise on the measured angles (and its rate on the measured rates).
     measurement_bias : float
@@ -308,13 +310,14 @@ def pack_arm_loop(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, distu
     signs = np.zeros(n) if disturbance is None else np.asarray(disturbance.signs, dtype=float)
     wave = (0.0, 1.0, 0.0) if disturbance is None else (float(disturbance.amplitude), float(disturbance.period),
                                                          float(disturbance.phase))
-    reference = np.vstack([ref.center, ref.amplitude, ref.omega, ref.phase, signs])
+    limits = np.broadcast_to(np.inf if torque_limit is None else np.asarray(torque_limit, dtype=float), (n,))
+    reference = np.vstack([ref.center, ref.amplitude, ref.omega, ref.phase, signs, limits])
     scheduled = schedule_of(K)
     return _model(bodies.ix, bodies.tree, bodies.body, bodies.gravity, reference=reference,
                   gain=cast(Array, K) if scheduled is None else scheduled.gains[0], payload=spec,
                   table=table, disturbance=wave, feedforward=FEEDFORWARDS.index(setup.feedforward),
                   nominal=float(setup.payload_nominal), Ts=0.0 if Ts is None else float(Ts),
-                  limit=math.inf if torque_limit is None else float(torque_limit),
+                  limit=math.inf,
                   noise=None if noise is None else np.hstack([noise.amplitude, noise.omega, noise.phase]),
                   schedule=scheduled, bias=float(measurement_bias))
 
@@ -358,7 +361,7 @@ class CompiledArmRun:
 def compiled_arm_run(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, x0: ArrayLike, t_final: float, *,
                      disturbance: SquareWave | None = None, dt: float = 1e-3, rtol: float = 1e-8,
                      atol: float = 1e-10, divergence_limit: float = 50.0, Ts: float | None = None,
-                     integrator: str = "bdf", torque_limit: float | None = None,
+                     integrator: str = "bdf", torque_limit: float | ArrayLike | None = None,
                      noise: MeasurementNoise | None = None, measurement_bias: float = 0.0) -> CompiledArmRun:
     """Integrate one arm loop with the compiled engine.
 
@@ -382,8 +385,8 @@ def compiled_arm_run(setup: ArmSetup, K: Array | ScheduledGain, payload: Any, x0
         Sample time of a sampled PID, s: one RK4 step per sample with the torque held.
     integrator : {'bdf', 'dopri5'}
         For a continuous PID (:data:`~scara_robust.simulation.compiled.COMPILED_INTEGRATORS`).
-    torque_limit : float, optional
-        N·m, on every joint (None: no limit).
+    torque_limit : float or array_like, shape (n,), optional
+        N·m, one for every joint or one per joint (None: no limit).
     noise : MeasurementNoise, optional
         Noise on the measured angles.
     measurement_bias : float

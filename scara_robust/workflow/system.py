@@ -333,6 +333,15 @@ class LoadedSystem:
         return input_limit_certificate(K, decay.P, physical.input_limits, box, inputs=physical.inputs,
                                        closed_loops=decay.loops)
 
+    def effort_limits(self) -> np.ndarray | None:
+        """Each input's effort limit when every one has one (an arm's URDF or robot file), N·m; else None.
+
+        Returns
+        -------
+        ndarray, shape (m,), or None
+        """
+        return None
+
     def loop_margins(self, design: Design | Any) -> LoopMargins:
         """Each input's worst disk and delay margin over the frozen plants (:func:`scara_robust.worst_loop_margins`).
 
@@ -747,6 +756,11 @@ class ArmSystem(LoadedSystem):
         return PhysicalSet((on.A, on.B), (check_on.A, check_on.B), as_model("model", plant),
                            f"the arm of {self.robot!r} on its samples, {on.n_samples} (checked on "
                            f"{check_on.n_samples})", "decay")
+
+    def effort_limits(self) -> np.ndarray | None:
+        """The arm's effort limits (its URDF's or robot file's), N·m, when every joint has one."""
+        limits = self.arm().torque_limit
+        return limits if limits is not None and np.all(np.isfinite(limits)) else None
 
     def arm(self) -> ArmSetup:
         """The arm, its payload range, reference and feedforward (:func:`scara_robust.load_arm`)."""
