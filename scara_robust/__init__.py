@@ -144,6 +144,7 @@ Export (:mod:`scara_robust.export`)
     PRECISIONS                      -- the C's floating-point types, double or single
     ExportTarget, register_target, unregister_target, export_targets, get_target -- the formats, by name
     pid_controller_parameters, coupling_of -- a per-joint PID as ros2_control's pid_controller parameters
+    ROS2_ERROR_DEADBAND             -- pid_controller's default error deadband, rad: the integral is frozen within it
     update_rate_of                  -- pid_controller's update rate for a Ts (a whole number of Hz)
     run_on_board, BoardRun, board_inputs, Board, BOARDS, check_toolchain -- the C on an emulated Cortex-M4F
 Studies (:mod:`scara_robust.studies`)

@@ -1209,6 +1209,7 @@ class PidControllerGains:
                 "antiwindup_strategy": list(self.antiwindup_strategy),
                 "tracking_time_constant": [float(v) for v in self.tracking_time_constant],
                 "tracking_time": [float(v) for v in self.tracking_time()],
+                "error_deadband": [float(self.parameters[j].get("error_deadband", 1e-16)) for j in self.joints],
                 "feedforward_gain": [float(self.parameters[j].get("feedforward_gain", 0.0)) for j in self.joints],
                 "angle_wraparound": [bool(self.parameters[j].get("angle_wraparound", False)) for j in self.joints],
                 "update_rate": self.update_rate}

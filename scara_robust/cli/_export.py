@@ -15,7 +15,7 @@ from ..controller.discrete import DERIVATIVE_MODES, INTEGRATOR_METHODS, Discrete
 from ..controller.kinds import check_controller
 from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError
-from ..export import DEFAULT_PREFIX, PRECISIONS, coupling_of, export_targets, update_rate_of
+from ..export import DEFAULT_PREFIX, PRECISIONS, ROS2_ERROR_DEADBAND, coupling_of, export_targets, update_rate_of
 from ..export._common import check_prefix
 from ..io import PID_CONTROLLER_METHOD
 from ..lyapunov.gain import design
@@ -143,7 +143,11 @@ def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> d
         raise CommandLineError(f"`--design` {args.design!r}: {dropped[0]} is set, and the package's PID has no such "
                                "term: the export would drop it (remove it from the file, or keep your file)")
     clamp = np.array(info["u_clamp"], dtype=float)
-    out: dict[str, Any] = {}
+    band = sorted(set(info.get("error_deadband", [])))
+    if len(band) > 1:
+        raise CommandLineError(f"`--design` {args.design!r}: error_deadband differs between joints ({band}); the "
+                               "package's PID takes one")
+    out: dict[str, Any] = {"error_deadband": band[0]} if band and band[0] >= 0 else {}
     if args.torque_limit is None and np.isfinite(clamp).any():
         if not np.isfinite(clamp).all():
             raise CommandLineError(f"`--design` {args.design!r}: u_clamp is given for some joints only; the PID "
@@ -199,7 +203,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     effort = system.effort_limits() if args.torque_limit is None else None  # an arm's, its default limit
     options = {"integrator": args.integrator or ("forward" if ros2 else "tustin"), "derivative": args.derivative,
                "N": args.filter_n, "torque_limit": args.torque_limit if effort is None else list(effort),
-               "tracking_time": args.tracking_time, "anti_windup": not args.no_anti_windup}
+               "tracking_time": args.tracking_time, "anti_windup": not args.no_anti_windup,
+               **({"error_deadband": ROS2_ERROR_DEADBAND} if ros2 else {})}
     if system.state_feedback:
         check_state_form(system)
         changed = _pid_options(args)

@@ -25,9 +25,14 @@ Back-calculation (Åström & Hägglund 2006, §6.5) drives ``w`` so that the uns
 torque tracks the applied one with time constant ``T_t`` while the limit is active.
 The default ``T_t`` per joint is ``sqrt(T_i T_d)`` with ``T_i = K_P/K_I`` and
 ``T_d = K_D/K_P`` (their rule of thumb: between ``T_d`` and ``T_i``), i.e.
-``sqrt(‖K_D[j]‖/‖K_I[j]‖)`` for the coupled gain rows; ``T_t ≥ Ts`` is required, since in
-discrete time the tracking loop ``w_{k+1} − w_k = (Ts/T_t)(u_k − v_k)`` overshoots for
-``T_t < Ts`` (and diverges for ``T_t < Ts/2``).
+``sqrt(‖K_D[j]‖/‖K_I[j]‖)`` for the coupled gain rows, at least ``Ts``, since in discrete
+time the tracking loop ``w_{k+1} − w_k = (Ts/T_t)(u_k − v_k)`` overshoots for ``T_t < Ts``
+(and diverges for ``T_t < Ts/2``); a shorter ``T_t`` given is taken, as control_toolbox takes
+it. A torque without integral action (its row of ``K_I`` zero) has no back-calculation, and
+with ``error_deadband`` a joint's ``w`` is not updated while ``|e_j| <= error_deadband``
+(control_toolbox 6.3.0's ``pid.cpp``, which ros2_controllers' ``pid_controller`` runs). The
+sampled-data certificates hold for the linear loop, where no limit acts; the deadband freezes
+``w`` only where ``|e|`` is at most the deadband (1e-16 rad in ``pid_controller``).
 
 Units: e in rad, ė in rad/s, torques in N·m, times in s, ``N`` in 1/s.
 """
@@ -110,10 +115,23 @@ class DiscretePID:
     torque_limit : None, float or array_like of shape (m,)
         Per-torque limit ``|u_j| ≤ u_max,j``, N·m (> 0); None for none.
     tracking_time : None, float or array_like of shape (m,)
-        Back-calculation time constant T_t, s (≥ Ts); default
-        :func:`default_tracking_time`.
+        Back-calculation time constant T_t, s (> 0); default :func:`default_tracking_time`
+        (≥ Ts). A T_t below Ts is taken, as control_toolbox takes it: the back-calculation
+        then overshoots (``Ts/T_t > 1``) while the limit acts.
     anti_windup : bool
         False leaves the integrator free to wind up against the limit (for comparison).
+    error_deadband : float, optional
+        rad (≥ 0): where ``|e_j| <= error_deadband`` the integral term of torque j is not
+        updated at all (back-calculation included), control_toolbox's rule
+        (``pid.cpp`` 6.3.0: ``is_zero(error, error_deadband)`` skips the update); for a PID
+        with one torque per joint. Default none: always updated.
+
+    Notes
+    -----
+    A torque whose row of ``K_I`` is zero (a PD) has no integral action, and its integral
+    term is never updated: no back-calculation either, as control_toolbox skips the
+    update for ``i = 0``. (A back-calculation state on a PD only stores the clamp's
+    history, a permanent offset once the limit releases.)
 
     Attributes
     ----------
@@ -139,6 +157,7 @@ class DiscretePID:
     torque_limit: Array | None = None
     tracking_time: Array | None = None
     anti_windup: bool = True
+    error_deadband: float | None = None
     state: Array = field(init=False, repr=False)
     _cache: tuple[Any, Any, Any, Any] = field(init=False, repr=False)
     _limit: tuple[float, ...] | None = field(init=False, repr=False)
@@ -162,22 +181,21 @@ class DiscretePID:
             self.tracking_time = default_tracking_time(self.K_I, self.K_D, self.Ts)
         else:
             tt = check_per_item("tracking_time", self.tracking_time, m)
-            if np.any(tt <= 0):
+            if not np.all(tt > 0):
                 raise ArgumentValueError("tracking_time", f"must be > 0 s, found {tt.tolist()}")
-            if np.any(tt < self.Ts):
-                raise ArgumentValueError(
-                    "tracking_time",
-                    f"must be >= Ts = {self.Ts:g} s (a shorter T_t makes the sampled back-calculation overshoot), "
-                    f"found {tt.tolist()}",
-                )
             self.tracking_time = tt
+        if self.error_deadband is not None:
+            self.error_deadband = check_real("error_deadband", self.error_deadband, nonnegative=True)
+            if m != p:
+                raise ArgumentValueError("error_deadband", f"applies to a PID with one torque per joint, found {m} "
+                                                           f"torques for {p} joints")
         if not isinstance(self.anti_windup, (bool, np.bool_)):
             raise ArgumentValueError("anti_windup", f"must be True or False, found {self.anti_windup!r}")
         A, B, C, D = self.matrices()
         # Plain-float copies for the per-sample loops (fields are not meant to change after construction).
         self._cache = (_rows(A), _rows(B), _rows(C), _rows(D))
         self._limit = None if self.torque_limit is None else tuple(float(v) for v in self.torque_limit)
-        self._gain = tuple(float(self.Ts / t) for t in self.tracking_time) if self.back_calculation else None
+        self._gain = tuple(float(g) for g in self.back_calculation_gains) if self.back_calculation else None
         self.reset()
 
     # -- the linear part --------------------------------------------------------------
@@ -186,6 +204,13 @@ class DiscretePID:
     def back_calculation(self) -> bool:
         """True when the anti-windup acts: asked for, and with a torque limit (without one, u = v)."""
         return bool(self.anti_windup and self.torque_limit is not None)
+
+    @property
+    def back_calculation_gains(self) -> Array:
+        """``Ts / T_t`` per torque, 0 for a torque without integral action (its row of K_I zero), shape (m,)."""
+        integral = np.abs(self.K_I).max(axis=1) > np.finfo(float).eps
+        tt = np.asarray(self.tracking_time, dtype=float)
+        return np.asarray(np.where(integral, self.Ts / tt, 0.0), dtype=float)
 
     @property
     def n_joints(self) -> int:
@@ -469,8 +494,12 @@ class DiscretePID:
         """The next state from state `z`, input `y`, applied `u` and unsaturated `v` torques."""
         A, B, _, _ = self._cache
         nz, q, m = len(z), len(y), self.n_torques
+        band = self.error_deadband
         out = []
         for i in range(nz):
+            if band is not None and i < m and -band <= y[i] <= band:  # control_toolbox's deadband: not updated
+                out.append(z[i])
+                continue
             acc = 0.0
             for j in range(nz):
                 acc += A[i][j] * z[j]
@@ -533,7 +562,8 @@ def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.f
     measured = pid.derivative == "measured"
     limit = None if pid.torque_limit is None else np.asarray(pid.torque_limit, dtype=f32)
     windup = pid.back_calculation
-    aw = np.array([pid.Ts / float(t) for t in np.asarray(pid.tracking_time)], dtype=f32) if windup else None
+    aw = np.asarray(pid.back_calculation_gains, dtype=f32) if windup else None
+    band = None if pid.error_deadband is None else f32(pid.error_deadband)
     state = [f32(0.0)] * nz
 
     def step(e: Any, edot: Any = None) -> NDArray[np.float32]:
@@ -557,6 +587,9 @@ def single_precision_step(pid: DiscretePID) -> Callable[[Any, Any], NDArray[np.f
             u.append(f32(x))
         new = []
         for i in range(nz):
+            if band is not None and i < m and -band <= y[i] <= band:
+                new.append(state[i])
+                continue
             acc = f32(0.0)
             for j in range(nz):
                 acc = f32(acc + f32(A[i, j] * state[j]))

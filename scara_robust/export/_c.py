@@ -167,8 +167,12 @@ void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T}
     if limited:
         consts += f"static const {T} LIMIT[{m}] = {{{', '.join(num(v) for v in np.asarray(pid.torque_limit))}}};\n"
     if windup:
-        gains = [pid.Ts / float(t) for t in np.asarray(pid.tracking_time)]
-        consts += f"static const {T} AW[{m}] = {{{', '.join(num(g) for g in gains)}}}; /* Ts / T_t */\n"
+        gains = [float(g) for g in pid.back_calculation_gains]
+        consts += (f"static const {T} AW[{m}] = {{{', '.join(num(g) for g in gains)}}}; "
+                   "/* Ts / T_t; 0 without integral action */\n")
+    band = pid.error_deadband
+    if band is not None:
+        consts += f"static const {T} DEADBAND = {num(band)}; /* rad: |e| within it leaves the integral term */\n"
     clip = (
         "        x = v[i];\n        if (x < -LIMIT[i]) x = -LIMIT[i];\n        if (x > LIMIT[i]) x = LIMIT[i];\n"
         "        u[i] = x;\n"
@@ -177,6 +181,8 @@ void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T}
     )
     aw = f"        if (i < {m}) acc += AW[i] * (u[i] - v[i]);\n" if windup else ""
     zero = num(0.0)
+    deadband = ("" if band is None else
+                f"        if (i < {m} && y[i] >= -DEADBAND && y[i] <= DEADBAND) {{ z[i] = s->z[i]; continue; }}\n")
     source = f"""/* {prefix}.c: discrete-time PID exported by scara_robust ({settings}). */
 #include <string.h>
 #include "{prefix}.h"
@@ -201,7 +207,7 @@ void {prefix}_step({prefix}_state *s, const {T} e[{p}], const {T} edot[{p}], {T}
     for (i = 0; i < {m}; ++i) {{
 {clip}    }}
     for (i = 0; i < {nz}; ++i) {{
-        acc = {zero};
+{deadband}        acc = {zero};
         for (j = 0; j < {nz}; ++j) acc += A[i][j] * s->z[j];
         for (j = 0; j < {n_y}; ++j) acc += B[i][j] * y[j];
 {aw}        z[i] = acc;

@@ -30,7 +30,12 @@ from ..model.plant import Signal
 from ._common import signal_names
 from .registry import ExportTarget, register_target
 
-__all__ = ["pid_controller_parameters", "coupling_of", "update_rate_of"]
+__all__ = ["pid_controller_parameters", "coupling_of", "update_rate_of", "ROS2_ERROR_DEADBAND"]
+
+#: pid_controller's default ``error_deadband`` (rad; ``pid_controller.yaml`` of ros2_controllers 6.9.0): within
+#: it control_toolbox leaves the integral term (``pid.cpp`` 6.3.0). ``export --format ros2`` runs and certifies
+#: its PID with it, and a PID without a deadband is written with it.
+ROS2_ERROR_DEADBAND = 1e-16
 
 
 def update_rate_of(Ts: float) -> int:
@@ -136,7 +141,9 @@ def pid_controller_parameters(pid: DiscretePID, controller: str = "scara_pid",
                                  "i_clamp_max": math.inf, "i_clamp_min": -math.inf,
                                  "antiwindup_strategy": "back_calculation" if windup else "none",
                                  "tracking_time_constant": tracking[j] if tracking is not None else 0.0,
-                                 "feedforward_gain": 0.0}
+                                 "feedforward_gain": 0.0,
+                                 "error_deadband": ROS2_ERROR_DEADBAND if pid.error_deadband is None
+                                 else float(pid.error_deadband)}
         gains[ros2_dof_name(joint.name)] = entry
     return {
         "controller_manager": {"ros__parameters": {"update_rate": rate,

@@ -205,6 +205,7 @@ class Design:
         torque_limit: Any = None,
         tracking_time: Any = None,
         anti_windup: bool = True,
+        error_deadband: float | None = None,
     ) -> DiscretePID:
         """The PID as a sampled controller, ready to run on a controller board.
 
@@ -221,9 +222,13 @@ class Design:
         torque_limit : None, float or array_like of shape (m,)
             Per-torque limit, N·m (> 0).
         tracking_time : None, float or array_like of shape (m,)
-            Back-calculation time constant, s (>= Ts); default ``sqrt(T_i T_d)`` per torque.
+            Back-calculation time constant, s (> 0; below Ts it overshoots, as control_toolbox
+            runs it); default ``sqrt(T_i T_d)`` per torque, at least Ts.
         anti_windup : bool
             Back-calculation on (default) or off.
+        error_deadband : float, optional
+            rad: within it a joint's integral term is not updated (control_toolbox's rule);
+            default none.
 
         Returns
         -------
@@ -247,6 +252,7 @@ class Design:
         return DiscretePID(
             Ts, K_I, K_P, K_D, integrator=integrator, derivative=derivative, N=N,
             torque_limit=torque_limit, tracking_time=tracking_time, anti_windup=anti_windup,
+            error_deadband=error_deadband,
         )
 
     def closed_loop(self, A: ArrayLike, B: ArrayLike) -> ct.StateSpace:
