@@ -111,16 +111,19 @@ def main(argv: list[str]) -> int:
             t = page[key]
             lines.append(f"| design page in Chromium, click to {what} painted ({len(t['all'])} clicks): median, "
                          f"90th percentile, largest [ms] | {t['median']:.0f} / {t['p90']:.0f} / {t['max']:.0f} | | |")
-    for robot, label in (("scara", "SCARA PID (2 joints)"), ("arm6", "6-joint arm PID")):
-        for precision in ("single", "double"):
-            name = f"test_board_pid_step[{precision}-{robot}]"
-            if name in mean:
-                b = extra[name]
-                lines.append(
-                    f"| Cortex-M4F (QEMU mps2-an386), {label}, {precision}: {b['instructions mean']:.0f} instructions "
-                    f"per step ({b['instructions min']}-{b['instructions max']}), {b['share of Ts']:.2%} of Ts = 1 ms "
-                    f"(slowest step) at {b['clock [Hz]'] / 1e6:g} MHz, flash {b['flash [B]']} B, "
-                    f"RAM {b['RAM [B]']} B; the time: compile and emulate 10⁴ steps | {mean[name]:.3g} | | |")
+    boards = [(f"test_board_pid_step[{precision}-{robot}]", label, precision)
+              for robot, label in (("scara", "SCARA PID (2 joints)"), ("arm6", "6-joint arm PID"))
+              for precision in ("single", "double")]
+    boards.append(("test_board_arm_pid_with_feedforward_step", "6-joint arm PID + gravity feedforward (RNEA)",
+                   "double"))
+    for name, label, precision in boards:
+        if name in mean:
+            b = extra[name]
+            lines.append(
+                f"| Cortex-M4F (QEMU mps2-an386), {label}, {precision}: {b['instructions mean']:.0f} instructions "
+                f"per step ({b['instructions min']}-{b['instructions max']}), {b['share of Ts']:.2%} of Ts = 1 ms "
+                f"(slowest step) at {b['clock [Hz]'] / 1e6:g} MHz, flash {b['flash [B]']} B, "
+                f"RAM {b['RAM [B]']} B; the time: compile and emulate 10⁴ steps | {mean[name]:.3g} | | |")
     print("\n".join(lines))
     return 0
 

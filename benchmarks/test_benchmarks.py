@@ -406,6 +406,26 @@ def board_pids():
     return {"scara": sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=8.0), "arm6": arm}
 
 
+def test_board_arm_pid_with_feedforward_step(benchmark, board_pids):
+    """The 6-joint arm's whole controller on the emulated Cortex-M4F: its gravity feedforward by RNEA (double,
+    software floating point) and the PID, the URDF's effort limits on the total torque."""
+    import os
+
+    benchmark.group = "board: Cortex-M4F PID step"
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "robot-arm6.toml")
+    setup = sr.load_arm(path)
+    pid = sr.design(setup.plant, 1000, 3).discretize(1e-3, torque_limit=list(setup.torque_limit),
+                                                        feedforward=sr.arm_feedforward(setup))
+    inputs = sr.board_inputs(pid, 10_000)
+    run = benchmark.pedantic(sr.run_on_board, (pid, inputs), {"precision": "double"}, rounds=2)
+    assert run.agrees
+    ins = run.instructions
+    benchmark.extra_info.update({
+        "instructions min": int(ins.min()), "instructions mean": float(ins.mean()), "instructions max": int(ins.max()),
+        "flash [B]": run.flash_bytes, "RAM [B]": run.ram_bytes, "share of Ts": run.share_of_ts,
+        "clock [Hz]": run.clock_hz, "max |difference|": run.max_abs_difference})
+
+
 @pytest.mark.parametrize("robot", ["scara", "arm6"])
 @pytest.mark.parametrize("precision", ["single", "double"])
 def test_board_pid_step(benchmark, board_pids, robot, precision):

@@ -47,6 +47,7 @@ Model (:mod:`scara_robust.model`)
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
     RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
     effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
+    arm_feedforward, ArmFeedforward, FEEDFORWARD_RTOL -- an arm's model feedforward as the exported controller runs it
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install
 The controller on a board (:mod:`scara_robust.controller`)
@@ -135,6 +136,7 @@ Files (:mod:`scara_robust.io`)
     load_robot, load_scenario, ScenarioFile -- robot and scenario files
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
     load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
+    controller_sample_time, CONTROLLER_KEYS -- the sample time a robot or plant file gives its controller, s
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
     load_pid_controller, PidControllerGains -- a ros2_control pid_controller's YAML (``--design F.yaml``)
     PID_CONTROLLER_GAINS, PID_CONTROLLER_KEYS, PID_CONTROLLER_TYPE -- its per-joint keys, its keys, its type

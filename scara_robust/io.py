@@ -88,6 +88,8 @@ __all__ = [
     "load_robot",
     "load_arm",
     "is_arm_file",
+    "controller_sample_time",
+    "CONTROLLER_KEYS",
     "ARM_KEYS",
     "load_scenario",
     "DesignFile",
@@ -112,8 +114,10 @@ _SCENARIO_FIELDS: dict[str, dict[str, str]] = {
 }
 #: ``form`` of a model file: the matrices as they are, or augmented (see :func:`load_model`).
 MODEL_FORMS = ("state", "pid", "integral")
-_MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices")
-_PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description")
+_MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices", "controller")
+_PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description", "controller")
+#: A robot or plant file's ``[controller]`` table: the controller the design will run as.
+CONTROLLER_KEYS: dict[str, str] = {"sample_time": "s"}
 _PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "physical", "description", "measured",
                    "measurement_error", "measurement_delay")
 _ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
@@ -222,7 +226,7 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
     """
     text_path = os.fspath(path)
     data = read_mapping(text_path)
-    _top(text_path, data, ("robot",))
+    _top(text_path, data, ("robot", "controller"))
     table = field_table(repr(text_path), data, "robot", ROBOT_UNITS)
     values = {}
     for f in fields(ScaraParams):
@@ -301,6 +305,35 @@ def square_wave(amplitudes: list[float], period: float, phase: float = 0.0) -> S
     """
     peak = max(abs(a) for a in amplitudes)
     return SquareWave(peak, period, phase, tuple(a / peak if peak else 1.0 for a in amplitudes))
+
+
+def controller_sample_time(path: str | os.PathLike[str]) -> float | None:
+    """The sample time a robot or plant file gives its controller (``[controller] sample_time``, s), or None.
+
+    Parameters
+    ----------
+    path : path-like
+        A robot file (the SCARA's or one naming a URDF) or a plant file.
+
+    Returns
+    -------
+    float or None
+
+    Raises
+    ------
+    InputFileError
+        Naming the file and the field, for a sample time that is not a number > 0 s or an
+        unknown field of the table.
+    """
+    text_path = os.fspath(path)
+    where = f"{text_path!r}:"
+    table = field_table(where, read_mapping(text_path), "controller", CONTROLLER_KEYS)
+    if "sample_time" not in table:
+        return None
+    ts = field_number(where, "controller.sample_time", table["sample_time"], "s")
+    if not ts > 0:
+        raise InputFileError(f"{where} field `controller.sample_time` [s] must be > 0, found {ts:g}")
+    return ts
 
 
 def is_arm_file(path: str | os.PathLike[str]) -> bool:
@@ -406,7 +439,7 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
     data = read_mapping(text_path)
-    name = _top(text_path, data, ("robot", "reference", *_ARM_RUN_FIELDS))
+    name = _top(text_path, data, ("robot", "reference", "controller", *_ARM_RUN_FIELDS))
     robot = field_table(where, data, "robot", ARM_KEYS)
     for key in ("urdf", "joints", "payload_frame", "payload_mass"):
         if key not in robot:

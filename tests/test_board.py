@@ -69,6 +69,19 @@ def test_six_joint_arm_pid_on_the_board(arm_pid, precision):
     assert run.u.shape == (6, N_STEPS)
 
 
+def test_six_joint_arm_with_its_gravity_feedforward_on_the_board():
+    """The whole controller as certified: the RNEA feedforward in double, the limit on the total torque."""
+    setup = sr.load_arm(ARM_FILE)
+    pid = sr.design(setup.plant, 1000, 3).discretize(1e-3, torque_limit=list(setup.torque_limit),
+                                                        feedforward=sr.arm_feedforward(setup))
+    run = sr.run_on_board(pid, sr.board_inputs(pid, N_STEPS, seed=4), precision="double", prefix="arm6_pid")
+    _check(run)
+    assert run.u.shape == (6, N_STEPS) and {"cos", "sin"} <= set(run.helpers)
+    assert np.mean(np.abs(run.u_reference) >= np.asarray(pid.torque_limit)[:, None]) > 0.01  # the limit acts
+    with pytest.raises(sr.ArgumentValueError, match="precision"):
+        sr.run_on_board(pid, sr.board_inputs(pid, 10), precision="single")
+
+
 def test_state_feedback_and_schedule_on_the_board():
     feedback = sr.SampledStateFeedback([[3.75, 11.5], [-0.5, 2.0]], 1e-3)
     for precision in ("single", "double"):

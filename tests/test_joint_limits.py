@@ -163,3 +163,18 @@ def test_margin_gives_the_effort_limited_payload_beside_the_stable_one(monkeypat
     assert "payload margin of" in out
     assert ("effort: the effort limits carry a payload up to 2.80635 kg along the reference: joint 'shoulder_lift' "
             "reaches its limit") in out
+
+
+def test_the_compiled_engine_clips_each_joint_at_its_own_limit(tmp_path):
+    """Per-joint limits in machine code: the shoulder lift's 25 N·m binds; the held runs agree with rk4's."""
+    pytest.importorskip("numba", reason="the compiled engine: pip install '.[compiled]'")
+    from test_arm_compiled import small_arm_file
+
+    path = Path(small_arm_file(tmp_path))
+    path.write_text(path.read_text().replace(
+        "payload_frame", "effort_limits = [150.0, 25.0, 150.0, 28.0, 28.0, 28.0]\npayload_frame", 1))
+    setup = sr.load_arm(str(path))
+    K = sr.design(setup.plant, 1000, 3).K
+    fast, slow = (sr.simulate_arm(setup, K, t_final=3.0, method=m, Ts=1e-3) for m in ("compiled", "rk4"))
+    assert np.abs(fast.torque - slow.torque).max() <= 1e-9
+    assert np.mean(np.abs(slow.torque[1]) >= 25.0 - 1e-12) > 0.5 and np.abs(slow.torque[1]).max() == 25.0

@@ -106,13 +106,16 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         "input limits: " + (within.message if within is not None else
                             "no certified Lyapunov function, so no certified bound on the inputs")
         + f" (initial errors: the box of half-widths {np.round(limit_box, 6).tolist()} on the design state)"]
+    # the headline: the sampled-data certificate at the file's controller Ts, else the largest certified Ts
+    headline, head_record = system.sampled_headline(d.K if system.state_feedback else d)
     limit = None
-    if args.max_ts:
+    if args.max_ts and head_record["method"] == "sampled-at-ts":
         plants, check, set_name = system.sampled()
         # a state-form plant's gain: u = −K x(t_k) held, on the design form
         limit = max_sample_time(plants, d.K if system.state_feedback else d, check=check, rtol=1e-3)
     if args.format == "json":
-        records = [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
+        records = [{k: _json_value(v) for k, v in head_record.items()}]
+        records += [{k: _json_value(v) for k, v in row.items()} for row in table.to_dict(orient="records")]
         records.append({"method": "decay-rate", "verdict": decay.verdict, "certified": decay.certified,
                         "decay_rate [1/s]": _json_value(decay.rate), "from": decay.source, "set": decay.set_name,
                         "detail": decay.message})
@@ -135,5 +138,5 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     )
     details = [f"  {row.method}: {row.detail}" for row in table.itertuples()]
     sampled = [] if limit is None else ["", f"sample time on {set_name}: {limit.message}"]
-    return "\n".join([header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details, "",
-                      decay.message, f"loop margins: {loops.message}", *limits, *sampled])
+    return "\n".join([headline, header, shown.to_string(index=False, float_format="%.4g"), "", "details:", *details,
+                      "", decay.message, f"loop margins: {loops.message}", *limits, *sampled])

@@ -130,6 +130,25 @@ def _check_ros2_options(args: argparse.Namespace, system: LoadedSystem) -> None:
         raise CommandLineError(f"`--ts` {err.problem}") from err
 
 
+def _feedforward(args: argparse.Namespace, system: LoadedSystem, ros2: bool) -> Any:
+    """The model feedforward the arm's loop was certified with, for the exported controller (None without one)."""
+    setup_ff = system.arm().feedforward if system.capabilities.run == "arm" else "none"
+    if setup_ff == "none":
+        return None
+    if ros2:
+        raise CommandLineError(f"`--format ros2`: {system.file!r} certifies its loop with the {setup_ff} "
+                               "feedforward, which a pid_controller file cannot carry; export it as C (--format c), "
+                               "or design with feedforward = \"none\" in the robot file, whose certificate then "
+                               "treats gravity as the disturbance it is")
+    if args.precision != "double":
+        raise CommandLineError(f"`--precision {args.precision}`: the {setup_ff} feedforward of {system.file!r} is "
+                               "exported in double precision (its RNEA is checked against Pinocchio in double)")
+    try:
+        return system.feedforward()
+    except ArgumentValueError as err:
+        raise CommandLineError(f"`--robot` {system.file!r}: {err.problem}") from err
+
+
 def _pid_controller_options(args: argparse.Namespace, info: dict[str, Any]) -> dict[str, Any]:
     """The torque limit and anti-windup of a pid_controller file (``--design F.yaml``), unless given as options."""
     strategies = set(info["antiwindup_strategy"])
@@ -197,6 +216,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     ros2 = args.format == "ros2"
     if ros2:
         _check_ros2_options(args, system)
+    feedforward = _feedforward(args, system, ros2)
     model = system.model
     prefix = args.prefix or system.plant_prefix(DEFAULT_PREFIX)
     signals: dict[str, Any] = system.signal_names()
@@ -204,7 +224,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     options = {"integrator": args.integrator or ("forward" if ros2 else "tustin"), "derivative": args.derivative,
                "N": args.filter_n, "torque_limit": args.torque_limit if effort is None else list(effort),
                "tracking_time": args.tracking_time, "anti_windup": not args.no_anti_windup,
-               **({"error_deadband": ROS2_ERROR_DEADBAND} if ros2 else {})}
+               **({"error_deadband": ROS2_ERROR_DEADBAND} if ros2 else {}),
+               **({"feedforward": feedforward} if feedforward is not None else {})}
     if system.state_feedback:
         check_state_form(system)
         changed = _pid_options(args)
@@ -273,6 +294,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         lines.append(f"torque limit {[round(float(v), 6) for v in pid.torque_limit]} N·m"
                      + (" (the arm's effort limits)" if effort is not None else "") + ", anti-windup "
                      + ("off" if not pid.anti_windup else f"T_t = {tt} s"))
+    if pid.feedforward is not None:
+        ff = pid.feedforward
+        worst = ff.check(system.arm().arm)
+        lines.append(f"feedforward {ff.kind} at the nominal payload {ff.payload:g} kg in the controller, as certified "
+                     f"(RNEA on the arm's bodies: {worst:.1e} relative from Pinocchio's on 200 random states); the "
+                     "torque limit acts on the total torque")
     lines += [] if board is None else [board.message]
     lines += [f"wrote {f}" for f in files]
     return "\n".join(lines)

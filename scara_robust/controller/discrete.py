@@ -120,6 +120,11 @@ class DiscretePID:
         then overshoots (``Ts/T_t > 1``) while the limit acts.
     anti_windup : bool
         False leaves the integrator free to wind up against the limit (for comparison).
+    feedforward : ArmFeedforward, optional
+        An arm's model feedforward (:func:`scara_robust.arm_feedforward`): the torque is then
+        ``u = clip(τ_ff(r, ṙ, r̈) + v)``, the limit on the total torque as the arm's
+        simulation applies it, and the back-calculation drives ``v`` by ``u − τ_ff − v``;
+        :meth:`control` takes the reference and the measured state. Default none.
     error_deadband : float, optional
         rad (≥ 0): where ``|e_j| <= error_deadband`` the integral term of torque j is not
         updated at all (back-calculation included), control_toolbox's rule
@@ -158,6 +163,7 @@ class DiscretePID:
     tracking_time: Array | None = None
     anti_windup: bool = True
     error_deadband: float | None = None
+    feedforward: Any = None
     state: Array = field(init=False, repr=False)
     _cache: tuple[Any, Any, Any, Any] = field(init=False, repr=False)
     _limit: tuple[float, ...] | None = field(init=False, repr=False)
@@ -189,6 +195,9 @@ class DiscretePID:
             if m != p:
                 raise ArgumentValueError("error_deadband", f"applies to a PID with one torque per joint, found {m} "
                                                            f"torques for {p} joints")
+        if self.feedforward is not None and (getattr(self.feedforward, "n_joints", None) != p or m != p):
+            raise ArgumentValueError("feedforward", f"must be a feedforward of the PID's {p} joints with one torque "
+                                                    f"each, found {self.feedforward!r}")
         if not isinstance(self.anti_windup, (bool, np.bool_)):
             raise ArgumentValueError("anti_windup", f"must be True or False, found {self.anti_windup!r}")
         A, B, C, D = self.matrices()
@@ -367,8 +376,8 @@ class DiscretePID:
 
     @property
     def step_sizes(self) -> tuple[int, int]:
-        """(inputs, outputs) of one step: ``[e, ė]`` (2p) in, u (m) out."""
-        return 2 * self.n_joints, self.n_torques
+        """(inputs, outputs) of one step: ``[e, ė]`` (2p), with a feedforward ``[r, ṙ, r̈, q, q̇]`` (5p); u (m)."""
+        return (5 if self.feedforward is not None else 2) * self.n_joints, self.n_torques
 
     @property
     def n_state_values(self) -> int:
@@ -388,6 +397,10 @@ class DiscretePID:
         ndarray, shape (2p, n_steps)
         """
         p = self.n_joints
+        if self.feedforward is not None:  # r, ṙ, r̈ anywhere, q and q̇ near them
+            r, rd = rng.uniform(-np.pi, np.pi, (p, n_steps)), rng.uniform(-2.0, 2.0, (p, n_steps))
+            return np.vstack([r, rd, rng.uniform(-5.0, 5.0, (p, n_steps)), r + rng.uniform(-0.05, 0.05, (p, n_steps)),
+                              rd + rng.uniform(-0.5, 0.5, (p, n_steps))])
         return np.vstack([rng.uniform(-0.05, 0.05, (p, n_steps)), rng.uniform(-0.5, 0.5, (p, n_steps))])
 
     def run_steps(self, inputs: Array, precision: str) -> Array:
@@ -406,6 +419,14 @@ class DiscretePID:
         """
         p = self.n_joints
         n_steps = inputs.shape[1]
+        if self.feedforward is not None:
+            if precision == "single":
+                raise ArgumentValueError("precision", "of a PID with a model feedforward is 'double' (its RNEA is "
+                                                      "checked against Pinocchio in double precision)")
+            pid = copy.deepcopy(self)
+            pid.reset()
+            rows_ff = [pid.control(*(inputs[i * p:(i + 1) * p, k] for i in range(5))) for k in range(n_steps)]
+            return np.asarray(np.array(rows_ff, dtype=float).T, dtype=float)
         if precision == "single":
             step32 = single_precision_step(self)
             rows: list[Any] = [step32(inputs[:p, k], inputs[p:, k]) for k in range(n_steps)]
@@ -470,17 +491,19 @@ class DiscretePID:
         """
         self.state = self.initial_state(e0, edot0, u0)
 
-    def output(self, z: Sequence[float], y: Sequence[float]) -> tuple[list[float], list[float]]:
+    def output(self, z: Sequence[float], y: Sequence[float],
+               ff: Sequence[float] | None = None) -> tuple[list[float], list[float]]:
         """Applied and unsaturated torque ``(u, v)`` at state `z` and input ``y = [e, ė]``.
 
-        Plain floats, in the operation order of the exported C code (so both agree to
+        With a feedforward `ff` (N·m, shape (m,)), ``v`` is the total ``ff + PID`` before the
+        limit. Plain floats, in the operation order of the exported C code (so both agree to
         rounding); use :meth:`step` for the checked interface.
         """
         m, q = self.n_torques, len(y)
         _, _, C, D = self._cache
         v = []
         for i in range(m):
-            acc = 0.0
+            acc = 0.0 if ff is None else ff[i]
             for j in range(len(z)):
                 acc += C[i][j] * z[j]
             for j in range(q):
@@ -528,6 +551,32 @@ class DiscretePID:
         y = self._y(e, edot)
         z = [float(v) for v in self.state]
         u, v = self.output(z, y)
+        self.state = np.array(self.update(z, y, u, v), dtype=float)
+        return np.array(u, dtype=float)
+
+    def control(self, r: ArrayLike, rd: ArrayLike, rdd: ArrayLike, q: ArrayLike, qd: ArrayLike) -> Array:
+        """One sample of the whole controller: ``u = clip(τ_ff(r, ṙ, r̈) + PID(r − q, ṙ − q̇))``.
+
+        Parameters
+        ----------
+        r, rd, rdd : array_like, shape (p,)
+            The reference and its derivatives at this sample, rad, rad/s, rad/s².
+        q, qd : array_like, shape (p,)
+            The measured joint angles (rad) and rates (rad/s).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            N·m, held until the next sample. Without a feedforward, :meth:`step` on the errors.
+        """
+        p = self.n_joints
+        rv, rdv, rddv = (check_array(name, x, shape=(p,)) for name, x in (("r", r), ("rd", rd), ("rdd", rdd)))
+        e = rv - check_array("q", q, shape=(p,))
+        edot = rdv - check_array("qd", qd, shape=(p,))
+        y = self._y(e, edot)
+        ff = None if self.feedforward is None else self.feedforward.torque(list(rv), list(rdv), list(rddv))
+        z = [float(v) for v in self.state]
+        u, v = self.output(z, y, ff)
         self.state = np.array(self.update(z, y, u, v), dtype=float)
         return np.array(u, dtype=float)
 

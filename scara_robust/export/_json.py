@@ -69,6 +69,8 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         # without a limit u = v, so there is no windup to correct: neither anti-windup nor its time constant
         "tracking_time": np.asarray(pid.tracking_time).tolist() if pid.back_calculation else None,
         "anti_windup": pid.back_calculation,
+        "error_deadband": pid.error_deadband,
+        "back_calculation_gains": pid.back_calculation_gains.tolist() if pid.back_calculation else None,
         "A": A.tolist(),
         "B": B.tolist(),
         "C": C.tolist(),
@@ -76,6 +78,12 @@ def controller_record(pid: DiscretePID, *, outputs: Sequence[Signal] | None = No
         "states": list(ss.state_labels),
         "inputs": list(ss.input_labels),
         "outputs": list(ss.output_labels),
+        "feedforward": None if pid.feedforward is None else {
+            **pid.feedforward.record(), "law": "v = tau_ff(r, rd, rdd) + C z + D [e, edot]: the limit on the total "
+            "torque; tau_ff by RNEA on the arm's bodies (tables: tree, body, parents, joint_body, gravity)",
+            "tree": pid.feedforward.tree.tolist(), "body": pid.feedforward.body.tolist(),
+            "parents": list(pid.feedforward.parents), "joint_body": list(pid.feedforward.joint_body),
+            "gravity": pid.feedforward.gravity.tolist()},
         "signals": {"outputs": [{"name": s.name, "unit": s.unit} for s in outs],
                     "inputs": [{"name": s.name, "unit": s.unit} for s in ins]},
         "units": {"e": e_unit, "edot": unit_of([per_second(s.unit) for s in outs]), "u": u_unit, "Ts": "s",

@@ -349,7 +349,11 @@ def _run(command: Sequence[str], cwd: Path, what: str, timeout: float) -> subpro
 def _driver(controller: Controller, prefix: str, ctype: str) -> str:
     n_in, n_out = controller.step_sizes
     declare = ""
-    call = {"pid": f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{n_in // 2}], out_rows[k])",
+    p = n_in // 5
+    call = {"pid": f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{n_in // 2}], out_rows[k])"
+            if getattr(controller, "feedforward", None) is None else  # the whole controller: r, ṙ, r̈, q, q̇
+            f"{prefix}_step(&s, &in_rows[k][0], &in_rows[k][{p}], &in_rows[k][{2 * p}], &in_rows[k][{3 * p}], "
+            f"&in_rows[k][{4 * p}], out_rows[k])",
             "scheduled": f"(void){prefix}_step(in_rows[k], in_rows[k][{n_in - 1}], out_rows[k])",
             "state feedback": f"{prefix}_step(in_rows[k], out_rows[k])"}[controller.kind]
     if controller.n_state_values:
@@ -478,8 +482,9 @@ def run_on_board(
         for name in ("driver", "startup"):
             _run([cc, *flags, "-c", f"{name}.c", "-o", f"{name}.o"], work, f"{cc} (the test image's {name})",
                  timeout)
+        libm = ["-lm"] if getattr(controller, "feedforward", None) is not None else []  # the RNEA's cos and sin
         _run([cc, *spec.cflags, "-nostartfiles", "-T", "link.ld", "--specs=rdimon.specs", "-Wl,--gc-sections",
-              "-o", "image.elf", "startup.o", "driver.o", "controller.o"], work, f"{cc} (linking)", timeout)
+              "-o", "image.elf", "startup.o", "driver.o", "controller.o", *libm], work, f"{cc} (linking)", timeout)
         emulate = [spec.emulator, "-M", spec.machine, "-nographic", "-monitor", "none", "-serial", "none",
                    "-semihosting-config", "enable=on,target=native", "-kernel", "image.elf"]
         (work / "in.bin").write_bytes(np.ascontiguousarray(x.T).tobytes())

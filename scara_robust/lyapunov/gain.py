@@ -206,6 +206,7 @@ class Design:
         tracking_time: Any = None,
         anti_windup: bool = True,
         error_deadband: float | None = None,
+        feedforward: Any = None,
     ) -> DiscretePID:
         """The PID as a sampled controller, ready to run on a controller board.
 
@@ -229,6 +230,9 @@ class Design:
         error_deadband : float, optional
             rad: within it a joint's integral term is not updated (control_toolbox's rule);
             default none.
+        feedforward : ArmFeedforward, optional
+            An arm's model feedforward (:func:`scara_robust.arm_feedforward`), in the
+            controller: the limit then acts on the total torque.
 
         Returns
         -------
@@ -252,7 +256,7 @@ class Design:
         return DiscretePID(
             Ts, K_I, K_P, K_D, integrator=integrator, derivative=derivative, N=N,
             torque_limit=torque_limit, tracking_time=tracking_time, anti_windup=anti_windup,
-            error_deadband=error_deadband,
+            error_deadband=error_deadband, feedforward=feedforward,
         )
 
     def closed_loop(self, A: ArrayLike, B: ArrayLike) -> ct.StateSpace:

@@ -10,6 +10,8 @@ from .augment import *  # noqa: F403
 from .augment import __all__ as _augment
 from .base import *  # noqa: F403
 from .base import __all__ as _base
+from .feedforward import *  # noqa: F403
+from .feedforward import __all__ as _feedforward
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
 from .plant import *  # noqa: F403
@@ -25,4 +27,5 @@ from .signals import __all__ as _signals
 from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
-__all__ = [*_base, *_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm]
+__all__ = [*_base, *_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm,
+           *_feedforward]

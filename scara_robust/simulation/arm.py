@@ -13,6 +13,7 @@ Angles in rad, rates in rad/s, torques in N·m, masses in kg, times in s.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_argument, renamed_field
 from .._validation import check_array, check_callable, check_choice, check_instance, check_real
-from ..controller.kinds import schedule_of
+from ..controller.kinds import controller_kind, schedule_of
 from ..controller.scheduled import ScheduledGain
 from ..exceptions import ArgumentValueError
 from ..model.arm import ArmSetup
@@ -164,6 +165,108 @@ class ArmLoop:
 
 
 @dataclass(frozen=True)
+class ArmPIDLoop:
+    """An arm under a sampled :class:`~scara_robust.DiscretePID` for the engines: state ``[q, q̇, z]``.
+
+    The PID (with its feedforward, limit, anti-windup and deadband, as exported) is sampled
+    at ``t_k = k Ts``: ``u_k = pid.control(r, ṙ, r̈, q + n, q̇ + ṅ)`` held over the period, its
+    state z jumping once per sample; the arm's effort limits clip what the motors give.
+
+    Attributes
+    ----------
+    setup : ArmSetup
+    pid : DiscretePID
+    payload : callable
+        ``m_p(t)``, kg.
+    disturbance : SquareWave or None
+    limit : ndarray, shape (n,), or None
+        The motors' limit (N·m), after the PID's own.
+    noise : MeasurementNoise or None
+    """
+
+    setup: ArmSetup
+    pid: Any
+    payload: Callable[[float], Any]
+    disturbance: Any
+    limit: Array | None = None
+    noise: MeasurementNoise | None = None
+
+    discrete = True
+
+    @property
+    def Ts(self) -> float:
+        """The PID's sample time, s."""
+        return float(self.pid.Ts)
+
+    @property
+    def n(self) -> int:
+        """Joints n."""
+        return self.setup.arm.n_joints
+
+    @property
+    def n_plant(self) -> int:
+        """``2n``: the arm's angles and rates, before the PID's state."""
+        return 2 * self.n
+
+    @property
+    def n_states(self) -> int:
+        """``2n + n_z``."""
+        return 2 * self.n + int(self.pid.n_state_values)
+
+    def _sample(self, t: float, x: Array) -> tuple[list[float], list[float], list[float], list[float] | None]:
+        """``(z, y, u, v)`` of the PID at the sample (t, x): its state, input and torques."""
+        n, setup, noise = self.n, self.setup, self.noise
+        r, rd, rdd = setup.reference.at(t)
+        q, qd = x[:n], x[n:2 * n]
+        if noise is not None:
+            q, qd = q + noise(t), qd + noise.rate(t)
+        y = [float(v) for v in r - q] + [float(v) for v in rd - qd]
+        ff = None if self.pid.feedforward is None else self.pid.feedforward.torque(list(r), list(rd), list(rdd))
+        z = [float(v) for v in x[2 * n:]]
+        u, v = self.pid.output(z, y, ff)
+        return z, y, u, v
+
+    @cached_property
+    def torque(self) -> Callable[[float, Array], Array]:
+        """``torque(t, x)``: the PID's held torque at the sample (t, x), clipped to the motors' limit, N·m."""
+        limit = self.limit
+
+        def torque(t: float, x: Array) -> Array:
+            out = np.array(self._sample(t, x)[2], dtype=float)
+            return out if limit is None else np.clip(out, -limit, limit)
+
+        return torque
+
+    @cached_property
+    def rhs(self) -> Callable[[float, Array, Array, Array], Array]:
+        """``rhs(t, x, tc, td) -> ẋ``: ABA with the payload of time t; the PID's state is constant between samples."""
+        n, arm, payload = self.n, self.setup.arm, self.payload
+
+        def rhs(t: float, x: Array, tc: Array, td: Array) -> Array:
+            dx = np.zeros_like(x)
+            if not np.abs(x[:2 * n]).max() <= STATE_LIMIT:
+                return dx
+            dx[:n] = x[n:2 * n]
+            dx[n:2 * n] = arm.forward_dynamics(x[:n], x[n:2 * n], tc + td, float(payload(t)))
+            return dx
+
+        return rhs
+
+    def jump(self, t: float, x: Array) -> Array:
+        """The PID's next state after the sample (t, x)."""
+        z, y, u, v = self._sample(t, x)
+        return np.array(self.pid.update(z, y, u, v), dtype=float)
+
+    def divergence(self, t: float, x: Array, limit: float) -> str | None:
+        """Why the run counts as diverged at (t, x), or None."""
+        n = self.n
+        beyond = not np.all(np.isfinite(x[:2 * n])) or np.abs(x[:2 * n]).max() > STATE_LIMIT
+        if beyond or np.abs(self.setup.reference.at(t)[0] - x[:n]).max() > limit:
+            return f"diverged by t = {t:.3f} s (|e| > {limit} rad or a state beyond {STATE_LIMIT:g})"
+        return None
+
+
+@dataclass(frozen=True)
 class ArmRun:
     """One closed-loop run of an arm.
 
@@ -275,8 +378,11 @@ def simulate_arm(
     ----------
     setup : ArmSetup
         The arm, reference and feedforward (:func:`scara_robust.load_arm`).
-    K : array_like, shape (n, 3n), or ScheduledGain
-        PID gain (a :class:`~scara_robust.Design`'s ``K``), or a gain scheduled on the
+    K : array_like, shape (n, 3n), ScheduledGain or DiscretePID
+        PID gain (a :class:`~scara_robust.Design`'s ``K``), the sampled PID as it is
+        exported (:meth:`~scara_robust.Design.discretize`, with the arm's feedforward:
+        :func:`~scara_robust.arm_feedforward`; run at its Ts on ``rk4``, its limit on the
+        total torque, the arm's effort limits after it), or a gain scheduled on the
         measured payload (:func:`scara_robust.synthesize_schedule`, a schedule file of
         ``synthesize --schedule m_p``): ``K(m̂_p(t))`` with ``m̂_p = m_p(t) +
         measurement_bias``, the edge gain outside its breakpoints.
@@ -336,16 +442,12 @@ def simulate_arm(
     """
     n = setup.arm.n_joints
     bias = check_real("measurement_bias [kg]", measurement_bias)
-    schedule = schedule_of(K)
-    if schedule is not None:
-        if schedule.shape != (n, 3 * n) or schedule.parameter != "m_p":
-            raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė] on "
-                                          f"its payload m_p, found {schedule.shape} on {schedule.parameter!r}")
-        gain: Array | ScheduledGain = schedule
-    else:
-        if bias != 0.0:
-            raise ArgumentValueError("measurement_bias", "goes with a scheduled gain; a fixed K measures nothing")
-        gain = check_array("K", K, shape=(n, 3 * n))
+    if controller_kind(K) == "pid":  # the exported controller itself, sampled at its Ts
+        return _simulate_arm_pid(setup, K, payload, e0=e0, edot0=edot0, disturbance=disturbance, t_final=t_final,
+                                 divergence_limit=divergence_limit, t_transient=t_transient,
+                                 tracking_tolerance=tracking_tolerance, torque_limit=torque_limit, noise=noise,
+                                 method=method, Ts=Ts)
+    gain = _arm_gain(K, n, bias)
     load = check_callable("payload", payload) if payload is not None else (lambda t: setup.payload_nominal)
     t_final = check_real("t_final", t_final, positive=True)
     dt = check_real("dt", dt, positive=True)
@@ -393,6 +495,62 @@ def simulate_arm(
                   joints=setup.arm.joints, success=success and not diverged, diverged=diverged,
                   message=message, method=method, status=status, status_reason=reason,
                   t_transient=t_transient, tracking_tolerance=tracking_tolerance, _metrics=metrics)
+
+
+def _arm_gain(K: Any, n: int, bias: float) -> Array | ScheduledGain:
+    """simulate_arm's gain: a schedule on m_p of (n, 3n) gains, or a fixed (n, 3n) K (which measures nothing)."""
+    schedule = schedule_of(K)
+    if schedule is not None:
+        if schedule.shape != (n, 3 * n) or schedule.parameter != "m_p":
+            raise ArgumentValueError("K", f"must schedule gains of shape ({n}, {3 * n}) on this arm's [∫e, e, ė] on "
+                                          f"its payload m_p, found {schedule.shape} on {schedule.parameter!r}")
+        return schedule
+    if bias != 0.0:
+        raise ArgumentValueError("measurement_bias", "goes with a scheduled gain; a fixed K measures nothing")
+    return check_array("K", K, shape=(n, 3 * n))
+
+
+def _simulate_arm_pid(setup: ArmSetup, pid: Any, payload: Callable[[float], Any] | None, *, e0: ArrayLike | None,
+                      edot0: ArrayLike | None, disturbance: SquareWave | None, t_final: float, divergence_limit: float,
+                      t_transient: float, tracking_tolerance: float, torque_limit: Any, noise: MeasurementNoise | None,
+                      method: str, Ts: float | None) -> ArmRun:
+    """simulate_arm with a DiscretePID: :class:`ArmPIDLoop` on the ``rk4`` engine, one step per sample."""
+    n = setup.arm.n_joints
+    if pid.n_joints != n or pid.n_torques != n:
+        raise ArgumentValueError("K", f"must be a PID of this arm's {n} joints, found {pid.n_torques} torques for "
+                                      f"{pid.n_joints} joints")
+    if Ts is not None and float(Ts) != float(pid.Ts):
+        raise ArgumentValueError("Ts", f"must be the PID's Ts = {pid.Ts:g} s or none, found {Ts!r}")
+    if method not in ("lsoda", "rk4"):
+        raise ArgumentValueError("method", f"a DiscretePID runs on 'rk4' (one step per sample), found {method!r}")
+    load = check_callable("payload", payload) if payload is not None else (lambda t: setup.payload_nominal)
+    t_final = check_real("t_final", t_final, positive=True)
+    disturbance = setup.disturbance if disturbance is None else disturbance
+    if noise is not None:
+        check_instance("noise", noise, MeasurementNoise, "a MeasurementNoise")
+    pid = copy.deepcopy(pid)
+    pid.reset()
+    x0 = np.concatenate([_initial_state(setup, e0, edot0)[:2 * n], pid.state])
+    loop = ArmPIDLoop(setup, pid, load, disturbance if disturbance is not None else _NoDisturbance(n),
+                      _torque_limit(setup, torque_limit), noise)
+    traj = integrate(ENGINES["rk4"], loop, x0, t_final, dt=pid.Ts, rtol=1e-8, atol=1e-10,  # type: ignore[arg-type]
+                     divergence_limit=divergence_limit)
+    t, X = traj.t, traj.x
+    r, rd, rdd = setup.reference.sample(t)
+    e, edot = r.T - X[:n], rd.T - X[n:2 * n]
+    tau = np.array([loop.torque(float(tk), X[:, k]) for k, tk in enumerate(t)]).reshape(t.size, n).T
+    ff = np.zeros((n, t.size)) if pid.feedforward is None else np.array(
+        [pid.feedforward.torque(list(r[k]), list(rd[k]), list(rdd[k])) for k in range(t.size)]).reshape(t.size, n).T
+    masses = np.array([float(load(float(tk))) for tk in t])
+    metrics = None
+    if int((t >= t_transient).sum()) >= 2 and not traj.diverged:
+        metrics = tracking_metrics(t, e, tau, t_transient=t_transient)
+    status, reason = run_status(metrics, success=traj.success, diverged=traj.diverged, message=traj.message,
+                                tolerance=tracking_tolerance, t_transient=t_transient)
+    return ArmRun(t=t, q=X[:n], e=e, edot=edot, torque=tau, feedforward=ff, payload=masses, joints=setup.arm.joints,
+                  success=traj.success and not traj.diverged, diverged=traj.diverged, message=traj.message,
+                  method="rk4", status=status, status_reason=reason, t_transient=t_transient,
+                  tracking_tolerance=tracking_tolerance, _metrics=metrics)
 
 
 def _torque_limit(setup: ArmSetup, torque_limit: float | ArrayLike | None) -> Array | None:

@@ -223,7 +223,7 @@ class RK4Engine(Engine):
             x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             if loop.discrete:
                 # the controller's state jumps with the sample taken at `a`, as its output did
-                x_next[4:] = loop.jump(a, x)
+                x_next[loop.n_plant:] = loop.jump(a, x)
             return x_next[:, None], ""
         else:
             k1 = rhs(a, x, torque(a, x), td)

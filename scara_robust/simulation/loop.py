@@ -107,6 +107,9 @@ class ClosedLoop:
         """True when the controller is a discrete-time system: its states jump once per sample."""
         return bool(self.controller.isdtime(strict=True))
 
+    #: The plant's states (q1, q2 and their rates), before the controller's.
+    n_plant = 4
+
     @property
     def n_states(self) -> int:
         """Plant (4) plus controller states."""

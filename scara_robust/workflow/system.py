@@ -29,10 +29,12 @@ import numpy as np
 import pandas as pd
 
 from .._validation import check_choice, os_error_text
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentError, InputFileError, OptionError
-from ..io import load_arm, load_model, load_robot, load_scenario
+from ..io import controller_sample_time, load_arm, load_model, load_robot, load_scenario
 from ..lyapunov.gain import Design, design_or_none
 from ..model.arm import ArmSetup
+from ..model.feedforward import ArmFeedforward, arm_feedforward
 from ..model.initial import SCENARIOS, Scenario
 from ..model.plant import UncertainPlant, as_model, as_plant
 from ..model.polytopic import PolytopicModel
@@ -45,7 +47,7 @@ from ..robustness.decay import DecayRate, design_decay_rate
 from ..robustness.loop_margins import LoopMargins, worst_loop_margins
 from ..robustness.parameters import parameter_margin
 from ..robustness.payload import payload_margin
-from ..robustness.sampled import interior_grid
+from ..robustness.sampled import check_sample_time, interior_grid, max_sample_time
 
 __all__ = [
     "CERTIFICATE_GRID",
@@ -333,6 +335,16 @@ class LoadedSystem:
         return input_limit_certificate(K, decay.P, physical.input_limits, box, inputs=physical.inputs,
                                        closed_loops=decay.loops)
 
+    def feedforward(self) -> ArmFeedforward | None:
+        """The model feedforward the loop was certified with (an arm's, from its robot file), or None.
+
+        Returns
+        -------
+        ArmFeedforward or None
+            Checked against Pinocchio on random states (:meth:`ArmFeedforward.check`).
+        """
+        return None
+
     def effort_limits(self) -> np.ndarray | None:
         """Each input's effort limit when every one has one (an arm's URDF or robot file), N·m; else None.
 
@@ -453,6 +465,54 @@ class LoadedSystem:
     def robot_signals(self) -> dict[str, Any] | None:
         """The SCARA's robot and signals (:meth:`Setup.signals`); None for a plant of a file."""
         return None
+
+    @property
+    def controller_ts(self) -> float | None:
+        """The sample time the system's file gives its controller (``[controller] sample_time``, s), or None."""
+        path = self.file
+        if path is None:
+            return None
+        return load_input("--model" if self.model_file is not None else "--robot", path, controller_sample_time)
+
+    def sampled_headline(self, design: Design | Any) -> tuple[str, dict[str, Any]]:
+        """What a design's certificate leads with: the sampled-data certificate of the controller as it will run.
+
+        With ``[controller] sample_time`` in the system's file: the certificate at that Ts (a PID
+        discretized as ``export`` does, Tustin integral and measured derivative; a state-form
+        gain held), and where it fails the largest certified Ts. Without it: the largest Ts
+        the sampled-data certificate holds at, so that a continuous-time "certified" is never
+        read alone.
+
+        Parameters
+        ----------
+        design : Design or array_like
+            A Design, or a state-form gain K.
+
+        Returns
+        -------
+        text : str
+            One line.
+        record : dict
+            Its JSON record (``method`` ``sampled-at-ts`` or ``max-ts``).
+        """
+        plants, check, set_name = self.sampled()
+        found = design_or_none(design)
+        Ts = self.controller_ts
+        if Ts is not None:
+            K = found.K if found is not None else np.asarray(design, dtype=float)
+            controller = SampledStateFeedback(K, Ts) if self.state_feedback or found is None else found.discretize(Ts)
+            result = check_sample_time(plants, controller, check=check, set_name=set_name)
+            word = "certified" if result.certified else "NOT certified"
+            text = f"{word} at Ts = {Ts:g} s, the controller's sample time in {self.file!r}: {result.message}"
+            return text, {"method": "sampled-at-ts", **result.record()}
+        limit = max_sample_time(plants, found.K if self.state_feedback and found is not None else design,
+                                check=check, rtol=1e-3)
+        text = (f"continuous-time certificates below; sampled as export discretizes the controller: {limit.message} "
+                "([controller] sample_time in the file certifies at the controller's own)")
+        return text, {"method": "max-ts", "verdict": limit.verdict, "certified": limit.certified,
+                      "certified_ts [s]": limit.certified_ts if math.isfinite(limit.certified_ts) else None,
+                      "unstable_ts [s]": limit.unstable_ts if math.isfinite(limit.unstable_ts) else None,
+                      "detail": limit.message}
 
     def sampled(self) -> tuple[Any, Any, str]:
         """The plants the sampled-data certificate runs on, a second set to verify on, and their name.
@@ -756,6 +816,14 @@ class ArmSystem(LoadedSystem):
         return PhysicalSet((on.A, on.B), (check_on.A, check_on.B), as_model("model", plant),
                            f"the arm of {self.robot!r} on its samples, {on.n_samples} (checked on "
                            f"{check_on.n_samples})", "decay")
+
+    def feedforward(self) -> ArmFeedforward | None:
+        """The arm's feedforward at its nominal payload (None without one), checked against Pinocchio."""
+        setup = self.arm()
+        ff = arm_feedforward(setup)
+        if ff is not None:
+            ff.check(setup.arm)
+        return ff
 
     def effort_limits(self) -> np.ndarray | None:
         """The arm's effort limits (its URDF's or robot file's), N·m, when every joint has one."""
