@@ -41,7 +41,7 @@ from ..robustness.loop_margins import worst_loop_margins
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.registry import analysis_methods, get_method
-from ..robustness.sampled import max_sample_time
+from ..robustness.sampled import check_sample_time, max_sample_time
 from ..robustness.scheduled import schedule_certificate
 from ..robustness.table import certificate_table
 from ..simulation.plants import simulate_plant
@@ -183,6 +183,10 @@ class DesignExplorer:
         engine. Without it the response is :func:`scara_robust.simulate_plant` on `plant`.
     sampled : (plants, check, name), optional
         The sampled-data certificate's plants, a set to verify on, and their description.
+    controller_ts : float, optional
+        The controller's sample time its file gives, s: the sample-time answer is then the
+        certificate at it (:func:`scara_robust.check_sample_time`), and the page leads with it;
+        without it, the largest certified Ts.
     design_file : callable, optional
         ``design_file(rho, eta) -> text``: the design file (JSON) of (ρ, η), as ``design
         --format json`` writes it.
@@ -210,6 +214,7 @@ class DesignExplorer:
     plant_source: Callable[[], Any] | None = None
     robot_signals: Mapping[str, Any] | None = None
     sampled: tuple[Any, Any, str] | None = None
+    controller_ts: float | None = None
     exporter: Callable[[float, float, float, list[float] | None], dict[str, str]] | None = None
     design_file: Callable[[float, float], str] | None = None
     parse_grid: Callable[[str], Array] | None = None
@@ -505,8 +510,8 @@ class DesignExplorer:
         if self.robot_signals is not None:
             answers["payload"] = (_payload, (d, self.robot_signals.get("params"), self.robot_signals.get("reference")))
         if self.sampled is not None:
-            plants, check, _ = self.sampled
-            answers["sample_time"] = (_sample_time, (plants, check, d))
+            plants, check, set_name = self.sampled
+            answers["sample_time"] = (_sample_time, (plants, check, d, self.controller_ts, set_name))
         return answers
 
     def submit(self, d: Design, deliver: Callable[[Answer], None]) -> int:
@@ -888,6 +893,8 @@ def _payload_column(model: UncertainLTVModel, rho: float, etas: Array, params: A
     return masses
 
 
-def _sample_time(plants: Any, check: Any, d: Design) -> Any:
-    """The largest Ts the sampled-data certificate holds at (the PID discretized as export does)."""
+def _sample_time(plants: Any, check: Any, d: Design, Ts: float | None = None, set_name: str = "") -> Any:
+    """The certificate at the controller's Ts (the PID discretized as export does), else the largest certified Ts."""
+    if Ts is not None:
+        return check_sample_time(plants, d.discretize(Ts), check=check, set_name=set_name or "the given plants")
     return max_sample_time(plants, d, check=check)

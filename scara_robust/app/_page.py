@@ -424,8 +424,11 @@ def _design_panels(explorer: DesignExplorer) -> _DesignPanels:
     """Lay out the selected design's panels: its K, its response's text and plots, one line per slower answer."""
     design_div = Div(text="Click the map, or type (ρ, η) and press Select.", width=560, name="design")
     response_div = Div(text="", width=560, name="response")
-    status = {kind: Div(text="", width=560, name=kind)
-              for kind in ("certificates", "decay", "loop_margins", "margins", "payload", "sample_time")}
+    # with the controller's Ts in its file, the certificate at it leads: it says whether what runs is certified
+    order = ("certificates", "decay", "loop_margins", "margins", "payload", "sample_time")
+    if explorer.controller_ts is not None:
+        order = ("sample_time", *order[:-1])
+    status = {kind: Div(text="", width=560, name=kind) for kind in order}
     err_src = ColumnDataSource({"t": []})
     inp_src = ColumnDataSource({"t": []})
     ferr = figure(width=560, height=200, x_axis_label="time t [s]", y_axis_label="tracking error",
@@ -493,7 +496,11 @@ def _add_roots(page: _Page, extra: list[Any]) -> None:
     title = Div(text=f"<h2 style='margin:0'>Robust PID design: {html.escape(explorer.title)} (Theorem 1 over "
                 f"elements {html.escape(explorer.elements)})</h2>"
                 "<div style='color:#444'>Blue: certified by Theorem 1 (black contour: the boundary). "
-                "Hover for the value, click to select a design.</div>", width=1150)
+                "Hover for the value, click to select a design."
+                + ("" if explorer.controller_ts is None else
+                   f" The controller runs at Ts = {explorer.controller_ts:g} s (its file): the answers lead with the "
+                   "sampled-data certificate at it.")
+                + "</div>", width=1150)
     left = column(controls.measure, page.view.fmap,
                   row(controls.rho_in, controls.eta_in, column(Div(text="&nbsp;"), controls.go)),
                   row(controls.rho_grid, controls.eta_grid, column(Div(text="&nbsp;"), controls.regrid)),
@@ -613,7 +620,13 @@ def _show_answer(page: _Page, answer: Answer) -> None:
         div.text = (f"<b>Loop margins</b>{took}: <span id='loop-margins'>{html.escape(answer.value.message)}"
                     "</span>")
     elif answer.kind == "sample_time":
-        div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
+        Ts = page.explorer.controller_ts
+        if Ts is None:
+            div.text = f"<b>Sample time</b>{took}: {html.escape(answer.value.message)}"
+        else:
+            word = "certified" if answer.value.certified else "NOT certified"
+            div.text = (f"<b><span id='sampled-verdict'>{word} at Ts = {Ts:g} s</span></b>, the controller's sample "
+                        f"time{took}: {html.escape(answer.value.message)}")
 
 
 def _deliver(page: _Page, answer: Answer) -> None:

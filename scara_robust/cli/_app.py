@@ -95,7 +95,8 @@ def explorer_of(args: argparse.Namespace, system: LoadedSystem | None = None) ->
     return DesignExplorer(model, system.title(), plant=physical,  # type: ignore[arg-type]  # a box, checked above
                           plant_source=plant_source(args, system),
                           robot_signals=system.robot_signals(),
-                          sampled=system.sampled(), exporter=exporter, design_file=design_file,
+                          sampled=system.sampled(), controller_ts=system.controller_ts, exporter=exporter,
+                          design_file=design_file,
                           parse_grid=parse_range,
                           rhos=args.rho, etas=args.eta, elements=args.elements, schedule=schedule)
 

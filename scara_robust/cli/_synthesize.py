@@ -11,10 +11,13 @@ import numpy as np
 
 from .._validation import os_error_text
 from ..io import design_record, write_design
+from ..lyapunov.gain import Design
 from ..model.plant import as_model
 from ..robustness.lmi import NOT_INSTALLED
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
+from ..robustness.sampled import check_sample_time
+from ..robustness.sampled_synthesis import synthesize_sampled
 from ..robustness.synthesis import GAIN_BOUND, L2_DECAY, OBJECTIVES, STRUCTURES, Synthesis, synthesize
 from ._common import CommandLineError, add_range_option, add_setup_options, finite_float, per_joint_values
 from ._parser import COMMAND_HELP
@@ -72,6 +75,10 @@ def add_parser(sub: Any) -> None:
                    help="with --within-limits: half-widths of the box of initial errors on the design state "
                    "(default: a unit step of each reference from rest, e(0) = 1 output unit)")
     add_schedule_options(p, synthesis=True)
+    p.add_argument("--ts", type=finite_float, default=None, metavar="TS",
+                   help="a gain certified at this sample time, s: u = -K x(t_k) held, found by an LMI on the "
+                   "zero-order-hold plants and certified at TS (its own P verified by numpy, and the sampled-data "
+                   "certificate's own); the PID discretized as export does is checked at TS too")
     p.add_argument("--format", choices=("text", "json"), default="text")
     # dest is not `output`: the design file goes there, the summary to stdout
     p.add_argument("--output", dest="design_output", metavar="FILE.json",
@@ -116,6 +123,48 @@ def _text(result: Synthesis, what: str, margin: str, l2_unit: str) -> str:
     return "\n".join(lines)
 
 
+def _run_sampled(args: argparse.Namespace, system: LoadedSystem) -> str:
+    """``synthesize --ts TS``: a gain certified for the loop held at TS, on the sampled-data certificate's plants."""
+    if args.ts <= 0:
+        raise CommandLineError(f"`--ts` must be > 0 s, found {args.ts:g}")
+    continuous = (("--objective", args.objective, None), ("--decay", args.decay, None),
+                  ("--structure", args.structure, "full"), ("--within-limits", args.within_limits, False),
+                  ("--range", args.range, None))
+    changed = [o for o, v, d in continuous if v not in (d, [])]
+    if changed:
+        raise CommandLineError(f"`{changed[0]}` is an option of the continuous-time synthesis; --ts synthesizes the "
+                               "held loop (full gain, fastest certified decay)")
+    output = args.design_output
+    if output is not None and not output.lower().endswith(".json"):
+        raise CommandLineError(f"`--output` {output!r}: a design file is .json")
+    plants, check, set_name = system.sampled()
+    result = synthesize_sampled(plants, args.ts, check=check, gain_bound=args.gain_bound)
+    lines = [f"synthesize at Ts = {args.ts:g} s on {set_name}", f"{result.verdict}: {result.message}"]
+    info: dict[str, Any] = {"method": "synthesize --ts", "Ts": args.ts, "certified": result.certified,
+                            "message": result.message, "decay_asked": result.decay,
+                            "verified_decay": result.verified_rate if math.isfinite(result.verified_rate) else None,
+                            "gain_norm": result.gain_norm if math.isfinite(result.gain_norm) else None}
+    if result.K is not None:
+        lines += ["K (u = -K x(t_k), held) =",
+                  np.array2string(result.K + 0.0, precision=4, suppress_small=True, max_line_width=120)]
+        if not system.state_feedback:  # the PID form: what export would run, checked at the same Ts
+            d = Design.from_gain(system.model, result.K)
+            pid = check_sample_time(plants, d.discretize(args.ts), check=check, set_name=set_name)
+            lines.append(f"the PID of this gain discretized as export does (Tustin): {pid.message}")
+            info["pid_certified"] = pid.certified
+    if output is not None:
+        if result.K is None or not result.certified:
+            raise CommandLineError(f"`--output` {output!r} not written: {result.message}")
+        try:
+            write_design(output, result.K, None, **info)
+        except OSError as err:
+            raise CommandLineError(f"`--output` {output!r}: {os_error_text(err)}") from err
+        lines.append(f"design file: {output}")
+    elif args.format == "json":
+        return json.dumps({**info, "K": None if result.K is None else result.K.tolist()}, indent=2)
+    return "\n".join(lines)
+
+
 def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     """Synthesize; the text or JSON to print (or the design file written).
 
@@ -137,6 +186,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
             raise CommandLineError("`--structure` restricts a fixed PID gain; a schedule's gains are full")
         return run_schedule_synthesis(args, system)
     refuse_schedule_options(args, "--schedule NAME")
+    if args.ts is not None:
+        return _run_sampled(args, system)
     if args.objective == "rate":
         raise CommandLineError("`--objective rate` is the fastest parameter a scheduled gain is certified for; it "
                                "goes with --schedule NAME")

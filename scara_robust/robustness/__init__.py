@@ -37,6 +37,8 @@ from .registry import *  # noqa: F403
 from .registry import __all__ as _registry
 from .sampled import *  # noqa: F403
 from .sampled import __all__ as _sampled
+from .sampled_synthesis import *  # noqa: F403
+from .sampled_synthesis import __all__ as _sampled_synthesis
 from .scheduled import *  # noqa: F403
 from .scheduled import __all__ as _scheduled
 from .search import *  # noqa: F403
@@ -46,6 +48,6 @@ from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
 
-__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled, *_parameters,
-           *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
+__all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled,
+           *_sampled_synthesis, *_parameters, *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
            *_actuator, *_loop_margins, *_scheduled]
