@@ -115,6 +115,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     MAX_SAMPLE_TIME_CAP             -- where max_sample_time stops looking for a frozen instability, s
     check_sample_time, SampleTimeCheck -- is this Ts safe? (run by ``export``)
     synthesize_sampled, SampledSynthesis -- a gain certified for the loop held at a given Ts (LMI on ZOH plants)
+    jitter_certificate, max_jitter, JitterCertificate -- every period in [Ts - J, Ts + J], in any order
+    JITTER_PERIODS, JITTER_CHECK_PERIODS -- the periods of its LMI and of numpy's check
 Simulation (:mod:`scara_robust.simulation`)
     Run                             -- what every run has: t, e, u, status, reason, max_abs_error, peak_input, to_pandas
     simulate_plant, PlantRun, PLANT_TRACKING_RTOL -- any UncertainPlant in closed loop with parameters p(t)

@@ -69,6 +69,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--derivative", choices=DERIVATIVE_MODES, default="measured",
                    help="measured edot, or a filtered difference of e (no joint velocity needed)")
     p.add_argument("--filter-n", type=finite_float, default=100.0, help="derivative filter bandwidth N, 1/s (> 0)")
+    p.add_argument("--ts-jitter", type=finite_float, default=None, metavar="J",
+                   help="also certify every sample period in [TS - J, TS + J], s, in any order (pid_controller "
+                   "integrates over the measured period, which jitters); refused like --ts where it fails, and "
+                   "written into the files")
     p.add_argument("--torque-limit", type=per_joint_values, default=None, metavar="L[,L2,...]",
                    help="per-joint torque limit, N·m (> 0): one value for all joints or one per joint")
     p.add_argument("--tracking-time", type=per_joint_values, default=None, metavar="T[,T2,...]",
@@ -202,10 +206,15 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
         with an unstable frozen plant.
     """
     _check_folder(args.folder)  # before any computation
+    if args.ts_jitter is not None and not 0 <= args.ts_jitter < args.ts:
+        raise CommandLineError(f"`--ts-jitter` must be in [0, --ts) s (a period stays > 0), found {args.ts_jitter:g}")
     if args.prefix is not None:
         check_prefix(args.prefix)
     check_board_options(args)
     if is_schedule_file(args.design):
+        if args.ts_jitter is not None:
+            raise CommandLineError("`--ts-jitter` certifies a PID or state feedback over jittering periods; a "
+                                   "schedule's export certifies its own Ts")
         changed = _pid_options(args)
         if changed:
             raise CommandLineError(f"`{changed[0]}` is an option of the PID; a schedule file's controller is "
@@ -272,11 +281,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     exported = export_certified(system, controller, args.folder, meta=meta, decay=decay, prefix=prefix,
                                 format=args.format, precision=args.precision, signals=signals,
                                 allow_uncertified=args.allow_uncertified,
-                                board=lambda ctrl, name: run_board(args, ctrl, name))
+                                board=lambda ctrl, name: run_board(args, ctrl, name), jitter=args.ts_jitter)
     files, result, own, board = exported.files, exported.certificate, exported.tustin, exported.board
     if controller.kind == "state feedback":
         lines = [f"{gain}, {source}, Ts = {controller.Ts:g} s, u = -K x(t_k) held, {args.precision} precision",
                  ("" if result.certified else "WARNING: not certified; ") + result.message, decay.message]
+        lines += [n[len("Jittering period: "):].rstrip(".") for n in exported.notes if n.startswith("Jittering")]
         lines += [] if board is None else [board.message]
         return "\n".join([*lines, *(f"wrote {f}" for f in files)])
     pid = check_controller("controller", controller, ("pid",))
@@ -284,6 +294,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
              + ("ros2_control pid_controller" if ros2 else f"{args.precision} precision"),
              ("" if result.certified else "WARNING: not certified; ") + ("pid_controller (forward Euler): " if ros2
                                                                           else "") + result.message]
+    lines += [n[len("Jittering period: "):].rstrip(".") for n in exported.notes if n.startswith("Jittering period")]
     if own is not None:
         lines.append(f"the package's Tustin PID at the same Ts: {own.message}")
         if pid.torque_limit is None:

@@ -15,6 +15,8 @@ from .decay import *  # noqa: F403
 from .decay import __all__ as _decay
 from .falsifier import *  # noqa: F403
 from .falsifier import __all__ as _falsifier
+from .jitter import *  # noqa: F403
+from .jitter import __all__ as _jitter
 from .l2gain import *  # noqa: F403
 from .l2gain import __all__ as _l2gain
 from .l2rate import *  # noqa: F403
@@ -49,5 +51,5 @@ from .table import *  # noqa: F403
 from .table import __all__ as _table
 
 __all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled,
-           *_sampled_synthesis, *_parameters, *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
+           *_sampled_synthesis, *_jitter, *_parameters, *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
            *_actuator, *_loop_margins, *_scheduled]

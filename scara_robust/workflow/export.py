@@ -21,6 +21,7 @@ from ..exceptions import OptionError
 from ..export import DEFAULT_PREFIX, export_controller
 from ..lyapunov.gain import Design, design
 from ..robustness.decay import DecayRate
+from ..robustness.jitter import jitter_certificate
 from ..robustness.sampled import SampleTimeCheck, check_sample_time
 from .system import LoadedSystem
 
@@ -112,7 +113,7 @@ def state_feedback_of(system: LoadedSystem, d: Design, Ts: float) -> tuple[Sampl
 def export_certified(system: LoadedSystem, controller: Any, folder: str | Path, *, meta: Mapping[str, Any],
                      decay: DecayRate, prefix: str, format: str = "c", precision: str = "double",
                      signals: Mapping[str, Sequence[Any]] | None = None, allow_uncertified: bool = False,
-                     board: Callable[[Any, str], Any] | None = None) -> ExportedDesign:
+                     board: Callable[[Any, str], Any] | None = None, jitter: float | None = None) -> ExportedDesign:
     """Certify `controller` at its sample time on `system`'s plants, then write the target's files.
 
     Parameters
@@ -136,6 +137,9 @@ def export_certified(system: LoadedSystem, controller: Any, folder: str | Path, 
         Write the files where the certificate fails (the notes say so in capitals).
     board : callable, optional
         ``board(controller, prefix) -> BoardRun``: the run on an emulated board, noted.
+    jitter : float, optional
+        s: also certify every period in ``[Ts − jitter, Ts + jitter]``
+        (:func:`scara_robust.jitter_certificate`), refused like Ts where it fails, and record it.
 
     Returns
     -------
@@ -153,6 +157,12 @@ def export_certified(system: LoadedSystem, controller: Any, folder: str | Path, 
         which = " (pid_controller's forward Euler)" if ros2 else ""
         raise OptionError(f"`--ts` {result.message}{which}; nothing written (--allow-uncertified writes it "
                           "anyway)")
+    jittered = None
+    if jitter is not None:
+        jittered = jitter_certificate(plants, controller, jitter, check=check)
+        if not jittered.certified and not allow_uncertified:
+            raise OptionError(f"`--ts-jitter` {jittered.message}; nothing written (--allow-uncertified writes it "
+                              "anyway)")
     own = None
     if ros2:  # the package's own (Tustin) PID at the same Ts, reported beside pid_controller's
         pid = check_controller("controller", controller, ("pid",))
@@ -166,7 +176,10 @@ def export_certified(system: LoadedSystem, controller: Any, folder: str | Path, 
     if own is not None:
         notes[0] = f"Sampled-data certificate of pid_controller (forward Euler): {result.message}."
         notes.insert(1, f"The same gain with the package's Tustin integrator: {own.message}.")
-    if not result.certified:
+    if jittered is not None:
+        record["jitter_certificate"] = jittered.record()
+        notes.insert(1, f"Jittering period: {jittered.message}.")
+    if not result.certified or (jittered is not None and not jittered.certified):
         notes.insert(0, "WARNING: NOT CERTIFIED at this Ts; written with --allow-uncertified. Do not deploy it "
                         "without your own analysis.")
     record["precision"] = precision
