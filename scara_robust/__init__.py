@@ -47,6 +47,7 @@ Model (:mod:`scara_robust.model`)
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
     RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
     effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
+    holding_torque                  -- each joint's largest torque holding the reference over the payload range
     arm_feedforward, ArmFeedforward, FEEDFORWARD_RTOL -- an arm's model feedforward as the exported controller runs it
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install

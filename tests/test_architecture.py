@@ -21,7 +21,7 @@ PACKAGE = "scara_robust"
 #: Layers, bottom first. A module belongs to the first entry that is its name or a prefix of it.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.exceptions", "scara_robust.paper", "scara_robust.results", "scara_robust._deprecation"),
-    ("scara_robust._validation", "scara_robust._resources"),
+    ("scara_robust._validation", "scara_robust._resources", "scara_robust._progress"),
     ("scara_robust.model",),
     ("scara_robust.controller",),
     ("scara_robust.lyapunov",),

@@ -178,3 +178,20 @@ def test_the_compiled_engine_clips_each_joint_at_its_own_limit(tmp_path):
     fast, slow = (sr.simulate_arm(setup, K, t_final=3.0, method=m, Ts=1e-3) for m in ("compiled", "rk4"))
     assert np.abs(fast.torque - slow.torque).max() <= 1e-9
     assert np.mean(np.abs(slow.torque[1]) >= 25.0 - 1e-12) > 0.5 and np.abs(slow.torque[1]).max() == 25.0
+
+
+def test_the_input_limit_certificate_bounds_the_total_torque_by_the_effort_limits(capsys):
+    """The feedback's inputs are limited to the effort left over the torque that holds the reference."""
+    setup = sr.load_arm(SO101)
+    hold = sr.holding_torque(setup)
+    ref = setup.reference
+    times = np.linspace(0.0, ref.period, 721, endpoint=False)
+    r, rd, rdd = ref.sample(times)
+    direct = np.max([np.abs(setup.arm.inverse_dynamics(r[k], rd[k], rdd[k], m)) for k in range(times.size)
+                     for m in setup.payload_mass], axis=0)
+    assert np.allclose(hold, direct, rtol=1e-12, atol=1e-12)
+    assert np.array_equal(setup.plant.input_limits, np.maximum(setup.arm.effort_limits - hold, 0.0))
+    assert main(["certify", "--rho", "3", "--eta", "90", "--robot", SO101]) == 0
+    out = capsys.readouterr().out
+    limit = setup.plant.input_limits[1]
+    assert "input limits:" in out and "|tau_shoulder_lift| <= " in out and f"limit {limit:g} N·m" in out

@@ -156,13 +156,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         # the library, imported now that the arguments are known to parse
         import matplotlib
 
+        from .._progress import shown
         from ._common import check_outputs, emit
         from ._system import load_system
 
         matplotlib.use("Agg")  # figures go to files; no display is needed
         system = load_system(args)  # the one place that tells the SCARA, an arm and a plant file apart
         check_outputs(args)
-        text = args.func(args, system)
+        with shown(sys.stderr.isatty()):  # the searches' progress, for a person at a terminal only
+            text = args.func(args, system)
         emit(text, option(args, "output"))
     except (CommandLineError, ScaraRobustError, ValueError, TypeError, OSError, ImportError) as err:
         sys.stderr.write(f"scara_robust: error: {error_message(err)}\n")

@@ -32,7 +32,7 @@ import os
 import re
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from functools import cached_property
 from typing import Any
@@ -46,7 +46,7 @@ from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
 __all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio",
-           "effort_limited_payload", "EffortPayload"]
+           "effort_limited_payload", "EffortPayload", "holding_torque"]
 
 Array = NDArray[np.float64]
 
@@ -845,6 +845,37 @@ class EffortPayload:
                 f"{self.joint!r} reaches its limit at t = {self.t:.4g} s ({self.n_times} times over a period)")
 
 
+def _holding_terms(setup: ArmSetup, n_times: int) -> tuple[Array, Array, Array]:
+    """Times (s) over one period and the terms of ``τ*(t, m) = a(t) + m b(t)``, shapes (k,), (k, n), (k, n)."""
+    arm, ref = setup.arm, setup.reference
+    times = np.linspace(0.0, ref.period, int(n_times), endpoint=False)
+    r, rd, rdd = ref.sample(times)
+    a = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 0.0) for k in range(times.size)])
+    b = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 1.0) for k in range(times.size)]) - a
+    return times, a, b
+
+
+def holding_torque(setup: ArmSetup, n_times: int = 721) -> Array:
+    """Each joint's largest torque that holds the reference, over one period and the payload range, N·m.
+
+    ``τ*(t, m) = RNEA(r(t), ṙ(t), r̈(t), m)`` is affine in m, so its largest size over the
+    range is at one of its ends.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+    n_times : int
+        Reference times over one period.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    _, a, b = _holding_terms(setup, n_times)
+    lo, hi = setup.payload_mass
+    return np.asarray(np.maximum(np.abs(a + lo * b).max(axis=0), np.abs(a + hi * b).max(axis=0)), dtype=float)
+
+
 def effort_limited_payload(setup: ArmSetup, n_times: int = 2881) -> EffortPayload:
     """The largest payload whose reference torque stays within every joint's effort limit.
 
@@ -865,11 +896,8 @@ def effort_limited_payload(setup: ArmSetup, n_times: int = 2881) -> EffortPayloa
     -------
     EffortPayload
     """
-    arm, ref = setup.arm, setup.reference
-    times = np.linspace(0.0, ref.period, int(n_times), endpoint=False)
-    r, rd, rdd = ref.sample(times)
-    a = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 0.0) for k in range(times.size)])
-    b = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], 1.0) for k in range(times.size)]) - a
+    arm = setup.arm
+    times, a, b = _holding_terms(setup, n_times)
     E = arm.effort_limits[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
         # |a + m b| <= E for m in [0, M]: at m = 0 |a| <= E, then m <= (sign(b) E − a)/b where b != 0
@@ -981,7 +1009,22 @@ class ArmSetup:
 
     @cached_property
     def plant(self) -> UncertainPlant:
-        """The linearized error dynamics (:func:`arm_uncertain_plant`), built once."""
+        """The linearized error dynamics (:func:`arm_uncertain_plant`), built once.
+
+        Where every joint has an effort limit, each input's limit is the effort left to the
+        feedback: the effort limit minus the largest torque that holds the reference over the
+        payload range (:func:`holding_torque`), so that the input-limit certificate bounds
+        the total torque by the effort limit; a joint with no effort left gets a limit of 0.
+        """
+        plant = self._plant()
+        effort = self.arm.effort_limits
+        if not np.all(np.isfinite(effort)):
+            return plant
+        headroom = np.maximum(effort - holding_torque(self), 0.0)
+        inputs = tuple(replace(signal, limit=float(h)) for signal, h in zip(plant.inputs, headroom))
+        return replace(plant, inputs=inputs)
+
+    def _plant(self) -> UncertainPlant:
         return arm_uncertain_plant(self.arm, self.reference, self.payload_mass, payload_rate=self.payload_rate,
                                    payload_nominal=self.payload_nominal, feedforward=self.feedforward,
                                    n_times=self.n_times, n_masses=self.n_masses, name=self.name, prefix=self.prefix,

@@ -290,7 +290,7 @@ def _lmi_margin(
         answers[hi] = "infeasible"
     elif at(hi) == "certified":
         return hi, (hi, hi), f"common quadratic P verified at θ = {hi:g} (the upper end given)"
-    lo, hi = bisect(lambda t: at(t) == "certified", lo, hi, tol)
+    lo, hi = bisect(lambda t: at(t) == "certified", lo, hi, tol, desc="margin θ")
     proven = min((t for t, v in answers.items() if v == "infeasible"), default=math.inf)
     message = f"common quadratic P verified with numpy at lo = {lo:.6g}; at hi = {hi:.6g} the LMI is {answers[hi]}"
     if answers[hi] != "infeasible":

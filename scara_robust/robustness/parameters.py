@@ -168,10 +168,10 @@ def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[floa
         try:
             good = ok(s)
         except _Undefined as err:
-            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,))
+            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,), desc="parameter range")
             return lo, hi, f"the plant is undefined beyond: {err}"
         if not good:
-            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,))
+            lo, hi = bisect(ok, lo, s, tol, fails=(_Undefined,), desc="parameter range")
             return lo, hi, ""
         lo, s = s, s * ratio
     return lo, math.inf, f"holds up to the scale {_SCALE_MAX:g} searched"

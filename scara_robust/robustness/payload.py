@@ -169,7 +169,7 @@ def payload_margin(
             rows.append((name, kind, math.inf, f"[{hi:g}, inf]", time.perf_counter() - start,
                          f"holds up to the {mass_max:g} kg searched"))
             continue
-        lo, hi = bisect(ok, lo, hi, tol, midpoint="near-zero")
+        lo, hi = bisect(ok, lo, hi, tol, midpoint="near-zero", desc="payload")
         value = lo if kind == "lower" else hi
         message = ("certified up to lo, not at hi" if kind == "lower"
                    else f"the upper end: a frozen sample is unstable above a peak payload of {hi:.6g} kg (every "

@@ -530,7 +530,8 @@ def max_certified_rate(
             best = trial
         return trial.certified
 
-    lo, hi = bisect(certified, lo, hi, tol, midpoint="eighth", stop=lambda lo, hi, mid: mid < 1e-12 * rate_max)
+    lo, hi = bisect(certified, lo, hi, tol, midpoint="eighth", stop=lambda lo, hi, mid: mid < 1e-12 * rate_max,
+                    desc="rate")
     return RateMargin(lo, (lo, hi), best, common, solves, time.perf_counter() - start)
 
 

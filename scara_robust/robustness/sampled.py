@@ -525,7 +525,7 @@ def max_sample_time(
             break
         lo = ts
     if math.isfinite(hi):
-        lo, hi = bisect(stable, lo, hi, rtol, midpoint="geometric")
+        lo, hi = bisect(stable, lo, hi, rtol, midpoint="geometric", desc="frozen Ts")
     unstable = (lo, hi)
     if not cvxpy_available():
         return SampleTimeLimit(np.nan, (np.nan, np.nan), hi, unstable, None, A.shape[0],
@@ -556,7 +556,7 @@ def max_sample_time(
                                + (f"frozen instability at Ts = {hi:.4g} s" if math.isfinite(hi) else
                                   f"no frozen instability up to the cap ts_max = {ts_max:g} s") + left_out)
     else:
-        c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric")
+        c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric", desc="certified Ts")
     cert = certs[c_lo]
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "

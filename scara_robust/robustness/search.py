@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+from .._progress import steps
 from .._validation import check_choice, check_real
 
 __all__ = ["bisect", "MIDPOINTS"]
@@ -59,6 +60,7 @@ def bisect(
     midpoint: str = "arithmetic",
     fails: tuple[type[Exception], ...] = (),
     stop: Callable[[float, float, float], bool] | None = None,
+    desc: str = "bisection",
 ) -> tuple[float, float]:
     """Shrink ``[lo, hi]``, with ``ok(lo)`` true and ``ok(hi)`` false, to a relative width `rtol`.
 
@@ -77,6 +79,8 @@ def bisect(
     stop : callable ``stop(lo, hi, mid) -> bool``, optional
         Stop before testing `mid` when it returns True (a bracket below which the answer
         means nothing, e.g. a rate under 1e-12 of the largest searched).
+    desc : str
+        What is searched, for the progress a front end shows (:mod:`scara_robust._progress`).
 
     Returns
     -------
@@ -92,16 +96,24 @@ def bisect(
     check_choice("midpoint", midpoint, tuple(MIDPOINTS))
     rtol = check_real("rtol", rtol, positive=True)
     split = MIDPOINTS[midpoint]
-    while hi - lo > rtol * hi:
-        mid = split(lo, hi, rtol)
-        if stop is not None and stop(lo, hi, mid):
-            break
-        try:
-            good = ok(mid)
-        except fails:
-            good = False
-        if good:
-            lo = mid
-        else:
-            hi = mid
+    # the steps a halving bisection takes to the width asked: the bar's estimate of what remains
+    expected = max(1, math.ceil(math.log2(max((hi - lo) / (rtol * hi), 1.0)))) if hi > 0 else None
+    bar = steps(desc, expected, unit="test")
+    try:
+        while hi - lo > rtol * hi:
+            mid = split(lo, hi, rtol)
+            if stop is not None and stop(lo, hi, mid):
+                break
+            try:
+                good = ok(mid)
+            except fails:
+                good = False
+            if good:
+                lo = mid
+            else:
+                hi = mid
+            bar.update(1)
+            bar.set_postfix_str(f"[{lo:.4g}, {hi:.4g}]")
+    finally:
+        bar.close()
     return lo, hi

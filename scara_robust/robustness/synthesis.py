@@ -423,7 +423,7 @@ def _largest(
             answer = step
         return step == "certified"
 
-    lo, hi = bisect(certified, lo, hi, tol, stop=lambda lo, hi, mid: hi <= floor)
+    lo, hi = bisect(certified, lo, hi, tol, stop=lambda lo, hi, mid: hi <= floor, desc="decay")
     proof = "proven infeasible" if answer == "infeasible" else f"{answer}, neither certified nor proven infeasible"
     return lo, hi, f"certified at {lo:.6g}; at {hi:.6g} the LMI is {proof}"
 
