@@ -195,3 +195,22 @@ def test_the_input_limit_certificate_bounds_the_total_torque_by_the_effort_limit
     out = capsys.readouterr().out
     limit = setup.plant.input_limits[1]
     assert "input limits:" in out and "|tau_shoulder_lift| <= " in out and f"limit {limit:g} N·m" in out
+
+
+def test_the_six_joint_example_s_effort_limits_are_its_torque_limits(capsys, tmp_path, monkeypatch):
+    setup = sr.load_arm(ARM6)
+    assert setup.torque_limit.tolist() == [150.0, 150.0, 150.0, 28.0, 28.0, 28.0]
+    assert np.all(setup.plant.input_limits > 0) and np.all(setup.plant.input_limits < setup.torque_limit)
+    assert main(["simulate", "--rho", "1000", "--eta", "3", "--robot", ARM6, "--t-final", "0.2"]) == 0
+    assert "total torque clipped to ±[150, 150, 150, 28, 28, 28] N·m" in capsys.readouterr().out
+    # the page's export (export_pid) hands the certificate and the writer the arm's limits and feedforward
+    from scara_robust.workflow import export as workflow_export
+
+    seen = {}
+    monkeypatch.setattr(workflow_export, "export_certified",
+                        lambda system, controller, folder, **kw: seen.setdefault("controller", controller))
+    system = sr.open_system("arm", command="app", robot=SO101)
+    sr.export_pid(system, 3.0, 90.0, 1e-3, tmp_path)
+    pid = seen["controller"]
+    assert pid.torque_limit.tolist() == [10.0] * 5 and pid.feedforward.kind == "gravity"
+    assert pid.feedforward.payload == 0.1  # the SO-101 file's nominal payload, kg

@@ -197,8 +197,9 @@ def export_pid(system: LoadedSystem, rho: float, eta: float, Ts: float, folder: 
     """K(ρ, η) of `system`, discretized at `Ts` with the PID's defaults, certified and written as C.
 
     The defaults are those of the ``export`` command: Tustin integrator, measured ė,
-    N = 100 1/s, back-calculation anti-windup with its default T_t where a limit is given;
-    static state feedback for a plant in the state form.
+    N = 100 1/s, back-calculation anti-windup with its default T_t where a limit is given
+    (an arm's effort limits unless `torque_limit` is given), an arm's model feedforward as its
+    loop was certified with; static state feedback for a plant in the state form.
 
     Parameters
     ----------
@@ -228,8 +229,10 @@ def export_pid(system: LoadedSystem, rho: float, eta: float, Ts: float, folder: 
         controller, signals = state_feedback_of(system, d, Ts)
     else:
         d = design(model, rho, eta)
+        effort = system.effort_limits() if torque_limit is None else None  # an arm's motors, by default
         controller = d.discretize(Ts, integrator="tustin", derivative="measured", N=100.0,
-                                  torque_limit=torque_limit, tracking_time=None, anti_windup=True)
+                                  torque_limit=torque_limit if effort is None else list(effort), tracking_time=None,
+                                  anti_windup=True, feedforward=system.feedforward())
     meta = {"rho": d.rho, "eta": d.eta, "model": model.name}
     return export_certified(system, controller, folder, meta=meta, decay=system.decay_rate(d),
                             prefix=system.plant_prefix(DEFAULT_PREFIX), signals=signals)
