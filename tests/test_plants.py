@@ -173,7 +173,8 @@ def test_certify_design_and_surface_take_model_files(capsys, name):
     applicable = {m for m, r in rows.items() if r["verdict"] != "skipped"}
     # the table's rows, then the design's decay rate and loop margins (summary records after them)
     assert rows["decay-rate"]["verdict"] == "certified" and rows["loop-margins"]["verdict"] == "frozen loops stable"
-    applicable -= {"loop-margins", "input-limits"}
+    applicable -= {"loop-margins", "input-limits", "max-ts"}  # the headline: the largest certified Ts, or why none
+    assert list(rows)[0] == "max-ts"
     expected = {"vertex-polytope", "lmi-polytope", "falsifier-polytope"} if name.endswith("polytope") else {
         "theorem1-all", "theorem1-A", "theorem1-B", "vertex-box", "lmi-box", "falsifier-box"}
     expected.add("decay-rate")

@@ -1014,13 +1014,15 @@ class ArmSetup:
         Where every joint has an effort limit, each input's limit is the effort left to the
         feedback: the effort limit minus the largest torque that holds the reference over the
         payload range (:func:`holding_torque`), so that the input-limit certificate bounds
-        the total torque by the effort limit; a joint with no effort left gets a limit of 0.
+        the total torque by the effort limit; a joint with no effort left gets a limit of a
+        millionth of its effort (the certificate then certifies next to nothing, as it should).
         """
         plant = self._plant()
         effort = self.arm.effort_limits
         if not np.all(np.isfinite(effort)):
             return plant
-        headroom = np.maximum(effort - holding_torque(self), 0.0)
+        # a joint with no effort left gets a limit of one millionth of its effort: nothing is certified there
+        headroom = np.maximum(effort - holding_torque(self), 1e-6 * effort)
         inputs = tuple(replace(signal, limit=float(h)) for signal, h in zip(plant.inputs, headroom))
         return replace(plant, inputs=inputs)
 

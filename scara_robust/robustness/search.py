@@ -80,7 +80,7 @@ def bisect(
         Stop before testing `mid` when it returns True (a bracket below which the answer
         means nothing, e.g. a rate under 1e-12 of the largest searched).
     desc : str
-        What is searched, for the progress a front end shows (:mod:`scara_robust._progress`).
+        What is searched, for the progress a front end shows (on stderr, at a terminal).
 
     Returns
     -------

@@ -505,8 +505,12 @@ class LoadedSystem:
             word = "certified" if result.certified else "NOT certified"
             text = f"{word} at Ts = {Ts:g} s, the controller's sample time in {self.file!r}: {result.message}"
             return text, {"method": "sampled-at-ts", **result.record()}
-        limit = max_sample_time(plants, found.K if self.state_feedback and found is not None else design,
-                                check=check, rtol=1e-3)
+        try:
+            limit = max_sample_time(plants, found.K if self.state_feedback and found is not None else design,
+                                    check=check, rtol=1e-3)
+        except (ArgumentError, ValueError) as err:  # a model with no sampled-data controller (neither form)
+            text = f"continuous-time certificates below; no sampled-data certificate for this model: {err}"
+            return text, {"method": "max-ts", "verdict": "not computed", "certified": None, "detail": str(err)}
         text = (f"continuous-time certificates below; sampled as export discretizes the controller: {limit.message} "
                 "([controller] sample_time in the file certifies at the controller's own)")
         return text, {"method": "max-ts", "verdict": limit.verdict, "certified": limit.certified,
