@@ -37,8 +37,8 @@ def _loops(plants, pid, h):
 
 def test_zero_jitter_is_the_sampled_certificate(scara):
     plants, check, pid, _ = scara
-    cert = sr.jitter_certificate(plants, pid, 0.0, check=check)
-    assert cert.certified == sr.sampled_certificate(plants, pid, check=check).certified is True
+    cert = sr.jitter_certificate(plants, pid, 0.0)
+    assert cert.certified == sr.sampled_certificate(plants, pid).certified is True
 
 
 def test_twenty_microseconds_of_jitter_at_1_ms_is_certified_and_a_random_sequence_decays(scara):
@@ -61,9 +61,9 @@ def test_twenty_microseconds_of_jitter_at_1_ms_is_certified_and_a_random_sequenc
 
 def test_periods_beyond_the_frozen_limit_grow(scara):
     plants, check, pid, d = scara
-    limit = sr.max_sample_time(plants, d, check=check, integrator="forward")
+    limit = sr.max_sample_time(plants, d, integrator="forward")
     hi = limit.unstable_ts
-    cert = sr.jitter_certificate(plants, pid, 0.9e-3, check=check)  # out to 1.9 ms: beyond what is certified
+    cert = sr.jitter_certificate(plants, pid, 0.9e-3)  # out to 1.9 ms: beyond what is certified
     assert not cert.certified
     A, B = (np.asarray(x) for x in plants)
     radius = [np.abs(np.linalg.eigvals(pid.linear_at(hi * 1.02).closed_loops(A, B))).max(axis=1)]
