@@ -146,3 +146,12 @@ def test_the_command_line_exports_the_whole_controller_and_refuses_what_cannot_c
     record = json.loads(next(out.glob("*.json")).read_text())
     assert record["feedforward"]["kind"] == "gravity" and record["feedforward"]["payload [kg]"] == 1.5
     assert record["torque_limit"] == [150.0, 150.0, 150.0, 28.0, 28.0, 28.0]
+
+
+def test_a_schedule_of_an_arm_with_a_feedforward_is_not_exported_without_it(tmp_path, capsys):
+    """A schedule's export carries no model feedforward yet: it is refused rather than written without it."""
+    schedule = str(ROOT / "examples" / "arm6-schedule.json")
+    assert main(["export", "--robot", ARM6, "--design", schedule, "--ts", "0.001", "--output", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "a schedule's export does not carry a model feedforward yet" in err and err.count("\n") == 1
+    assert not list(tmp_path.iterdir())

@@ -344,6 +344,11 @@ def run_schedule_export(args: argparse.Namespace, system: LoadedSystem) -> str:
     str
     """
     _check_numbers(args)
+    if system.capabilities.run == "arm" and system.arm().feedforward != "none":
+        raise CommandLineError(f"`--design` {args.design!r}: {system.file!r} certifies the arm's loop with its "
+                               f"{system.arm().feedforward} feedforward, and a schedule's export does not carry a "
+                               "model feedforward yet; export a fixed gain (its C carries it), or schedule on a "
+                               "robot file with feedforward = \"none\"")
     plant = _plant(system)
     gain = read_schedule(args.design)
     name = gain.parameter
