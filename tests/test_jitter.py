@@ -63,7 +63,8 @@ def test_periods_beyond_the_frozen_limit_grow(scara):
     plants, check, pid, d = scara
     limit = sr.max_sample_time(plants, d, integrator="forward")
     hi = limit.unstable_ts
-    cert = sr.jitter_certificate(plants, pid, 0.9e-3)  # out to 1.9 ms: beyond what is certified
+    slow = d.discretize(0.8 * hi, integrator="forward")
+    cert = sr.jitter_certificate(plants, slow, 0.3 * hi)  # out to 1.1 times the frozen instability
     assert not cert.certified
     A, B = (np.asarray(x) for x in plants)
     radius = [np.abs(np.linalg.eigvals(pid.linear_at(hi * 1.02).closed_loops(A, B))).max(axis=1)]
@@ -94,7 +95,10 @@ def test_export_ts_jitter_writes_the_certificate_or_refuses(scara, tmp_path, cap
         path.unlink()
     assert main([*base, "--ts-jitter", "0.001"]) == 2
     assert "`--ts-jitter` must be in [0, --ts) s" in capsys.readouterr().err and not list(out.iterdir())
-    assert main([*base, "--ts-jitter", "0.00095"]) == 2
+    limit = sr.max_sample_time(scara[0], d, integrator="forward")
+    hz = round(1.0 / (0.8 * limit.unstable_ts))  # pid_controller's rate: a whole number of Hz
+    slow = [*base[:4], f"{1.0 / hz:.9g}", *base[5:]]  # periods out to 1.1 times the frozen instability
+    assert main([*slow, "--ts-jitter", f"{0.3 * limit.unstable_ts:.6g}"]) == 2
     err = capsys.readouterr().err
     assert "`--ts-jitter` every period in" in err and "not certified" in err and not list(out.iterdir())
     json_argv = ["export", "--design", str(design), "--ts", "0.001", "--torque-limit", "50", "--format", "json",

@@ -276,7 +276,7 @@ def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):
         raise cp.SolverError("numerical trouble")
 
     monkeypatch.setattr(cp.Problem, "solve", broken)
-    result = sr.synthesize(poly, decay=0.1)
+    result = sr.synthesize(poly, decay=0.1, solver="CLARABEL")
     assert result.status.startswith("solver error") and not result.certified and result.K is None
     assert "numerical trouble" in result.message
 
@@ -288,6 +288,32 @@ def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):
 
     monkeypatch.setattr(cp.Problem, "solve", inaccurate)
     monkeypatch.setattr(cp.Problem, "status", property(lambda self: self._status))
+    unstable = sr.PolytopicModel(np.array([[[0.5, 0.0], [0.0, -1.0]]]), np.array([[[0.0], [1.0]]]))
+    result = sr.synthesize(unstable, decay=0.1, solver="CLARABEL")
+    assert result.status == "not verified" and result.solver_status == "optimal_inaccurate"
+    assert not result.certified and "numpy does not certify" in result.message
+
+
+def test_the_package_solvers_failures_are_results(monkeypatch):
+    """The package's own solver: a numerical failure and an answer numpy rejects are reported, not raised."""
+    import scara_robust.robustness.synthesis as synthesis
+    import scara_robust.sdp.ipm as ipm
+
+    poly = sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1)))
+
+    def singular(M):
+        raise np.linalg.LinAlgError("Schur complement not positive definite")
+
+    monkeypatch.setattr(ipm, "_factor", singular)
+    result = sr.synthesize(poly, decay=0.1)
+    assert result.status.startswith("solver error") and not result.certified and result.K is None
+    assert "Schur complement" in result.message
+    monkeypatch.undo()
+
+    def lying(A_v, B_v, alpha, kappa, solver, l2=None, **options):
+        return "optimal_inaccurate", np.eye(2), np.zeros((1, 2)), math.nan  # Q = I, Y = 0: K = 0
+
+    monkeypatch.setattr(synthesis, "_solve", lying)
     unstable = sr.PolytopicModel(np.array([[[0.5, 0.0], [0.0, -1.0]]]), np.array([[[0.0], [1.0]]]))
     result = sr.synthesize(unstable, decay=0.1)
     assert result.status == "not verified" and result.solver_status == "optimal_inaccurate"
@@ -353,11 +379,11 @@ def test_margin_objective_reports_only_theta_that_numpy_verified(monkeypatch):
     real = synthesis._solve
     calls: list[float] = []
 
-    def lying(A_v, B_v, alpha, kappa, solver, l2=None):
+    def lying(A_v, B_v, alpha, kappa, solver, l2=None, **options):
         theta = float(np.abs(B_v[:, 0, 0] - 1.0).max())  # the vertices' ΔB, i.e. the θ being tried
         calls.append(theta)
         if theta <= 0.3:
-            return real(A_v, B_v, alpha, kappa, solver, l2)
+            return real(A_v, B_v, alpha, kappa, solver, l2, **options)
         return "optimal", np.eye(2), np.zeros((2, 2)), math.nan  # Q = I, Y = 0: K = 0, not stabilizing
 
     monkeypatch.setattr(synthesis, "_solve", lying)

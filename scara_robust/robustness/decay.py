@@ -123,7 +123,7 @@ def certified_decay_rate(
     check: list[ArrayLike] | tuple[ArrayLike, ...] = (),
     set_name: str = "the given closed loops",
     lmi: bool = True,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> DecayRate:
     """The decay rate of a design on closed loops: the better of its own P and an LMI's P.
 
@@ -141,7 +141,7 @@ def certified_decay_rate(
         What the loops are, for the message.
     lmi : bool
         Also search a common P (extra ``lmi``).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -187,7 +187,7 @@ def design_decay_rate(
     P: ArrayLike | None = None,
     plant: UncertainPlant | None = None,
     lmi: bool = True,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> DecayRate:
     """The decay rate of a design on its uncertainty set, as every command reports it.
 
@@ -206,7 +206,7 @@ def design_decay_rate(
         when it is a plant).
     lmi : bool
         Also search a common P (extra ``lmi``).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------

@@ -124,7 +124,7 @@ def jitter_certificate(
     check: Any = None,
     periods: int = JITTER_PERIODS,
     check_periods: int = JITTER_CHECK_PERIODS,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> JitterCertificate:
     """The sampled-data certificate of `controller` for every period in ``[Ts − jitter, Ts + jitter]``.
 
@@ -140,7 +140,7 @@ def jitter_certificate(
         Plants on which P must also verify.
     periods, check_periods : int
         Periods of the LMI and of numpy's check over the interval (>= 2, ends included).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -180,7 +180,7 @@ def jitter_certificate(
 
 
 def max_jitter(model: Any, controller: Any, *, check: Any = None, rtol: float = 0.02,
-               solver: str = "CLARABEL") -> tuple[float, float, JitterCertificate | None]:
+               solver: str = "IPM") -> tuple[float, float, JitterCertificate | None]:
     """The largest jitter J certified by :func:`jitter_certificate`, by bisection on ``[0, 0.99 Ts]``.
 
     Parameters

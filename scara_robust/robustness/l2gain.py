@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver
 
 __all__ = ["L2Gain", "l2_gain", "L2_INFLATION", "PeakBound", "peak_gain"]
 
@@ -158,7 +158,7 @@ def bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float, D: Ar
 
 
 def l2_gain(
-    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, D: ArrayLike | None = None, *, solver: str = "CLARABEL"
+    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, D: ArrayLike | None = None, *, solver: str = "IPM"
 ) -> L2Gain:
     """Upper and lower bounds on the worst-case L2 gain from w to z over ``conv{Ā_i}``.
 
@@ -178,7 +178,7 @@ def l2_gain(
         The output z (for the robot: ``[0, I, 0]``, the tracking error e).
     D : array_like, shape (p, q), optional
         Feedthrough from w to z (default 0). The gain is at least ``σ_max(D)``.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -219,7 +219,7 @@ def l2_gain(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=solver)  # type: ignore[no-untyped-call]
+            problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
         return L2Gain(math.inf, lower, worst, f"solver error: {err}", None, time.perf_counter() - start)
     if P.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
@@ -238,7 +238,7 @@ def l2_gain(
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            second.solve(solver=solver)  # type: ignore[no-untyped-call]
+            second.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
     except cp.SolverError:
         pass
     if P.value is not None and second.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
@@ -321,7 +321,7 @@ def peak_gain(
     D: ArrayLike | None = None,
     *,
     alphas: ArrayLike | None = None,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> PeakBound:
     """The smallest invariant-ellipsoid bound on ``‖z(t)‖`` for ``‖w(t)‖ <= 1`` over ``conv{Ā_i}``.
 
@@ -345,7 +345,7 @@ def peak_gain(
     alphas : array_like, optional
         Rates tried, 1/s (> 0; default 16 points log-spaced over [10⁻², 10²]·(smallest
         decay of the closed loops' eigenvalues)).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -386,7 +386,7 @@ def peak_gain(
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", UserWarning)
-                problem.solve(solver=solver)  # type: ignore[no-untyped-call]
+                problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
         except cp.SolverError:
             continue
         if P.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):

@@ -37,7 +37,7 @@ from .._validation import check_array, check_choice, check_real
 from ..results import AnalysisResult
 from .context import CertificateContext
 from .l2gain import L2_INFLATION, GainBound, check_gain_inputs, frozen_hinf_norms
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver
 from .registry import AnalysisMethod, register_method
 from .synthesis import error_output
 
@@ -174,7 +174,7 @@ def _solve(cp: Any, A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=solver)
+            problem.solve(solver=cvxpy_solver(solver))
     except cp.SolverError as err:
         return f"solver error: {err}", math.inf, None, None
     status = str(problem.status)
@@ -196,7 +196,7 @@ def rate_bounded_l2_gain(
     *,
     rate: float,
     check: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     parameter: str = "p",
     unit: str = "",
 ) -> RateL2Gain:
@@ -218,7 +218,7 @@ def rate_bounded_l2_gain(
         ν >= 0, unit of p per second; ``inf`` gives the common-P bound.
     check : tuple (closed_loops, p, Bw), optional
         A second (finer) set of samples on which the bound must also verify.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     parameter, unit : str
         The parameter's name and unit, for the message.
 

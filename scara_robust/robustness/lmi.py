@@ -43,6 +43,8 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
+from ..sdp import LMIProblem, Variable
+from ..sdp import solve as sdp_solve
 from ._cutting import ACTIVE_BATCH, grow_active_set
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
@@ -50,8 +52,9 @@ __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_
 
 Array = NDArray[np.float64]
 
-#: Solvers tried by name through cvxpy (Clarabel is interior-point, SCS first-order).
-LMI_SOLVERS = ("CLARABEL", "SCS")
+#: The LMI solvers: the package's own interior-point method (:mod:`scara_robust.sdp`), then
+#: cvxpy's Clarabel (interior-point, the reference) and SCS (first-order), extra ``lmi``.
+LMI_SOLVERS = ("IPM", "CLARABEL", "SCS")
 #: Status reported when cvxpy cannot be imported.
 NOT_INSTALLED = "not installed"
 
@@ -161,6 +164,25 @@ def lmi_verdict(status: str, verified: bool) -> str:
     if status in ("optimal", "optimal_inaccurate", "infeasible_inaccurate"):
         return "inaccurate"
     return "unknown"
+
+
+def cvxpy_solver(solver: str) -> str:
+    """The cvxpy solver that answers an LMI written for cvxpy only: Clarabel for ``'IPM'``.
+
+    The LMIs described for the package's solver (common P, sampled data, decay synthesis)
+    run on it; the others (L2 and peak gains, rate-bounded, scheduled, sampled synthesis)
+    are still written in cvxpy and are solved by Clarabel when ``'IPM'`` is asked for.
+
+    Parameters
+    ----------
+    solver : str
+        A name of :data:`LMI_SOLVERS`.
+
+    Returns
+    -------
+    str
+    """
+    return "CLARABEL" if solver == "IPM" else solver
 
 
 def cvxpy_available() -> bool:
@@ -407,7 +429,7 @@ SMALL_BATCH = 4
 SMALL_STATES = 8
 
 
-def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (), solver: str = "CLARABEL",
+def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (), solver: str = "IPM",
                     stop: str = "optimum", start: ArrayLike | None = None) -> LMICertificate:
     """Search a common quadratic Lyapunov matrix for the polytope ``conv{Ā_v}``.
 
@@ -425,7 +447,7 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         Further closed loops on which P must also verify (a finer sampling): a check loop
         joins the active set only where numpy finds P's decay rate on it below the floor.
         :attr:`LMICertificate.decay_rate` is the smallest over the loops and the checks.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     stop : {'optimum', 'verified'}
         ``'optimum'``: grow the active set until P meets every loop's constraint
         (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
@@ -473,7 +495,8 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         # default start: the least stable loop of `closed_loops`
         first = np.array([int(np.argmax(np.linalg.eigvals(A_main).real.max(axis=1)))]) if given is None else given
         found = _cutting_planes(A_v, A_main.shape[0], solver, stop, first, "decay")
-        if not found.certified and found.verdict != "infeasible" and found.status != INFEASIBLE_NOT_VERIFIED:
+        if (solver != "IPM" and not found.certified and found.verdict != "infeasible"
+                and found.status != INFEASIBLE_NOT_VERIFIED):
             # the 'decay' form breaks down where P's condition number grows without bound, near the
             # end of what a common P can certify: where it failed numerically (a solver error, an
             # inaccurate or marginal P), not where the solver said infeasible, the well-conditioned
@@ -529,9 +552,16 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
             verified[:n_main] = worst[:n_main] + 1.0 - OPTIMUM_RTOL
         return np.asarray(verified)
 
+    def solve(idx: NDArray[np.int64]) -> tuple[str, Array | None]:
+        if solver == "IPM":
+            # a bisection's question is answered by the first P numpy verifies on every loop
+            accept = (lambda P: bool((violation(P) <= 0).all())) if stop == "verified" else None
+            return _solve_common_p_ipm(A_s[idx], accept)
+        return _solve_common_p(A_s[idx], solver, form)
+
     batch = ACTIVE_BATCH if A_v.shape[1] > SMALL_STATES else SMALL_BATCH
-    status, P_val, active = grow_active_set(lambda idx: _solve_common_p(A_s[idx], solver, form), violation,
-                                            np.arange(n_main) if n_main <= DIRECT_LOOPS else first, batch=batch)
+    status, P_val, active = grow_active_set(solve, violation, np.arange(n_main) if n_main <= DIRECT_LOOPS else first,
+                                            batch=batch)
     if P_val is None:
         # a verified proof of infeasibility on the active loops is one on all of them; where the
         # solver's proof fails numpy's check, an unstable closed loop is one too
@@ -581,6 +611,64 @@ def _solve_common_p(A_s: Array, solver: str, form: str = "decay") -> tuple[str, 
     return status, np.array(P.value, dtype=float)
 
 
+def common_p_problem(A_s: Array, *, quadratic: float = 0.0) -> tuple[LMIProblem, Variable, Variable]:
+    """The common-P LMI in its always-feasible form, for the package's solver.
+
+    ``maximize t: tI ⪯ P ⪯ I, −(A_iᵀP + PA_i + c A_iᵀPA_i) − tI ⪰ 0`` at every loop, with
+    ``c = quadratic`` (0 for continuous time; the sampled-data form's ``Ts``). It is the
+    ``'decay'`` form of :data:`LMI_FORMS` with P divided by λ and t = 1/λ, and is strictly
+    feasible for every data (t → −∞): t* > 0 exactly when a common P exists.
+
+    Parameters
+    ----------
+    A_s : ndarray, shape (V, n, n)
+    quadratic : float
+
+    Returns
+    -------
+    problem : LMIProblem
+    P, t : Variable
+    """
+    n = A_s.shape[1]
+    eye = np.eye(n)
+    problem = LMIProblem()
+    P, t = problem.symmetric("P", n), problem.scalar("t")
+    problem.add_lmi(terms=[(P, -0.5 * eye, eye)], const=eye, name="P <= I")
+    problem.add_lmi(terms=[(P, 0.5 * eye, eye)], scalars=[(t, -eye)], name="P >= tI")
+    terms = [(P, -eye, A_s)]  # −(PA + AᵀP): U = −I, V = A
+    if quadratic:
+        terms.append((P, -0.5 * quadratic * A_s, A_s))  # −c AᵀPA
+    problem.add_lmi(terms=terms, scalars=[(t, -eye)], name="loops")
+    problem.maximize({t: 1.0})
+    return problem, P, t
+
+
+def _solve_common_p_ipm(A_s: Array, accept: Callable[[Array], bool] | None,
+                        quadratic: float = 0.0) -> tuple[str, Array | None]:
+    """The common-P LMI by the package's solver: (status, P in the 'decay' form's units, or None).
+
+    The 'decay' form's P is the always-feasible form's divided by t (its constraint
+    ``AᵀP + PA ⪯ −I``, which the cutting planes' optimum test reads); with `accept`, the
+    solver stops at the first P it accepts.
+    """
+    problem, P, t = common_p_problem(A_s, quadratic=quadratic)
+
+    def take(y: Array) -> bool:
+        t_y = float(y[t.offset])
+        return t_y > 0 and accept is not None and accept(P.value(y) / t_y)
+
+    result = sdp_solve(problem, "IPM", accept=take if accept is not None else None)
+    if result.y is None:
+        return result.status, None
+    t_val = result.value(t)
+    if t_val <= MARGIN_FEASIBILITY_TOL:
+        # P = 0, t = 0 is feasible: no strictly feasible P; the loops' dual blocks are the proof
+        duals = None if result.duals is None else list(result.duals[2])
+        proven = duals is not None and farkas_certificate_holds(A_s, duals)
+        return ("infeasible" if proven else INFEASIBLE_NOT_VERIFIED), None
+    return result.status, np.array(result.value(P), dtype=float) / t_val
+
+
 def _slot_count(n_loops: int) -> int:
     """Constraint slots of the problem for `n_loops` loops: a power of two, so a search reuses a few problems."""
     return max(8, 1 << (n_loops - 1).bit_length())
@@ -604,7 +692,7 @@ def _problem(n: int, n_slots: int, form: str) -> tuple[Any, Any, Any, list[Any]]
         constraints.append(0.5 * (lhs + lhs.T) << bound)
     return cp.Problem(objective, constraints), P, t, slots
 
-def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[..., LMICertificate]:
+def lmi_search(*, solver: str = "IPM", stop: str = "verified") -> Callable[..., LMICertificate]:
     """The common-P test for a search over loops indexed alike (a bisection on a scale, a mass, a rate).
 
     Each solve of :func:`lmi_certificate` starts from the active loops of the previous one:
@@ -612,7 +700,7 @@ def lmi_search(*, solver: str = "CLARABEL", stop: str = "verified") -> Callable[
 
     Parameters
     ----------
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     stop : {'verified', 'optimum'}
         As for :func:`lmi_certificate`; a bisection needs only the verdict.
 

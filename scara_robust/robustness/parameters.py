@@ -405,7 +405,7 @@ def parameter_rate(
     *,
     rate_max: float | None = None,
     tol: float = 1e-2,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> RateMargin:
     """The largest rate ``|ṗ|`` (unit/s) of parameter `name` that an affine ``P(p)`` certifies.
 
@@ -425,7 +425,7 @@ def parameter_rate(
         Largest rate tried, unit/s (default 1e6 times the parameter's range).
     tol : float
         Relative width of the final bracket.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------

@@ -279,7 +279,7 @@ def payload_rate_certificate(
     check_masses: int = 33,
     rate_max: float = 1e6,
     tol: float = 1e-2,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> RateMargin:
     """The largest payload rate ``|ṁ_p|`` (kg/s) certified for payloads in [0, M].
 
@@ -306,7 +306,7 @@ def payload_rate_certificate(
         Largest rate tried, kg/s.
     tol : float
         Relative width of the final bracket.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------

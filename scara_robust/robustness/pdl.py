@@ -50,7 +50,7 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
-from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor
+from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
 from .search import bisect
 
 __all__ = ["RateCertificate", "RateMargin", "rate_bounded_certificate", "verify_rate_bounded", "max_certified_rate"]
@@ -254,7 +254,7 @@ def _run(problem: Any, t: Any, solver: str) -> tuple[str, float | None]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
-            problem.solve(solver=solver)
+            problem.solve(solver=cvxpy_solver(solver))
     except cp.SolverError as err:
         return f"solver error: {err}", None
     return str(problem.status), None if t.value is None else float(t.value)
@@ -326,7 +326,7 @@ def rate_bounded_certificate(
     *,
     slopes: ArrayLike | None = None,
     check: tuple[ArrayLike, ArrayLike] | None = None,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> RateCertificate:
     """Search ``P(p) = P0 + p·P1`` proving stability for ``|ṗ| <= rate``.
 
@@ -348,7 +348,7 @@ def rate_bounded_certificate(
     check : tuple (closed_loops, p), optional
         An independent set, shapes (M, n, n) and (M,), on which numpy re-verifies the answer
         (a finer grid of p and of the other directions).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -474,7 +474,7 @@ def max_certified_rate(
     check: tuple[ArrayLike, ArrayLike] | None = None,
     rate_max: float = 1e6,
     tol: float = 1e-2,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> RateMargin:
     """Bisect the largest rate bound ν that :func:`rate_bounded_certificate` certifies.
 

@@ -49,7 +49,16 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, lmi_certificate, lmi_verdict
+from .lmi import (
+    LMI_SOLVERS,
+    LMI_STOPS,
+    NOT_INSTALLED,
+    _solve_common_p_ipm,
+    cvxpy_available,
+    decay_floor,
+    lmi_certificate,
+    lmi_verdict,
+)
 from .search import bisect
 
 __all__ = [
@@ -258,13 +267,20 @@ class SampledCertificate(AnalysisResult):
         return f"Ts = {self.Ts:.4g} s not certified: no verified common P ({self.status})"
 
 
-def _solve_lmi(Ad: Array, Ts: float, solver: str) -> tuple[str, Array | None]:
-    import cvxpy as cp
+def _solve_lmi(Ad: Array, Ts: float, solver: str,
+               accept: Callable[[Array], bool] | None = None) -> tuple[str, Array | None]:
+    """The sampled-data common-P LMI on the loops `Ad`: (status, P or None).
 
+    With the package's solver and `accept`, the first P it accepts is returned.
+    """
     n = Ad.shape[1]
     M = (Ad - np.eye(n)) / Ts
     s = float(np.abs(M).max()) or 1.0
     Ms = M / s  # M_iᵀP + PM_i + Ts M_iᵀPM_i ⪯ −I/s ⇔ Ms_iᵀP + PMs_i + (Ts s) Ms_iᵀPMs_i ⪯ −I/s²
+    if solver == "IPM":
+        return _solve_common_p_ipm(Ms, accept, quadratic=Ts * s)
+    import cvxpy as cp
+
     P = cp.Variable((n, n), symmetric=True)
     lam = cp.Variable()
     eye = np.eye(n)
@@ -290,8 +306,9 @@ def sampled_certificate(
     pid: DiscretePID | SampledStateFeedback,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     candidate: ArrayLike | Callable[[], ArrayLike | None] | None = None,
+    stop: str = "optimum",
 ) -> SampledCertificate:
     """The frozen and common-P sampled-data tests of `pid` on the plants of `model`.
 
@@ -306,7 +323,8 @@ def sampled_certificate(
     check : same types as `model`, optional
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
+        The LMI's solver: the package's own (:mod:`scara_robust.sdp`) or cvxpy's.
     candidate : array_like, shape (3p, 3p) or (n, n), or callable, optional
         A common Lyapunov matrix of the continuous-time loops in the PID form
         ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``; for static
@@ -318,6 +336,10 @@ def sampled_certificate(
         not. Either way only what numpy verifies at this Ts counts. A function of no
         argument returning such a P (or None) is called only then, so a search computes it
         only if some Ts needs it.
+    stop : {'optimum', 'verified'}
+        ``'optimum'``: the LMI's optimal P (the largest decay rate of this form);
+        ``'verified'``: with the package's solver, the first P numpy verifies above the floor
+        (a bisection needs only the verdict; the rate may be smaller).
 
     Returns
     -------
@@ -339,6 +361,7 @@ def sampled_certificate(
     check_controller("pid", pid, ("pid", "state feedback"),
                      "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     check_choice("solver", solver, LMI_SOLVERS)
+    check_choice("stop", stop, LMI_STOPS)
     A, B = _plants(model)
     Ad, keep = _without_marginal(sampled_closed_loops(A, B, pid))
     n_marginal = int((~keep).sum())
@@ -358,7 +381,7 @@ def sampled_certificate(
         rate = discrete_lyapunov_check(Ad, P, pid.Ts)[1]
         return rate if extra is None else min(rate, discrete_lyapunov_check(extra, P, pid.Ts)[1])
 
-    status, P = _solve_lmi(Ad, pid.Ts, solver)
+    status, P = _solve_lmi(Ad, pid.Ts, solver, (lambda P: verified(P) >= floor > 0) if stop == "verified" else None)
     rate = verified(P) if P is not None else -np.inf
     given = None
     if candidate is not None and not (rate > 0 and rate >= floor):  # asked for only where the LMI's P falls short
@@ -423,7 +446,7 @@ def max_sample_time(
     ts_min: float = TS_MIN,
     ts_max: float = MAX_SAMPLE_TIME_CAP,
     rtol: float = 1e-3,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     **discretize: object,
 ) -> SampleTimeLimit:
     """Bisect the largest certified Ts and the smallest Ts at which a frozen plant is unstable.
@@ -453,7 +476,7 @@ def max_sample_time(
         frozen instability (default :data:`MAX_SAMPLE_TIME_CAP`).
     rtol : float
         Relative width of the final brackets (> 0).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     **discretize
         Options of :meth:`~scara_robust.Design.discretize` (integrator, derivative, N);
         a torque limit does not change the linear loop tested.
@@ -544,7 +567,9 @@ def max_sample_time(
             return continuous.P if continuous.certified else None
 
     def certified(ts: float) -> bool:
-        certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver, candidate=candidate)
+        # the bisection needs the verdict alone: the first P numpy verifies
+        certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver, candidate=candidate,
+                                        stop="verified")
         return certs[ts].certified
 
     top = lo if math.isfinite(hi) else ts_max
@@ -558,6 +583,9 @@ def max_sample_time(
     else:
         c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric", desc="certified Ts")
     cert = certs[c_lo]
+    if solver == "IPM":  # the reported rate is the optimum's at that Ts, as every other certificate's
+        best = sampled_certificate((A, B), pid_at(c_lo), check=check, solver=solver, candidate=candidate)
+        cert = best if best.certified and best.rate >= cert.rate else cert
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
         + (f"a frozen plant is unstable from Ts = {hi:.4g} s" if math.isfinite(hi) else
@@ -669,7 +697,7 @@ def check_sample_time(
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     set_name: str = "the given plants",
     rtol: float = 1e-3,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> SampleTimeCheck:
     """The sampled-data certificate of `pid` at its own Ts and, if it fails, the safe limits.
 
@@ -690,7 +718,7 @@ def check_sample_time(
         Relative width of the limits' brackets (the default is :func:`max_sample_time`'s,
         and so is its search range unless `pid`'s Ts lies outside it: one design, one
         bracket, whichever command asks).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------

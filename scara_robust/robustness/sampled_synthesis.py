@@ -30,6 +30,7 @@ from .._validation import check_int, check_real
 from ..controller._hold import expm_stack
 from ..controller.state_feedback import SampledStateFeedback
 from ..results import AnalysisResult
+from .lmi import cvxpy_solver
 from .sampled import SampledCertificate, _plants, discrete_lyapunov_check, sampled_certificate
 
 __all__ = ["synthesize_sampled", "SampledSynthesis"]
@@ -140,7 +141,7 @@ def _solve(M: Array, N: Array, Ts: float, gain_bound: float, solver: str,
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=solver)  # type: ignore[no-untyped-call]
+            problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
         return f"solver error: {err}", None, None
     status = str(problem.status)
@@ -156,7 +157,7 @@ def synthesize_sampled(
     *,
     check: Any = None,
     gain_bound: float = 1e4,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     first: int = FIRST_PLANTS,
     decay: float | None = None,
 ) -> SampledSynthesis:
@@ -173,7 +174,7 @@ def synthesize_sampled(
         Plants on which the gain must also verify (a finer grid).
     gain_bound : float
         ``‖K Q‖₂`` bound (with ``Q ⪰ I``), the objective minimized: a small gain that holds.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     first : int
         Plants of the first LMI.
     decay : float, optional

@@ -377,7 +377,7 @@ def schedule_certificate(
     decay: float = 0.0,
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
 ) -> ScheduleCertificate:
     """Certify the scheduled loop ``A(p, q) − B(p, q) K(p̂)`` for a moving, mis-measured parameter.
 
@@ -399,7 +399,7 @@ def schedule_certificate(
     refine : int
         The numpy verification's grid is `refine` times finer per segment (>= 2), on the
         unmeasured parameters' full samples (the LMIs: their coarse ones).
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -499,7 +499,7 @@ def _sampled_pairs(plant: UncertainPlant, gain: ScheduledGain, name: str, points
 
 def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts: float, *,
                                  measurement_error: float | None = None, points: int = SCHEDULE_POINTS,
-                                 refine: int = SCHEDULE_REFINE, solver: str = "CLARABEL") -> SampledCertificate:
+                                 refine: int = SCHEDULE_REFINE, solver: str = "IPM") -> SampledCertificate:
     """The sampled-data certificate of the scheduled gain held by a zero-order hold at Ts.
 
     ``u_k = −K(p̂_k) x(t_k)`` held over ``[t_k, t_k + Ts)``: the loops ``x_{k+1} =
@@ -520,7 +520,7 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
         δ (default the parameter's effective error).
     points, refine : int
         As :func:`schedule_certificate`.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
 
     Returns
     -------
@@ -811,7 +811,7 @@ def synthesize_schedule(
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
     tol: float = 0.02,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     progress: Callable[[float, bool], None] | None = None,
 ) -> ScheduleSynthesis:
     """Synthesize a gain scheduled on a measured parameter: the largest certified decay at ‖K_j‖ <= κ.
@@ -836,7 +836,7 @@ def synthesize_schedule(
         As :func:`schedule_certificate`.
     tol : float
         Relative tolerance of the bisection on α.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     progress : callable ``progress(alpha, ok)``, optional
         Called after each step of the bisection.
 
@@ -939,7 +939,7 @@ def synthesize_schedule_rate(
     tol: float = 0.05,
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     progress: Callable[[float, bool], None] | None = None,
 ) -> ScheduleSynthesis:
     """Synthesize the scheduled gain certified for the fastest parameter: the largest ν at decay α.
@@ -970,7 +970,7 @@ def synthesize_schedule_rate(
         Relative tolerance of the bisection on ν.
     points, refine : int
         As :func:`schedule_certificate`.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     progress : callable ``progress(rate, ok)``, optional
 
     Returns

@@ -40,6 +40,8 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, Signal, as_model, is_model
 from ..results import AnalysisResult
+from ..sdp import LMIProblem, Variable
+from ..sdp import solve as sdp_solve
 from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
@@ -48,6 +50,7 @@ from .lmi import (
     DIRECT_LOOPS,
     LMI_SOLVERS,
     NOT_INSTALLED,
+    VERIFY_FARKAS_RTOL,
     cvxpy_available,
     decay_floor,
     decay_rate,
@@ -288,6 +291,7 @@ _DECAY_LMI_SLACK = 1e-6
 def _solve(
     A: Array, B: Array, alpha: float, kappa: float, solver: str, l2: tuple[Array, Array] | None = None,
     limits: tuple[Array, Array] | None = None, pattern: tuple[Array, Array] | None = None,
+    accept: Callable[[Array, Array], bool] | None = None,
 ) -> tuple[str, Array | None, Array | None, float]:
     """One LMI: decay ``alpha`` and ``‖K‖ <= κ``; with ``l2 = (B_w, C)`` also minimize γ.
 
@@ -296,8 +300,13 @@ def _solve(
     S_Y (m, n))`` of zeros and ones, Q and Y are zero where the pattern is (the solver's
     residue there, at its tolerance, is set to exactly zero before Q and Y are returned).
 
-    Returns the solver status, Q, Y and γ (NaN without `l2`).
+    With the package's solver (``'IPM'``) and `accept(Q, Y)`, the first (Q, Y) it accepts is
+    returned. Returns the solver status, Q, Y and γ (NaN without `l2`).
     """
+    if solver == "IPM":
+        if l2 is None and limits is None:
+            return _solve_ipm(A, B, alpha, kappa, pattern, accept)
+        solver = "CLARABEL"  # the L2 and input-limit forms are not on the package's solver yet
     import cvxpy as cp
 
     n, m = A.shape[1], B.shape[2]
@@ -352,6 +361,110 @@ def _solve(
     return str(problem.status), Q_value, Y_value, g
 
 
+def synthesis_problem(A: Array, B: Array, alpha: float, kappa: float,
+                      pattern: tuple[Array, Array] | None = None) -> tuple[LMIProblem, dict[str, Variable]]:
+    """The decay synthesis LMI in its always-feasible form, for the package's solver.
+
+    ``maximize t`` subject to ``Q ⪯ I``, ``Q ⪰ μI``, ``μ >= t``, ``[[κ²μI, Y], [Yᵀ, Q]] ⪰ 0`` and
+    ``−(A_iQ + QA_iᵀ − B_iY − YᵀB_iᵀ + 2αQ) ⪰ tI`` at every plant: strictly feasible for any data
+    (``Q = I/2``, ``Y = 0``, t → −∞), and t* > 0 exactly when the LMI of :func:`_solve` (Q ⪰ I,
+    μ = 1, strict decay) has a solution, which is ``(Q/μ, Y/μ)``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    B : ndarray, shape (V, n, m)
+    alpha, kappa : float
+    pattern : (ndarray (n, n), ndarray (m, n)), optional
+
+    Returns
+    -------
+    problem : LMIProblem
+    variables : dict
+        ``'Q'``, ``'Y'``, ``'mu'``, ``'t'``.
+    """
+    n, m = A.shape[1], B.shape[2]
+    eye = np.eye(n)
+    problem = LMIProblem()
+    Q = problem.symmetric("Q", n, pattern=None if pattern is None else pattern[0])
+    Y = problem.matrix("Y", m, n, pattern=None if pattern is None else pattern[1])
+    mu, t = problem.scalar("mu"), problem.scalar("t")
+    problem.add_lmi(terms=[(Q, -0.5 * eye, eye)], const=eye, name="Q <= I")
+    problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], scalars=[(mu, -eye)], name="Q >= mu I")
+    problem.add_lmi(scalars=[(mu, np.ones((1, 1))), (t, -np.ones((1, 1)))], name="mu >= t")
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)],
+                    scalars=[(mu, kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name="gain bound")
+    problem.add_lmi(terms=[(Q, -np.swapaxes(A, 1, 2) - alpha * eye, eye), (Y, np.swapaxes(B, 1, 2), eye)],
+                    scalars=[(t, -eye)], name="decay")
+    problem.maximize({t: 1.0})
+    return problem, {"Q": Q, "Y": Y, "mu": mu, "t": t}
+
+
+def _solve_ipm(A: Array, B: Array, alpha: float, kappa: float, pattern: tuple[Array, Array] | None,
+               accept: Callable[[Array, Array], bool] | None = None) -> tuple[str, Array | None, Array | None, float]:
+    """:func:`_solve`'s decay LMI (no L2 term, no limits) by the package's solver: status, Q (⪰ I), Y, NaN.
+
+    With `accept(Q, Y)`, the solver stops at the first (Q, Y) it accepts.
+    """
+    problem, var = synthesis_problem(A, B, alpha, kappa, pattern)
+    Q, Y, mu, t = var["Q"], var["Y"], var["mu"], var["t"]
+
+    def take(y: Array) -> bool:
+        m_y = float(y[mu.offset])
+        return accept is not None and y[t.offset] > 0 and m_y > 0 and accept(Q.value(y) / m_y, Y.value(y) / m_y)
+
+    result = sdp_solve(problem, "IPM", accept=take if accept is not None else None)
+    if result.y is None:
+        return result.status, None, None, math.nan
+    t_val, mu_val = result.value(t), result.value(mu)
+    if t_val <= 0 or mu_val <= 0:
+        # t* <= 0: infeasible when the dual blocks prove it (numpy's check), else not proven
+        proven = result.duals is not None and synthesis_farkas_holds(A, B, alpha, kappa, result.duals)
+        return ("infeasible" if proven else "infeasible_inaccurate"), None, None, math.nan
+    return result.status, result.value(Q) / mu_val, result.value(Y) / mu_val, math.nan
+
+
+def synthesis_farkas_holds(A: Array, B: Array, alpha: float, kappa: float, duals: Sequence[Array]) -> bool:
+    """numpy's check of a proof that no gain with ``‖K‖ <= κ`` and decay ``alpha`` exists.
+
+    For the dual blocks of :func:`synthesis_problem` (``Z_Q`` of ``Q ⪰ μI``, ``Z_G`` of the gain
+    bound, ``Z_i`` of the plants), projected on the positive semidefinite cone: every
+    solution (Q ≻ 0, ``Y = KQ``, ``0 < μ <= λmin(Q)``) would give ``0 <= Σ⟨Z_i, D_i⟩ <= ⟨T, Q⟩``
+    with ``D_i = −(A_iQ + QA_iᵀ − B_iY − YᵀB_iᵀ + 2αQ) ⪰ 0``,
+    ``T = −Σ(A_iᵀZ_i + Z_iA_i + 2αZ_i) + Z_G,22 + κ² tr(Z_G,11) Z_Q / tr(Z_Q) + κ‖E‖₂ I`` and
+    ``E = 2Σ B_iᵀZ_i + 2Z_G,12`` (using ``⟨Z_G, G⟩ >= 0``, ``μ <= ⟨Q, Z_Q⟩/tr(Z_Q)`` and
+    ``|⟨E, KQ⟩| <= κ‖E‖₂ tr Q``); ``T ≺ 0`` makes that impossible (Boyd et al. 1994, §2.2.3).
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    B : ndarray, shape (V, n, m)
+    alpha, kappa : float
+    duals : sequence of ndarray
+        The families' dual blocks, in :func:`synthesis_problem`'s order.
+
+    Returns
+    -------
+    bool
+        True when ``λmax(T) < −VERIFY_FARKAS_RTOL · ‖Σ(A_iᵀZ_i + Z_iA_i)‖₂``.
+    """
+    def psd(Z: Array) -> Array:
+        w, V = np.linalg.eigh(0.5 * (Z + np.swapaxes(Z, -1, -2)))
+        return np.asarray((V * np.clip(w, 0.0, None)[..., None, :]) @ np.swapaxes(V, -1, -2))
+
+    n, m = A.shape[1], B.shape[2]
+    Z_Q, Z_G, Z_i = psd(duals[1][0]), psd(duals[3][0]), psd(duals[4])
+    AZ = np.swapaxes(A, 1, 2) @ Z_i
+    lyap = (AZ + np.swapaxes(AZ, 1, 2)).sum(axis=0)
+    E = 2.0 * (np.swapaxes(B, 1, 2) @ Z_i).sum(axis=0) + 2.0 * Z_G[:m, m:]
+    mu_term = kappa**2 * np.trace(Z_G[:m, :m])
+    T = -lyap - 2 * alpha * Z_i.sum(axis=0) + Z_G[m:, m:] + kappa * np.linalg.norm(E, 2) * np.eye(n)
+    T += mu_term * Z_Q / np.trace(Z_Q) if np.trace(Z_Q) > 0 else mu_term * np.eye(n)
+    scale = max(float(np.linalg.norm(lyap, 2)), 1e-300)
+    return bool(np.linalg.eigvalsh(0.5 * (T + T.T))[-1] < -VERIFY_FARKAS_RTOL * scale)
+
+
 def _solve_by_cuts(
     A: Array, B: Array, alpha: float, kappa: float, solver: str, active: list[NDArray[np.int64]],
     limits: tuple[Array, Array] | None = None, pattern: tuple[Array, Array] | None = None,
@@ -367,15 +480,19 @@ def _solve_by_cuts(
     if pattern is not None:
         extra["pattern"] = pattern
 
-    def solve(idx: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, float] | None]:
-        status, Q, Y, g = _solve(A[idx], B[idx], alpha, kappa, solver, **extra)
-        return status, None if Q is None or Y is None else (Q, Y, g)
-
     def violation(answer: tuple[Array, Array, float]) -> Array:
         Q, Y, _ = answer
         AQ = A @ Q - B @ Y
         lhs = AQ + np.swapaxes(AQ, -1, -2) + 2 * alpha * Q
         return np.asarray(np.linalg.eigvalsh(lhs)[:, -1] + _DECAY_LMI_SLACK)
+
+    def solve(idx: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, float] | None]:
+        options: dict[str, Any] = dict(extra)
+        if solver == "IPM":
+            # the first (Q, Y) whose decay constraint holds at every plant answers the search's question
+            options["accept"] = lambda Q, Y: bool((violation((Q, Y, 0.0)) <= 0).all())
+        status, Q, Y, g = _solve(A[idx], B[idx], alpha, kappa, solver, **options)
+        return status, None if Q is None or Y is None else (Q, Y, g)
 
     n_plants = A.shape[0]
     if n_plants <= DIRECT_LOOPS:
@@ -496,7 +613,7 @@ def synthesize(
     check: tuple[ArrayLike, ArrayLike] | None = None,
     nominal: ModelLike | None = None,
     tol: float = 1e-2,
-    solver: str = "CLARABEL",
+    solver: str = "IPM",
     input_limits: ArrayLike | None = None,
     initial_errors: ArrayLike | None = None,
     structure: str = "full",
@@ -536,7 +653,7 @@ def synthesize(
         `model` itself; for sampled pairs, their average).
     tol : float
         Relative tolerance of the bisections on α or θ.
-    solver : {'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}
     input_limits : float or array_like, shape (m,), optional
         ``ū_i > 0`` per input, in its unit (``inf``: none; a plant's
         :attr:`~scara_robust.UncertainPlant.input_limits`): every objective is then
@@ -653,9 +770,9 @@ class _Problem:
         return 1.0 if self.limits is None else self.limits.s0
 
     @property
-    def extra(self) -> dict[str, tuple[Array, Array]]:
+    def extra(self) -> dict[str, Any]:
         """The LMI's options beyond decay and gain bound (without limits, _solve is called exactly as before)."""
-        extra: dict[str, tuple[Array, Array]] = {} if self.limits is None else {"limits": self.limits.lmi}
+        extra: dict[str, Any] = {} if self.limits is None else {"limits": self.limits.lmi}
         if self.pattern is not None:
             extra["pattern"] = self.pattern
         return extra

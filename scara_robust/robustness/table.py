@@ -57,7 +57,7 @@ def certificate_table(
     plant: UncertainPlant | None = None,
     points: Mapping[str, int] | None = None,
     lmi_points: Mapping[str, int] | None = None,
-    lmi_solver: str = "CLARABEL",
+    lmi_solver: str = "IPM",
     falsifier_tries: int = 30,
     seed: int = 0,
     methods: Sequence[str] | None = None,
@@ -84,7 +84,7 @@ def certificate_table(
     lmi_points : mapping of str to int, optional
         Coarser grid on which the physical LMI is solved (default: each parameter's
         ``coarse``); its P is then verified with numpy on both grids above.
-    lmi_solver : {'CLARABEL', 'SCS'}
+    lmi_solver : {'IPM', 'CLARABEL', 'SCS'}
     falsifier_tries : int
         Trajectories per falsifier row.
     seed : int

@@ -1,0 +1,148 @@
+"""The package's LMI layer and its interior-point solver (``scara_robust.sdp``).
+
+The Schur complement assembled from the terms' Kronecker structure is compared with its
+definition ``tr(F_p W F_q W)`` on every kind of term; the solver's optimal values are
+compared with Clarabel's (through cvxpy, on the same description) on the package's
+problem kinds, and its answers are checked by the problems' own residuals.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import scara_robust as sr
+from scara_robust.exceptions import ArgumentValueError
+from scara_robust.robustness.lmi import common_p_problem
+from scara_robust.robustness.polytope import box_closed_loops
+from scara_robust.robustness.synthesis import synthesis_problem
+from scara_robust.sdp import LMIProblem, dense_schur, solve
+
+
+def _random_w(problem: LMIProblem, rng: np.random.Generator) -> list[np.ndarray]:
+    out = []
+    for fam in problem.families:
+        X = rng.normal(size=(fam.count, fam.size, fam.size))
+        out.append(X @ np.swapaxes(X, 1, 2) + 0.1 * np.eye(fam.size))
+    return out
+
+
+def _every_kind(rng: np.random.Generator, n: int = 4, m: int = 2, N: int = 5) -> LMIProblem:
+    """Symmetric, full and patterned matrices, scalars, quadratic terms, two block sizes."""
+    pb = LMIProblem()
+    Q = pb.symmetric("Q", n)
+    Y = pb.matrix("Y", m, n)
+    R = pb.symmetric("R", n, pattern=(np.arange(n)[:, None] % 2 == np.arange(n)[None, :] % 2))
+    Z = pb.matrix("Z", m, n, pattern=rng.random((m, n)) > 0.4)
+    s1, s2 = pb.scalar("s1"), pb.scalar("s2")
+    A, B = rng.normal(size=(N, n, n)), rng.normal(size=(N, n, m))
+    pb.add_lmi(terms=[(Q, np.swapaxes(A, 1, 2), np.eye(n)), (Y, -np.swapaxes(B, 1, 2), np.eye(n)), (Q, A, A),
+                      (R, rng.normal(size=(n, n)), A), (Z, np.swapaxes(B, 1, 2), A)],
+               scalars=[(s1, np.eye(n)), (s2, rng.normal(size=(N, n, n)))], const=rng.normal(size=(N, n, n)))
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    pb.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)], scalars=[(s1, np.diag([1.0] * m + [0.0] * n))])
+    pb.add_lmi(scalars=[(s2, np.ones((1, 1)))], const=np.ones((1, 1)))
+    return pb
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_structured_schur_complement_equals_its_definition(seed):
+    rng = np.random.default_rng(seed)
+    pb = _every_kind(rng)
+    W = _random_w(pb, rng)
+    M, D = pb.schur(W), dense_schur(pb, W)
+    assert M.shape == (pb.n_free, pb.n_free)
+    assert np.abs(M - D).max() <= 1e-12 * np.abs(D).max()
+    assert np.allclose(M, M.T, rtol=0, atol=1e-13 * np.abs(M).max())
+
+
+def test_adjoint_is_the_transpose_of_the_linear_map():
+    rng = np.random.default_rng(3)
+    pb = _every_kind(rng)
+    y = rng.normal(size=pb.n_free)
+    Z = [0.5 * (z + np.swapaxes(z, 1, 2)) for z in _random_w(pb, rng)]
+    lhs = sum(float(np.einsum("nst,nst->", f, z)) for f, z in zip(pb.blocks(y, constant=False), Z))
+    assert lhs == pytest.approx(float(y @ pb.adjoint(Z)), rel=1e-12)
+
+
+def _scara_loops(scale: float) -> np.ndarray:
+    model = sr.paper_model()
+    d = sr.design(model, 3, 90)
+    A = box_closed_loops(model, d.K)[::16]  # 64 of the 1024 vertices: cvxpy builds the reference slowly
+    loops = d.A_cl + scale * (A - d.A_cl)
+    return loops / np.abs(loops).max()
+
+
+def _corpus() -> dict[str, LMIProblem]:
+    """Problems of the package's kinds: continuous and sampled common P, synthesis, feasible or not."""
+    problems = {}
+    for scale in (0.1, 0.3):
+        problems[f"common P, SCARA box x{scale}"] = common_p_problem(_scara_loops(scale))[0]
+    problems["common P, SCARA box (infeasible)"] = common_p_problem(_scara_loops(1.0))[0]
+    loops = _scara_loops(0.2)
+    problems["sampled common P"] = common_p_problem(loops, quadratic=0.05)[0]
+    rng = np.random.default_rng(7)
+    A = np.array([[[0.0, 1.0], [-1.0, -0.5]]]) + 0.2 * rng.normal(size=(6, 2, 2))
+    B = np.array([[[0.0], [1.0]]]) + 0.1 * rng.normal(size=(6, 2, 1))
+    problems["synthesis, decay 0.5"] = synthesis_problem(A, B, 0.5, 10.0)[0]
+    problems["synthesis, decay 50 (infeasible)"] = synthesis_problem(A, B, 50.0, 10.0)[0]
+    return problems
+
+
+CORPUS = _corpus()
+
+
+@pytest.mark.parametrize("name", list(CORPUS))
+def test_optimal_value_equals_clarabels(name):
+    pytest.importorskip("cvxpy")
+    pb = CORPUS[name]
+    own, ref = solve(pb, "IPM"), solve(pb, "CLARABEL")
+    assert own.status == "optimal", own.status
+    assert ref.status in ("optimal", "optimal_inaccurate"), ref.status
+    assert own.objective == pytest.approx(ref.objective, rel=1e-6, abs=1e-8)
+    # the answer is feasible: every block positive semidefinite to rounding
+    for block in pb.blocks(own.y):
+        assert np.linalg.eigvalsh(block)[:, 0].min() >= -1e-9 * max(1.0, np.abs(block).max())
+    # and the dual bound closes the gap: bᵀy <= ⟨C, Z⟩ = bᵀy + Σ⟨Z, S⟩
+    dual = sum(float(np.einsum("nst,nst->", f.const, z)) for f, z in zip(pb.families, own.duals))
+    assert dual - own.objective == pytest.approx(own.gap, abs=1e-8)
+    assert own.gap <= 1e-8
+
+
+def test_the_accept_callback_stops_at_the_first_accepted_iterate():
+    pb, P, t = common_p_problem(_scara_loops(0.2))
+    full = solve(pb)
+    seen = []
+
+    def accept(y):
+        seen.append(y[t.offset])
+        return y[t.offset] > 0
+
+    early = solve(pb, accept=accept)
+    assert early.accepted and not full.accepted
+    assert early.iterations < full.iterations
+    assert early.value(t) > 0 and seen[-1] == early.value(t)
+    assert early.value(t) <= full.value(t) * (1 + 1e-9)
+
+
+def test_a_tiny_optimum_is_resolved_absolutely():
+    """t* of 1e-8 (the 6-joint arm's sampled LMI is 6.5e-8) comes out to its own relative accuracy."""
+    eps = 1e-8
+    # one loop ẋ = −eps x with P ⪯ 1: t* = min(P, 2 eps P) = 2 eps
+    pb, P, t = common_p_problem(np.array([[[-eps]]]))
+    result = solve(pb)
+    assert result.status == "optimal"
+    assert result.value(t) == pytest.approx(2 * eps, rel=1e-6)
+
+
+def test_a_bad_description_names_the_argument():
+    pb = LMIProblem()
+    P = pb.symmetric("P", 2)
+    with pytest.raises(ArgumentValueError, match="`terms`"):
+        pb.add_lmi(terms=[(P, np.eye(2), np.eye(3))])
+    with pytest.raises(ArgumentValueError, match="`U`"):
+        pb.add_lmi(terms=[(P, np.eye(3), np.eye(2, 3))])  # U has 3 rows for a 2 x 2 P
+    with pytest.raises(ArgumentValueError, match="`name`"):
+        pb.symmetric("P", 3)
+    with pytest.raises(ArgumentValueError, match="`solver`"):
+        solve(pb, "MOSEK")
