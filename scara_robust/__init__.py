@@ -4,7 +4,7 @@ Use as ``import scara_robust as sr``. Every name below is re-exported from the
 subpackage that defines it; each subpackage's ``__all__`` is the one source of the API.
 The layers, bottom to top (each imports only those before it)::
 
-    paper, exceptions, results  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
+    paper, exceptions, results  ->  sdp  ->  model  ->  controller  ->  lyapunov  ->  robustness | simulation
                        ->  io  ->  export  ->  studies  ->  plotting  ->  workflow  ->  app, cli (front ends)
 
 The paper's numbers (:mod:`scara_robust.paper`)
@@ -23,6 +23,11 @@ Errors (:mod:`scara_robust.exceptions`)
     InputFileError, CampaignSpecError -- a bad robot, scenario or campaign file, naming file and field
     OptionError                     -- a front end's input that cannot be used (naming the option, e.g. --robot)
     MissingToolError                -- a program a command needs (a cross-compiler, an emulator) is not installed
+The LMI solver (:mod:`scara_robust.sdp`)
+    LMIProblem, LMIVariable, LMIFamily -- an LMI described once: variables, blocks of terms UᵀXV + VᵀXᵀU, objective
+    solve_lmi, LMI_BACKENDS, LMIResult -- solve it: the package's interior-point method or cvxpy + Clarabel
+    solve_ipm, solve_lmi_cvxpy      -- the two backends: structure-exploiting NT predictor-corrector; cvxpy's
+    dense_schur                     -- the Schur complement by its definition, the reference of the structured one
 Model (:mod:`scara_robust.model`)
     UncertainSystem, CAPABILITIES   -- what every uncertain system is, and what it can do (intervals, vertices, ...)
     ScaraParams, PARAM_UNITS, PARAM_LIMITS, paper_params -- robot data (SI, plausible ranges), the paper's by default
@@ -195,8 +200,8 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.2.0"
 
 #: The subpackages whose ``__all__`` make the API, in the order of the index above.
-_SUBPACKAGES = ("paper", "exceptions", "model", "controller", "lyapunov", "results", "robustness", "simulation",
-                "io", "export", "studies", "plotting", "workflow")
+_SUBPACKAGES = ("paper", "exceptions", "sdp", "model", "controller", "lyapunov", "results", "robustness",
+                "simulation", "io", "export", "studies", "plotting", "workflow")
 
 if TYPE_CHECKING:  # what the names are, for type checkers; at run time they are imported on first use
     from .controller import *  # noqa: F403
@@ -209,6 +214,7 @@ if TYPE_CHECKING:  # what the names are, for type checkers; at run time they are
     from .plotting import *  # noqa: F403
     from .results import *  # noqa: F403
     from .robustness import *  # noqa: F403
+    from .sdp import *  # noqa: F403
     from .simulation import *  # noqa: F403
     from .studies import *  # noqa: F403
     from .workflow import *  # noqa: F403

@@ -22,6 +22,7 @@ PACKAGE = "scara_robust"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("scara_robust.exceptions", "scara_robust.paper", "scara_robust.results", "scara_robust._deprecation"),
     ("scara_robust._validation", "scara_robust._resources", "scara_robust._progress"),
+    ("scara_robust.sdp",),  # the LMI solver: numpy, scipy and the validation helpers only
     ("scara_robust.model",),
     ("scara_robust.controller",),
     ("scara_robust.lyapunov",),

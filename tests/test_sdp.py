@@ -16,7 +16,8 @@ from scara_robust.exceptions import ArgumentValueError
 from scara_robust.robustness.lmi import common_p_problem
 from scara_robust.robustness.polytope import box_closed_loops
 from scara_robust.robustness.synthesis import synthesis_problem
-from scara_robust.sdp import LMIProblem, dense_schur, solve
+from scara_robust.sdp import LMIProblem, dense_schur
+from scara_robust.sdp import solve_lmi as solve
 
 
 def _random_w(problem: LMIProblem, rng: np.random.Generator) -> list[np.ndarray]:

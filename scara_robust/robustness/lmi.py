@@ -43,8 +43,7 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
-from ..sdp import LMIProblem, Variable
-from ..sdp import solve as sdp_solve
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ._cutting import ACTIVE_BATCH, grow_active_set
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
@@ -611,7 +610,7 @@ def _solve_common_p(A_s: Array, solver: str, form: str = "decay") -> tuple[str, 
     return status, np.array(P.value, dtype=float)
 
 
-def common_p_problem(A_s: Array, *, quadratic: float = 0.0) -> tuple[LMIProblem, Variable, Variable]:
+def common_p_problem(A_s: Array, *, quadratic: float = 0.0) -> tuple[LMIProblem, LMIVariable, LMIVariable]:
     """The common-P LMI in its always-feasible form, for the package's solver.
 
     ``maximize t: tI ⪯ P ⪯ I, −(A_iᵀP + PA_i + c A_iᵀPA_i) − tI ⪰ 0`` at every loop, with
@@ -627,7 +626,7 @@ def common_p_problem(A_s: Array, *, quadratic: float = 0.0) -> tuple[LMIProblem,
     Returns
     -------
     problem : LMIProblem
-    P, t : Variable
+    P, t : LMIVariable
     """
     n = A_s.shape[1]
     eye = np.eye(n)
@@ -657,7 +656,7 @@ def _solve_common_p_ipm(A_s: Array, accept: Callable[[Array], bool] | None,
         t_y = float(y[t.offset])
         return t_y > 0 and accept is not None and accept(P.value(y) / t_y)
 
-    result = sdp_solve(problem, "IPM", accept=take if accept is not None else None)
+    result = solve_lmi(problem, "IPM", accept=take if accept is not None else None)
     if result.y is None:
         return result.status, None
     t_val = result.value(t)

@@ -50,6 +50,7 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
 from .search import bisect
 
@@ -270,7 +271,7 @@ def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> 
     # A change of state coordinates x = T z leaves feasibility unchanged; T from the
     # Lyapunov matrix of the sample nearest the centre evens out the states' scales.
     T = _balancing(A[int(np.argmin(np.abs(p - centre)))])
-    T_inv = np.linalg.inv(T)
+    T_inv: Array = np.linalg.inv(T)
     A_t = T_inv @ A @ T
     # time unit: the geometric mean of the fastest and slowest decay of that sample, so that
     # neither the fast nor the slow modes' margins sit near the solver's tolerances
@@ -279,6 +280,12 @@ def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> 
     A_s = A_t / scale
     q = (p - centre) / half
     nu_s = nu / (half * scale) if math.isfinite(nu) else 0.0
+    if solver == "IPM":
+        status, Q0_ipm, Q1_ipm = _solve_ipm(A_s, q, math.inf if math.isinf(nu) else nu_s, None if slopes is None else
+                                            np.unique(T_inv @ slopes @ T * half / scale, axis=0))
+        if Q0_ipm is None or Q1_ipm is None:
+            return status, None, None
+        return (status, *_back(Q0_ipm, Q1_ipm, T_inv, centre, half))
     eye = np.eye(n)
     Q0 = cp.Variable((n, n), symmetric=True)
     Q1 = cp.Variable((n, n), symmetric=True)
@@ -310,13 +317,78 @@ def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> 
         status, _ = _run(cp.Problem(cp.Minimize(0), [*constraints, t == 0.5 * t_star]), t, solver)
         if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Q0.value is None or Q1.value is None:
             return status, None, None
-    # back to x: P = T⁻ᵀ Q T⁻¹
-    Q0_v = T_inv.T @ np.array(Q0.value, dtype=float) @ T_inv
-    Q1_v = np.zeros((n, n)) if math.isinf(nu) else T_inv.T @ np.array(Q1.value, dtype=float) @ T_inv
-    # back to the caller's p: P(p) = Q0 + (p − centre)/half · Q1
-    P1 = Q1_v / half
-    P0 = Q0_v - centre * P1
-    return status, 0.5 * (P0 + P0.T), 0.5 * (P1 + P1.T)
+    Q1_value = np.zeros((n, n)) if math.isinf(nu) else np.array(Q1.value, dtype=float)
+    return (status, *_back(np.array(Q0.value, dtype=float), Q1_value, T_inv, centre, half))
+
+
+def _back(Q0: Array, Q1: Array, T_inv: Array, centre: float, half: float) -> tuple[Array, Array]:
+    """(P0, P1) in the caller's state and p from the normalized solution (Q0, Q1)."""
+    # back to x: P = T⁻ᵀ Q T⁻¹; back to the caller's p: P(p) = Q0 + (p − centre)/half · Q1
+    P1 = T_inv.T @ Q1 @ T_inv / half
+    P0 = T_inv.T @ Q0 @ T_inv - centre * P1
+    return 0.5 * (P0 + P0.T), 0.5 * (P1 + P1.T)
+
+
+def pdl_problem(A_s: Array, q: Array, nu_s: float,
+                slopes: Array | None = None) -> tuple[LMIProblem, LMIVariable, LMIVariable | None, LMIVariable]:
+    """The rate-bounded LMI of :func:`_solve` for the package's solver (normalized units).
+
+    ``maximize t: tI ⪯ Q0 + q Q1 ⪯ I`` at every distinct q, ``−(A_iᵀP_i + P_iA_i ± ν Q1) ⪰ tI``
+    with ``P_i = Q0 + q_i Q1`` at every sample, and ``S̃ᵀQ1 + Q1S̃ ⪰ 0`` for every slope; with
+    ``nu_s = 0`` and an infinite rate, Q1 is absent (the common P). Strictly feasible for
+    any data (t → −∞); t* > 0 exactly when the strict conditions hold.
+
+    Parameters
+    ----------
+    A_s : ndarray, shape (V, n, n)
+    q : ndarray, shape (V,)
+        The samples' parameter in [−1, 1].
+    nu_s : float
+        The rate in normalized units; ``math.inf`` for the common P (no Q1).
+    slopes : ndarray, shape (k, n, n), optional
+
+    Returns
+    -------
+    problem : LMIProblem
+    Q0, Q1, t : LMIVariable
+        Q1 is None for an infinite rate.
+    """
+    n = A_s.shape[1]
+    eye = np.eye(n)
+    problem = LMIProblem()
+    Q0 = problem.symmetric("Q0", n)
+    Q1 = None if math.isinf(nu_s) else problem.symmetric("Q1", n)
+    t = problem.scalar("t")
+    values = np.unique(q)
+    level = values[:, None, None] * eye
+    def both(sign: float) -> list[tuple[LMIVariable, Array, Array]]:
+        return ([(Q0, sign * 0.5 * np.broadcast_to(eye, level.shape), eye)]
+                + ([] if Q1 is None else [(Q1, sign * 0.5 * level, eye)]))
+
+    problem.add_lmi(terms=both(1.0), scalars=[(t, -eye)], name="P(q) >= tI")
+    problem.add_lmi(terms=both(-1.0), const=eye, name="P(q) <= I")
+    signs = (0.0,) if Q1 is None else (1.0, -1.0)
+    for sign in signs:
+        terms = [(Q0, -np.broadcast_to(eye, A_s.shape), A_s)]
+        if Q1 is not None:
+            terms += [(Q1, -q[:, None, None] * eye, A_s), (Q1, -0.5 * sign * nu_s * eye, eye)]
+        problem.add_lmi(terms=terms, scalars=[(t, -eye)], name=f"decay, rate {sign:+g}")
+    if slopes is not None and Q1 is not None:
+        problem.add_lmi(terms=[(Q1, np.broadcast_to(eye, slopes.shape), slopes)], name="multi-convexity")
+    problem.maximize({t: 1.0})
+    return problem, Q0, Q1, t
+
+
+def _solve_ipm(A_s: Array, q: Array, nu_s: float, slopes: Array | None) -> tuple[str, Array | None, Array | None]:
+    """:func:`pdl_problem` by the package's solver: (status, Q0, Q1) in normalized units, or None."""
+    problem, Q0, Q1, t = pdl_problem(A_s, q, nu_s, slopes)
+    result = solve_lmi(problem, "IPM")
+    if result.y is None:
+        return result.status, None, None
+    if result.value(t) <= FEASIBILITY_TOL:
+        return ("infeasible" if result.status == "optimal" else result.status), None, None
+    Q0_value = result.value(Q0)
+    return result.status, Q0_value, np.zeros_like(Q0_value) if Q1 is None else result.value(Q1)
 
 
 def rate_bounded_certificate(

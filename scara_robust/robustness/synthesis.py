@@ -40,8 +40,7 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, Signal, as_model, is_model
 from ..results import AnalysisResult
-from ..sdp import LMIProblem, Variable
-from ..sdp import solve as sdp_solve
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
@@ -362,7 +361,7 @@ def _solve(
 
 
 def synthesis_problem(A: Array, B: Array, alpha: float, kappa: float,
-                      pattern: tuple[Array, Array] | None = None) -> tuple[LMIProblem, dict[str, Variable]]:
+                      pattern: tuple[Array, Array] | None = None) -> tuple[LMIProblem, dict[str, LMIVariable]]:
     """The decay synthesis LMI in its always-feasible form, for the package's solver.
 
     ``maximize t`` subject to ``Q ⪯ I``, ``Q ⪰ μI``, ``μ >= t``, ``[[κ²μI, Y], [Yᵀ, Q]] ⪰ 0`` and
@@ -414,7 +413,7 @@ def _solve_ipm(A: Array, B: Array, alpha: float, kappa: float, pattern: tuple[Ar
         m_y = float(y[mu.offset])
         return accept is not None and y[t.offset] > 0 and m_y > 0 and accept(Q.value(y) / m_y, Y.value(y) / m_y)
 
-    result = sdp_solve(problem, "IPM", accept=take if accept is not None else None)
+    result = solve_lmi(problem, "IPM", accept=take if accept is not None else None)
     if result.y is None:
         return result.status, None, None, math.nan
     t_val, mu_val = result.value(t), result.value(mu)

@@ -38,14 +38,14 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .problem import LMIProblem, Variable
+from .problem import LMIProblem, LMIVariable
 
-__all__ = ["SDPResult", "solve_ipm", "TOLERANCE", "MAX_ITERATIONS"]
+__all__ = ["LMIResult", "solve_ipm"]
 
 Array = NDArray[np.float64]
 
-#: Relative gap at which an answer is optimal.
-TOLERANCE = 1e-9
+#: Relative gap at which an answer is optimal (Clarabel's default ``tol_gap_rel``).
+TOLERANCE = 1e-8
 #: Relative residuals of both problems at which an answer is optimal (Clarabel's default
 #: feasibility tolerance): the Z side's residual grows to about 1e-9 near the end, where W is
 #: ill-conditioned; the answer y is verified by the caller, not taken on this test.
@@ -64,7 +64,7 @@ INACCURATE = 1e-6
 
 
 @dataclass(frozen=True)
-class SDPResult:
+class LMIResult:
     """The answer of an LMI solver, in cvxpy's vocabulary of statuses.
 
     Attributes
@@ -96,7 +96,7 @@ class SDPResult:
     accepted: bool = False
     solver: str = "IPM"
 
-    def value(self, var: Variable) -> Array:
+    def value(self, var: LMIVariable) -> Array:
         """The variable's value: a float for a scalar, else an array of its shape."""
         if self.y is None:
             raise ValueError(f"no value of {var.name!r}: the solver said {self.status}")
@@ -145,7 +145,7 @@ def _blas() -> Any:
 
 
 def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = None,
-              tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS) -> SDPResult:
+              tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS) -> LMIResult:
     """Solve `problem` by the primal–dual interior-point method of this module.
 
     Parameters
@@ -160,7 +160,7 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
 
     Returns
     -------
-    SDPResult
+    LMIResult
 
     Notes
     -----
@@ -173,7 +173,7 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
 
 
 def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, tolerance: float,
-           max_iterations: int) -> SDPResult:
+           max_iterations: int) -> LMIResult:
     fams = problem.families
     b = problem.b()
     C = [f.const for f in fams]
@@ -200,15 +200,15 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         rel_d = math.sqrt(_inner(Rd, Rd)) / (1.0 + norm_C)
         rel_gap = gap / max(abs(obj_y), abs(obj_z), 1e-300)
         if accept is not None and _psd(lin) and accept(y):
-            return SDPResult("optimal", y, Z, obj_y, gap, it, accepted=True)
+            return LMIResult("optimal", y, Z, obj_y, gap, it, accepted=True)
         if rel_p < FEASIBILITY and rel_d < FEASIBILITY and (rel_gap < tolerance or gap < ABSOLUTE_GAP):
-            return SDPResult("optimal", y, Z, obj_y, gap, it)
+            return LMIResult("optimal", y, Z, obj_y, gap, it)
         if obj_z < 0:
             farkas = float(np.linalg.norm(problem.adjoint(Z))) / -obj_z
             if farkas < tolerance:
-                return SDPResult("infeasible", None, [Zf / -obj_z for Zf in Z], math.nan, gap, it)
+                return LMIResult("infeasible", None, [Zf / -obj_z for Zf in Z], math.nan, gap, it)
         if float(np.linalg.norm(y)) > 1e12:
-            return SDPResult("unbounded", None, None, math.nan, gap, it)
+            return LMIResult("unbounded", None, None, math.nan, gap, it)
         gaps.append(gap)
         if len(gaps) > STALL and gap > 0.5 * gaps[-1 - STALL] and rel_p < INACCURATE and rel_d < INACCURATE:
             status = "stalled"  # rounding stops the progress: the iterate is as good as it gets
@@ -256,8 +256,8 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
     rel_p = float(np.linalg.norm(rp)) / (1.0 + float(np.linalg.norm(b)))
     rel_d = math.sqrt(_inner([L - Sf for L, Sf in zip(lin, S)], [L - Sf for L, Sf in zip(lin, S)])) / (1.0 + norm_C)
     if rel_p < INACCURATE and rel_d < INACCURATE:
-        return SDPResult("optimal_inaccurate", y, Z, float(b @ y), gap, it)
-    return SDPResult(status, None, None, math.nan, gap, it)
+        return LMIResult("optimal_inaccurate", y, Z, float(b @ y), gap, it)
+    return LMIResult(status, None, None, math.nan, gap, it)
 
 
 @dataclass(frozen=True)

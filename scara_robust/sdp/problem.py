@@ -37,13 +37,13 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_array
 from ..exceptions import ArgumentValueError
 
-__all__ = ["LMIProblem", "Variable", "Family", "dense_schur"]
+__all__ = ["LMIProblem", "LMIVariable", "LMIFamily", "dense_schur"]
 
 Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class Variable:
+class LMIVariable:
     """A matrix or scalar variable of an :class:`LMIProblem`.
 
     Attributes
@@ -96,22 +96,22 @@ class Variable:
 
 
 @dataclass(frozen=True, eq=False)
-class Family:
+class LMIFamily:
     """N blocks of size s sharing their terms' structure.
 
     Attributes
     ----------
-    terms : tuple of (Variable, ndarray (N, r, s), ndarray (N, c, s))
+    terms : tuple of (LMIVariable, ndarray (N, r, s), ndarray (N, c, s))
         ``Uᵀ X V + Vᵀ Xᵀ U`` per block.
-    scalars : tuple of (Variable, ndarray (N, s, s))
+    scalars : tuple of (LMIVariable, ndarray (N, s, s))
         ``s_j G_j`` per block, G symmetric.
     const : ndarray, shape (N, s, s)
         C, symmetric.
     name : str
     """
 
-    terms: tuple[tuple[Variable, Array, Array], ...]
-    scalars: tuple[tuple[Variable, Array], ...]
+    terms: tuple[tuple[LMIVariable, Array, Array], ...]
+    scalars: tuple[tuple[LMIVariable, Array], ...]
     const: Array
     name: str = ""
 
@@ -145,7 +145,7 @@ class LMIProblem:
     """Maximize a linear objective subject to linear matrix inequalities ``S_b(y) ⪰ 0``.
 
     Build it with :meth:`symmetric`, :meth:`matrix`, :meth:`scalar`, :meth:`add_lmi` and
-    :meth:`maximize`; solve it with :func:`scara_robust.sdp.solve` (the package's
+    :meth:`maximize`; solve it with :func:`~scara_robust.solve_lmi` (the package's
     interior-point method or cvxpy + Clarabel).
 
     Examples
@@ -153,7 +153,7 @@ class LMIProblem:
     Largest t with ``tI ⪯ P ⪯ I`` and ``AᵀP + PA ⪯ −tI`` for ``A = −I``: t = 1 at P = I::
 
     >>> import numpy as np
-    >>> from scara_robust.sdp import LMIProblem, solve
+    >>> from scara_robust.sdp import LMIProblem, solve_lmi
     >>> pb = LMIProblem()
     >>> P, t = pb.symmetric("P", 2), pb.scalar("t")
     >>> half = 0.5 * np.eye(2)
@@ -162,14 +162,14 @@ class LMIProblem:
     >>> A = -np.eye(2)
     >>> _ = pb.add_lmi(terms=[(P, -A, np.eye(2))], scalars=[(t, -np.eye(2))])      # −(AᵀP + PA) − tI ⪰ 0
     >>> pb.maximize({t: 1.0})
-    >>> round(solve(pb).value(t), 6)
+    >>> round(solve_lmi(pb).value(t), 6)
     1.0
     """
 
     def __init__(self) -> None:
-        self.variables: list[Variable] = []
-        self.families: list[Family] = []
-        self.objective: dict[Variable, Array] = {}
+        self.variables: list[LMIVariable] = []
+        self.families: list[LMIFamily] = []
+        self.objective: dict[LMIVariable, Array] = {}
         self._size = 0
 
     @property
@@ -178,39 +178,39 @@ class LMIProblem:
         return self._size
 
     def _add(self, name: str, rows: int, cols: int, symmetric: bool, pattern: ArrayLike | None,
-             scalar: bool = False) -> Variable:
+             scalar: bool = False) -> LMIVariable:
         if any(v.name == name for v in self.variables):
             raise ArgumentValueError("name", f"must be new in the problem, found a second variable {name!r}")
         mask = None if pattern is None else check_array("pattern", pattern, shape=(rows, cols))
         if mask is not None and symmetric and not np.array_equal(mask != 0, (mask != 0).T):
             raise ArgumentValueError("pattern", f"of the symmetric variable {name!r} must be symmetric")
-        var = Variable(name, (rows, cols), symmetric, self._size, _basis(rows, cols, symmetric, mask), scalar)
+        var = LMIVariable(name, (rows, cols), symmetric, self._size, _basis(rows, cols, symmetric, mask), scalar)
         self._size += var.size
         self.variables.append(var)
         return var
 
-    def symmetric(self, name: str, n: int, *, pattern: ArrayLike | None = None) -> Variable:
+    def symmetric(self, name: str, n: int, *, pattern: ArrayLike | None = None) -> LMIVariable:
         """A symmetric ``n × n`` variable (entries where `pattern` is 0 held at 0)."""
         return self._add(name, n, n, True, pattern)
 
-    def matrix(self, name: str, rows: int, cols: int, *, pattern: ArrayLike | None = None) -> Variable:
+    def matrix(self, name: str, rows: int, cols: int, *, pattern: ArrayLike | None = None) -> LMIVariable:
         """A full ``rows × cols`` variable (entries where `pattern` is 0 held at 0)."""
         return self._add(name, rows, cols, False, pattern)
 
-    def scalar(self, name: str) -> Variable:
+    def scalar(self, name: str) -> LMIVariable:
         """A real scalar variable."""
         return self._add(name, 1, 1, False, None, scalar=True)
 
-    def add_lmi(self, *, terms: Sequence[tuple[Variable, ArrayLike, ArrayLike]] = (),
-                scalars: Sequence[tuple[Variable, ArrayLike]] = (), const: ArrayLike | None = None,
-                name: str = "") -> Family:
+    def add_lmi(self, *, terms: Sequence[tuple[LMIVariable, ArrayLike, ArrayLike]] = (),
+                scalars: Sequence[tuple[LMIVariable, ArrayLike]] = (), const: ArrayLike | None = None,
+                name: str = "") -> LMIFamily:
         """Add the blocks ``C + Σ (UᵀXV + VᵀXᵀU) + Σ s G ⪰ 0``.
 
         Parameters
         ----------
-        terms : sequence of (Variable, array_like (N, r, s) or (r, s), array_like (N, c, s) or (c, s))
+        terms : sequence of (LMIVariable, array_like (N, r, s) or (r, s), array_like (N, c, s) or (c, s))
             X with U and V; a 2-D U or V is the same for every block.
-        scalars : sequence of (Variable, array_like (N, s, s) or (s, s))
+        scalars : sequence of (LMIVariable, array_like (N, s, s) or (s, s))
             A scalar variable and its symmetric G.
         const : array_like, shape (N, s, s) or (s, s), optional
             C (symmetric); zero by default.
@@ -218,7 +218,7 @@ class LMIProblem:
 
         Returns
         -------
-        Family
+        LMIFamily
         """
         shapes = [np.shape(a)[-1] for _, u, v in terms for a in (u, v)] + [np.shape(g)[-1] for _, g in scalars]
         if const is not None:
@@ -250,16 +250,16 @@ class LMIProblem:
             Gs = stack(G, s, "G")
             scalar_list.append((var, 0.5 * (Gs + np.swapaxes(Gs, 1, 2))))
         C = np.zeros((N, s, s)) if const is None else stack(const, s, "const")
-        family = Family(tuple(term_list), tuple(scalar_list), 0.5 * (C + np.swapaxes(C, 1, 2)), name)
+        family = LMIFamily(tuple(term_list), tuple(scalar_list), 0.5 * (C + np.swapaxes(C, 1, 2)), name)
         self.families.append(family)
         return family
 
-    def maximize(self, objective: Mapping[Variable, ArrayLike | float]) -> None:
+    def maximize(self, objective: Mapping[LMIVariable, ArrayLike | float]) -> None:
         """Maximize ``Σ c_j s_j + Σ ⟨C_X, X⟩`` (a scalar's coefficient a float, a matrix's a matrix)."""
         self.objective = {var: np.broadcast_to(np.asarray(c, dtype=float), var.shape).copy()
                           for var, c in objective.items()}
 
-    def minimize(self, objective: Mapping[Variable, ArrayLike | float]) -> None:
+    def minimize(self, objective: Mapping[LMIVariable, ArrayLike | float]) -> None:
         """Minimize: :meth:`maximize` of the opposite."""
         self.maximize({var: -np.asarray(c, dtype=float) for var, c in objective.items()})
 
@@ -357,7 +357,7 @@ class LMIProblem:
         return M
 
 
-def _project(X: Variable, H: Array) -> Array:
+def _project(X: LMIVariable, H: Array) -> Array:
     """``X.basisᵀ @ H`` by gathering rows: each free entry is one or two (symmetric) entries of vec(X)."""
     first, second, twice = X.gather
     out = H[first]

@@ -1,7 +1,7 @@
 """The reference backend: an :class:`~scara_robust.sdp.problem.LMIProblem` solved by cvxpy (extra ``lmi``).
 
 The description is written out term by term as cvxpy expressions and solved by Clarabel
-(or SCS); the answer comes back as an :class:`~scara_robust.sdp.ipm.SDPResult` with cvxpy's
+(or SCS); the answer comes back as an :class:`~scara_robust.sdp.ipm.LMIResult` with cvxpy's
 status and the dual blocks. It is slower than the package's own solver (cvxpy builds the
 problem anew, and its solver sees no structure), and it is the one every problem kind is
 tested against.
@@ -14,13 +14,13 @@ import warnings
 
 import numpy as np
 
-from .ipm import SDPResult
+from .ipm import LMIResult
 from .problem import LMIProblem
 
-__all__ = ["solve_cvxpy"]
+__all__ = ["solve_lmi_cvxpy"]
 
 
-def solve_cvxpy(problem: LMIProblem, solver: str = "CLARABEL") -> SDPResult:
+def solve_lmi_cvxpy(problem: LMIProblem, solver: str = "CLARABEL") -> LMIResult:
     """Solve `problem` with cvxpy and `solver`.
 
     Parameters
@@ -31,7 +31,7 @@ def solve_cvxpy(problem: LMIProblem, solver: str = "CLARABEL") -> SDPResult:
 
     Returns
     -------
-    SDPResult
+    LMIResult
         ``y`` gathered from the variables' values; ``duals`` the blocks' dual matrices.
     """
     import cvxpy as cp
@@ -56,7 +56,7 @@ def solve_cvxpy(problem: LMIProblem, solver: str = "CLARABEL") -> SDPResult:
             warnings.simplefilter("ignore", UserWarning)
             cvx.solve(solver=solver)  # type: ignore[no-untyped-call]
     except cp.SolverError as err:
-        return SDPResult(f"solver error: {err}", None, None, math.nan, math.nan, 0, solver=solver)
+        return LMIResult(f"solver error: {err}", None, None, math.nan, math.nan, 0, solver=solver)
     status = str(cvx.status)
     duals = None
     if all(c.dual_value is not None for c in constraints):
@@ -65,6 +65,6 @@ def solve_cvxpy(problem: LMIProblem, solver: str = "CLARABEL") -> SDPResult:
     stats = cvx.solver_stats
     iterations = int(stats.num_iters) if stats is not None and stats.num_iters is not None else 0
     if y.value is None or status not in ("optimal", "optimal_inaccurate"):
-        return SDPResult(status, None, duals, math.nan, math.nan, iterations, solver=solver)
+        return LMIResult(status, None, duals, math.nan, math.nan, iterations, solver=solver)
     y_val = np.array(y.value, dtype=float)
-    return SDPResult(status, y_val, duals, float(problem.b() @ y_val), math.nan, iterations, solver=solver)
+    return LMIResult(status, y_val, duals, float(problem.b() @ y_val), math.nan, iterations, solver=solver)
