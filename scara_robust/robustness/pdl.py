@@ -271,7 +271,7 @@ def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> 
     # A change of state coordinates x = T z leaves feasibility unchanged; T from the
     # Lyapunov matrix of the sample nearest the centre evens out the states' scales.
     T = _balancing(A[int(np.argmin(np.abs(p - centre)))])
-    T_inv: Array = np.linalg.inv(T)
+    T_inv = np.asarray(np.linalg.inv(T), dtype=float)
     A_t = T_inv @ A @ T
     # time unit: the geometric mean of the fastest and slowest decay of that sample, so that
     # neither the fast nor the slow modes' margins sit near the solver's tolerances
