@@ -14,7 +14,9 @@ import pytest
 import scara_robust as sr
 from scara_robust.exceptions import ArgumentValueError
 from scara_robust.robustness.lmi import common_p_problem
+from scara_robust.robustness.pdl import pdl_problem
 from scara_robust.robustness.polytope import box_closed_loops
+from scara_robust.robustness.scheduled import schedule_lyapunov_problem
 from scara_robust.robustness.synthesis import synthesis_problem
 from scara_robust.sdp import LMIProblem, dense_schur
 from scara_robust.sdp import solve_lmi as solve
@@ -87,6 +89,21 @@ def _corpus() -> dict[str, LMIProblem]:
     B = np.array([[[0.0], [1.0]]]) + 0.1 * rng.normal(size=(6, 2, 1))
     problems["synthesis, decay 0.5"] = synthesis_problem(A, B, 0.5, 10.0)[0]
     problems["synthesis, decay 50 (infeasible)"] = synthesis_problem(A, B, 50.0, 10.0)[0]
+    pattern = (np.eye(2), np.ones((1, 2)))
+    problems["synthesis, patterned Q"] = synthesis_problem(A, B, 0.2, 10.0, pattern)[0]
+    # a spring whose stiffness changes with p in [−1, 1]: the rate-bounded and scheduled LMIs
+    q = np.linspace(-1.0, 1.0, 9)
+    spring = np.array([[[0.0, 1.0], [-(2.0 + 1.5 * qi), -0.3]] for qi in q])
+    problems["rate-bounded P(p), rate 0.5"] = pdl_problem(spring, q, 0.5)[0]
+    problems["rate-bounded P(p), rate 0.5, multi-convex"] = pdl_problem(
+        spring, q, 0.5, np.array([[[0.0, 0.0], [-1.5, 0.0]]]))[0]
+    problems["rate-bounded P(p), rate 50 (infeasible)"] = pdl_problem(spring, q, 50.0)[0]
+    b = np.array([-1.0, 0.0, 1.0])
+    segment = (q > 0).astype(np.int64)
+    weight = np.where(q > 0, q, q + 1.0)
+    for sign in (1.0, -1.0):
+        problems[f"scheduled P, rate 0.5, sign {sign:+g}"] = schedule_lyapunov_problem(
+            spring, segment, weight, np.full(q.size, sign), b, 0.5, 0.05)[0]
     return problems
 
 

@@ -51,8 +51,8 @@ __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_
 
 Array = NDArray[np.float64]
 
-#: The LMI solvers: the package's own interior-point method (:mod:`scara_robust.sdp`), then
-#: cvxpy's Clarabel (interior-point, the reference) and SCS (first-order), extra ``lmi``.
+#: The LMI solvers: the package's own interior-point method (:func:`~scara_robust.solve_lmi`),
+#: then cvxpy's Clarabel (interior-point, the reference) and SCS (first-order), extra ``lmi``.
 LMI_SOLVERS = ("IPM", "CLARABEL", "SCS")
 #: Status reported when cvxpy cannot be imported.
 NOT_INSTALLED = "not installed"
@@ -416,8 +416,12 @@ LMI_STOPS = ("optimum", "verified")
 #: the constraint is ``⪯ −I``) exceeds ``−1 + OPTIMUM_RTOL`` joins it, with ``stop='optimum'``.
 OPTIMUM_RTOL = 1e-6
 
-#: Up to this many closed loops the LMI is solved on all of them at once.
+#: Up to this many closed loops the LMI is solved on all of them at once (cvxpy's solvers).
 DIRECT_LOOPS = 16
+#: The same with the package's solver, whose iteration costs a matrix product over the loops
+#: (the SCARA's 1 024 box corners of 6 states, the arms' 95 samples of 18 or 21): the check
+#: sets still join by cutting planes.
+IPM_DIRECT_LOOPS = 2048
 
 #: Loops added per round where the state has at most :data:`SMALL_STATES` entries: a solve is
 #: cheap there (7–55 ms for 8–64 loops of 6 states), so fewer loops a round keep the active set,
@@ -559,7 +563,9 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
         return _solve_common_p(A_s[idx], solver, form)
 
     batch = ACTIVE_BATCH if A_v.shape[1] > SMALL_STATES else SMALL_BATCH
-    status, P_val, active = grow_active_set(solve, violation, np.arange(n_main) if n_main <= DIRECT_LOOPS else first,
+    # the package's solver costs O(N n⁴) an iteration: every loop at once beats rounds of cutting planes
+    direct = IPM_DIRECT_LOOPS if solver == "IPM" else DIRECT_LOOPS
+    status, P_val, active = grow_active_set(solve, violation, np.arange(n_main) if n_main <= direct else first,
                                             batch=batch)
     if P_val is None:
         # a verified proof of infeasibility on the active loops is one on all of them; where the

@@ -324,7 +324,7 @@ def sampled_certificate(
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
     solver : {'IPM', 'CLARABEL', 'SCS'}
-        The LMI's solver: the package's own (:mod:`scara_robust.sdp`) or cvxpy's.
+        The LMI's solver: the package's own (``scara_robust.sdp``, :func:`~scara_robust.solve_lmi`) or cvxpy's.
     candidate : array_like, shape (3p, 3p) or (n, n), or callable, optional
         A common Lyapunov matrix of the continuous-time loops in the PID form
         ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``; for static
@@ -566,8 +566,7 @@ def max_sample_time(
             continuous = lmi_certificate(A - B @ gain, solver=solver)
             return continuous.P if continuous.certified else None
 
-    def certified(ts: float) -> bool:
-        # the bisection needs the verdict alone: the first P numpy verifies
+    def certified(ts: float) -> bool:  # the bisection needs the verdict alone: the first P numpy verifies
         certs[ts] = sampled_certificate((A, B), pid_at(ts), check=check, solver=solver, candidate=candidate,
                                         stop="verified")
         return certs[ts].certified
@@ -582,16 +581,27 @@ def max_sample_time(
                                   f"no frozen instability up to the cap ts_max = {ts_max:g} s") + left_out)
     else:
         c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric", desc="certified Ts")
-    cert = certs[c_lo]
-    if solver == "IPM":  # the reported rate is the optimum's at that Ts, as every other certificate's
-        best = sampled_certificate((A, B), pid_at(c_lo), check=check, solver=solver, candidate=candidate)
-        cert = best if best.certified and best.rate >= cert.rate else cert
+    cert = _at_optimum(certs[c_lo], (A, B), pid_at(c_lo), check, solver, candidate)
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
         + (f"a frozen plant is unstable from Ts = {hi:.4g} s" if math.isfinite(hi) else
            f"no frozen instability up to the cap ts_max = {ts_max:g} s")
     ) + left_out
     return SampleTimeLimit(c_lo, (c_lo, c_hi), hi, unstable, cert, A.shape[0], message)
+
+
+def _at_optimum(cert: SampledCertificate, plants: tuple[Array, Array], pid: DiscretePID | SampledStateFeedback,
+                check: SampledSet | tuple[ArrayLike, ArrayLike] | None, solver: str,
+                candidate: Callable[[], ArrayLike | None] | None) -> SampledCertificate:
+    """The certificate a bisection stopped at (its first verified P), or the LMI's optimum there if it proves more.
+
+    A bisection needs only the verdict; the rate reported is the optimal P's, as every other
+    certificate's.
+    """
+    if solver != "IPM" or not cert.certified:
+        return cert
+    best = sampled_certificate(plants, pid, check=check, solver=solver, candidate=candidate)
+    return best if best.certified and best.rate >= cert.rate else cert
 
 
 def interior_grid(model: UncertainLTVModel, points: int = 5, max_plants: int = 4096) -> tuple[Array, Array]:

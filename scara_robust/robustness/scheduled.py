@@ -61,6 +61,7 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant
 from ..results import AnalysisResult, verdict_of
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ._cutting import grow_active_set
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 from .pdl import _balancing, _run
@@ -325,11 +326,14 @@ def _units(A: Array) -> tuple[Array, float]:
 def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: Array, scale: float,
                     active: NDArray[np.int64], solver: str) -> tuple[str, Array | None]:
     """Maximize t: tI ⪯ P_j ⪯ I, the active conditions ⪯ −tI (coordinates T, time unit 1/scale)."""
-    import cvxpy as cp
-
     n = cond.A.shape[1]
     T_inv = np.linalg.inv(T)
     common = math.isinf(rate)
+    if solver == "IPM":
+        return _solve_lyapunov_ipm(cond, b, rate, decay, T_inv @ cond.A[active] @ T / scale, scale, active,
+                                   np.asarray(T_inv, dtype=float))
+    import cvxpy as cp
+
     Q = ([cp.Variable((n, n), symmetric=True) for _ in b] if not common
          else [cp.Variable((n, n), symmetric=True)] * b.size)
     t = cp.Variable()
@@ -361,6 +365,73 @@ def _solve_lyapunov(cond: _Conditions, b: Array, rate: float, decay: float, T: A
             return status, None
     P = np.array([T_inv.T @ np.asarray(Qj.value, dtype=float) @ T_inv for Qj in Q])
     return status, 0.5 * (P + np.swapaxes(P, 1, 2))
+
+
+def schedule_lyapunov_problem(A_s: Array, segment: NDArray[np.int64], weight: Array, sign: Array, b: Array,
+                              rate: float, decay: float) -> tuple[LMIProblem, list[LMIVariable], LMIVariable]:
+    """The scheduled certificate's LMI (:func:`_solve_lyapunov`) written for the package's solver.
+
+    ``maximize t <= 1`` with ``tI ⪯ P_j ⪯ I`` at every breakpoint and, at every condition i
+    (segment j, weight s, sign σ of ṗ), ``−(AᵢᵀP + PAᵢ + 2dP + σ ν/h_j (P_{j+1} − P_j)) ⪰ tI``
+    with ``P = (1 − s)P_j + sP_{j+1}``; one P for an infinite rate. Units: the caller's (time
+    already scaled: `decay` and `rate` in the same unit as `A_s`).
+
+    Parameters
+    ----------
+    A_s : ndarray, shape (c, n, n)
+    segment : ndarray of int, shape (c,)
+    weight, sign : ndarray, shape (c,)
+    b : ndarray, shape (k,)
+        Breakpoints.
+    rate, decay : float
+
+    Returns
+    -------
+    problem : LMIProblem
+    P : list of LMIVariable
+        One per breakpoint, or one for an infinite rate.
+    t : LMIVariable
+    """
+    n = A_s.shape[1]
+    eye = np.eye(n)
+    common = math.isinf(rate)
+    problem = LMIProblem()
+    Q = [problem.symmetric(f"P{j}", n) for j in range(1 if common else b.size)]
+    t = problem.scalar("t")
+    problem.add_lmi(scalars=[(t, -np.ones((1, 1)))], const=np.ones((1, 1)), name="t <= 1")
+    for Qj in Q:
+        problem.add_lmi(terms=[(Qj, 0.5 * eye, eye)], scalars=[(t, -eye)], name=f"{Qj.name} >= tI")
+        problem.add_lmi(terms=[(Qj, -0.5 * eye, eye)], const=eye, name=f"{Qj.name} <= I")
+    h = np.diff(b)
+    seg, weight, sign = segment, weight[:, None, None], sign[:, None, None]
+    V = A_s + decay * eye  # −(AᵀP + PA + 2dP) = UᵀPV + VᵀPU with U = −I, V = A + dI
+    for j in np.unique(seg).tolist():
+        at = seg == j
+        if common:
+            terms = [(Q[0], -np.broadcast_to(eye, V[at].shape), V[at])]
+        else:
+            k = (rate / h[j]) * sign[at] if rate > 0 else np.zeros_like(sign[at])
+            terms = [(Q[j], -(1.0 - weight[at]) * eye, V[at]), (Q[j + 1], -weight[at] * eye, V[at]),
+                     (Q[j + 1], -0.5 * k * eye, np.broadcast_to(eye, V[at].shape)),
+                     (Q[j], 0.5 * k * eye, np.broadcast_to(eye, V[at].shape))]
+        problem.add_lmi(terms=terms, scalars=[(t, -eye)], name=f"segment {j}")
+    problem.maximize({t: 1.0})
+    return problem, Q, t
+
+
+def _solve_lyapunov_ipm(cond: _Conditions, b: Array, rate: float, decay: float, A_s: Array, scale: float,
+                        active: NDArray[np.int64], T_inv: Array) -> tuple[str, Array | None]:
+    """:func:`_solve_lyapunov` on the package's solver; `A_s` the active conditions' loops in its units."""
+    common = math.isinf(rate)
+    problem, Q, t = schedule_lyapunov_problem(A_s, cond.segment[active], cond.weight[active], cond.sign[active], b,
+                                              rate / scale, decay / scale)
+    result = solve_lmi(problem, "IPM")
+    if result.y is None:
+        return result.status, None
+    if result.value(t) <= FEASIBILITY_TOL:
+        return ("infeasible" if result.status == "optimal" else result.status), None
+    P = np.array([T_inv.T @ result.value(Q[0 if common else j]) @ T_inv for j in range(b.size)])
+    return result.status, 0.5 * (P + np.swapaxes(P, 1, 2))
 
 
 def _others(plant: UncertainPlant, name: str, fine: bool) -> dict[str, int]:
@@ -746,6 +817,8 @@ def _solve_synthesis(grid: _Grid, b: Array, rate: float, decay: float, bound: fl
     ``‖K_j‖ <= κ`` is kept as :func:`scara_robust.synthesize` keeps it: ``X ⪰ μI`` and
     ``[[κ²μI, Y], [Yᵀ, X]] ⪰ 0`` give ``K Kᵀ = Y X⁻² Yᵀ ⪯ Y X⁻¹ Yᵀ / μ ⪯ κ² I``.
     """
+    if solver == "IPM":
+        return _solve_synthesis_ipm(grid, b, rate, decay, bound, T, scale, active)
     import cvxpy as cp
 
     n, m = grid.B.shape[1], grid.B.shape[2]
@@ -783,6 +856,56 @@ def _solve_synthesis(grid: _Grid, b: Array, rate: float, decay: float, bound: fl
     Xv = np.array([T @ np.asarray(Xj.value, dtype=float) @ T.T for Xj in X])
     Yv = np.array([np.asarray(Yj.value, dtype=float) @ T.T for Yj in Y])
     return status, (0.5 * (Xv + np.swapaxes(Xv, 1, 2)), Yv)
+
+
+def _solve_synthesis_ipm(grid: _Grid, b: Array, rate: float, decay: float, bound: float, T: Array, scale: float,
+                         active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array] | None]:
+    """:func:`_solve_synthesis` on the package's solver (the same LMIs, written as terms)."""
+    n, m = grid.B.shape[1], grid.B.shape[2]
+    T_inv = np.linalg.inv(T)
+    eye, one = np.eye(n), np.ones((1, 1))
+    common = math.isinf(rate)
+    problem = LMIProblem()
+    X = [problem.symmetric(f"X{j}", n) for j in range(1 if common else b.size)]
+    Y = [problem.matrix(f"Y{j}", m, n) for j in range(b.size)]
+    t, mu = problem.scalar("t"), problem.scalar("mu")
+    problem.add_lmi(scalars=[(t, -one)], const=one, name="t <= 1")
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    for Xj in X:
+        problem.add_lmi(terms=[(Xj, -0.5 * eye, eye)], const=eye, name=f"{Xj.name} <= I")
+        problem.add_lmi(terms=[(Xj, 0.5 * T.T, T.T)], scalars=[(mu, -eye)], name=f"T {Xj.name} Tᵀ >= mu I")
+    for j, Yj in enumerate(Y):
+        Xj = X[0 if common else j]
+        # [[κ²μI, Y Tᵀ], [T Yᵀ, T X Tᵀ]] ⪰ 0
+        problem.add_lmi(terms=[(Yj, top, T.T @ bottom), (Xj, 0.5 * T.T @ bottom, T.T @ bottom)],
+                        scalars=[(mu, bound**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name=f"gain bound {j}")
+    h = np.diff(b)
+    A_s = T_inv @ grid.A[active] @ T / scale
+    B_s = T_inv @ grid.B[active] / scale
+    seg, weight = grid.segment[active], grid.weight[active][:, None, None]
+    U = -(np.swapaxes(A_s, 1, 2) + (decay / scale) * eye)  # −(AX + XAᵀ + 2dX) = UᵀXV + VᵀXU, V = I
+    for j in np.unique(seg).tolist():
+        at = seg == j
+        w = weight[at]
+        Xa, Xb = X[0 if common else j], X[0 if common else j + 1]
+        ident = np.broadcast_to(eye, U[at].shape)
+        base = [(Xa, (1.0 - w) * U[at], ident), (Xb, w * U[at], ident),
+                (Y[j], (1.0 - w) * np.swapaxes(B_s[at], 1, 2), ident),
+                (Y[j + 1], w * np.swapaxes(B_s[at], 1, 2), ident)]
+        signs = (1.0, -1.0) if not common and rate > 0 else (0.0,)
+        for sign in signs:
+            k = sign * rate / scale / h[j]
+            slope = [] if sign == 0.0 else [(Xb, 0.5 * k * ident, ident), (Xa, -0.5 * k * ident, ident)]
+            problem.add_lmi(terms=base + slope, scalars=[(t, -eye)], name=f"segment {j}, rate {sign:+g}")
+    problem.maximize({t: 1.0})
+    result = solve_lmi(problem, "IPM")
+    if result.y is None:
+        return result.status, None
+    if result.value(t) <= FEASIBILITY_TOL:
+        return ("infeasible" if result.status == "optimal" else result.status), None
+    Xv = np.array([T @ result.value(X[0 if common else j]) @ T.T for j in range(b.size)])
+    Yv = np.array([result.value(Yj) @ T.T for Yj in Y])
+    return result.status, (0.5 * (Xv + np.swapaxes(Xv, 1, 2)), Yv)
 
 
 def _synthesis_violation(grid: _Grid, b: Array, rate: float, decay: float, X: Array, Y: Array) -> Array:

@@ -57,8 +57,12 @@ ABSOLUTE_GAP = 1e-14
 MAX_ITERATIONS = 100
 #: Steps of iterative refinement of each Newton direction.
 REFINEMENT_STEPS = 2
-#: Iterations over which a gap that has not halved is a stall (rounding's floor).
-STALL = 4
+#: Iterations over which a gap within 1e-6 of the objectives that has not shrunk by 10 % is a
+#: stall (rounding's floor).
+STALL = 5
+#: A relative gap within which an iterate where rounding stops the progress is optimal (the
+#: objective to seven digits; Clarabel calls 5e-5 "almost solved").
+ROUNDING_GAP = 1e-7
 #: Residuals within which an answer stopped early is ``'optimal_inaccurate'``.
 INACCURATE = 1e-6
 
@@ -109,7 +113,7 @@ def _sym(a: Array) -> Array:
 
 
 def _inner(a: Sequence[Array], b: Sequence[Array]) -> float:
-    return float(sum(np.einsum("nst,nst->", x, y) for x, y in zip(a, b)))
+    return float(sum(np.vdot(x, y) for x, y in zip(a, b)))
 
 
 def _step(X: Sequence[Array], dX: Sequence[Array]) -> float:
@@ -210,9 +214,11 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         if float(np.linalg.norm(y)) > 1e12:
             return LMIResult("unbounded", None, None, math.nan, gap, it)
         gaps.append(gap)
-        if len(gaps) > STALL and gap > 0.5 * gaps[-1 - STALL] and rel_p < INACCURATE and rel_d < INACCURATE:
-            status = "stalled"  # rounding stops the progress: the iterate is as good as it gets
-            break
+        if len(gaps) > STALL and gap > 0.9 * gaps[-1 - STALL] and rel_gap < INACCURATE:
+            # rounding stops the progress: the iterate is as good as it gets; optimal when its
+            # residuals are within the tolerance and its gap within ROUNDING_GAP of the objectives
+            near = rel_p < FEASIBILITY and rel_d < FEASIBILITY and (rel_gap < ROUNDING_GAP or gap < ABSOLUTE_GAP)
+            return LMIResult("optimal" if near else "optimal_inaccurate", y, Z, obj_y, gap, it)
         if it == max_iterations:
             break
         try:

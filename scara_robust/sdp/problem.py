@@ -66,12 +66,12 @@ class LMIVariable:
     basis: Array = field(repr=False)
     scalar: bool = False
 
-    @property
+    @functools.cached_property
     def size(self) -> int:
         """Free entries p."""
         return int(self.basis.shape[1])
 
-    @property
+    @functools.cached_property
     def slice(self) -> slice:
         """Its entries in ``y``."""
         return slice(self.offset, self.offset + self.size)
@@ -120,6 +120,12 @@ class LMIFamily:
         """Blocks N."""
         return int(self.const.shape[0])
 
+    @functools.cached_property
+    def transposed(self) -> tuple[tuple[Array, Array], ...]:
+        """``(Uᵀ, Vᵀ)`` of each term, shape (N, s, r) and (N, s, c), made once."""
+        return tuple((np.ascontiguousarray(np.swapaxes(U, 1, 2)), np.ascontiguousarray(np.swapaxes(V, 1, 2)))
+                     for _, U, V in self.terms)
+
     @property
     def size(self) -> int:
         """Block size s."""
@@ -150,7 +156,7 @@ class LMIProblem:
 
     Examples
     --------
-    Largest t with ``tI ⪯ P ⪯ I`` and ``AᵀP + PA ⪯ −tI`` for ``A = −I``: t = 1 at P = I::
+    The largest t with ``tI ⪯ P ⪯ I`` and ``AᵀP + PA ⪯ −tI`` for ``A = −I`` is 1, at P = I:
 
     >>> import numpy as np
     >>> from scara_robust.sdp import LMIProblem, solve_lmi
@@ -277,9 +283,8 @@ class LMIProblem:
         out = []
         for fam in self.families:
             S = fam.const.copy() if constant else np.zeros_like(fam.const)
-            for var, U, V in fam.terms:
-                XV = var.value(y) @ V  # (N, r, s)
-                T = np.swapaxes(U, 1, 2) @ XV
+            for (var, _, V), (Ut, _) in zip(fam.terms, fam.transposed):
+                T = Ut @ (var.value(y) @ V)  # Uᵀ X V: (N, s, s)
                 S += T + np.swapaxes(T, 1, 2)
             for var, G in fam.scalars:
                 S += y[var.offset] * G
@@ -290,11 +295,11 @@ class LMIProblem:
         """``F*(Z)``: ``y ↦ Σ_b ⟨Z_b, F_b(y)⟩`` as a vector (Z symmetric, one (N, s, s) per family)."""
         out = np.zeros(self._size)
         for fam, Zf in zip(self.families, Z):
-            for var, U, V in fam.terms:
-                grad = 2.0 * np.einsum("nrs,nst,nct->rc", U, Zf, V, optimize=True)
+            for (var, U, _), (_, Vt) in zip(fam.terms, fam.transposed):
+                grad = 2.0 * (U @ Zf @ Vt).sum(axis=0)
                 out[var.slice] += var.basis.T @ grad.reshape(-1)
             for var, G in fam.scalars:
-                out[var.offset] += float(np.einsum("nst,nst->", G, Zf))
+                out[var.offset] += float(np.vdot(G, Zf))
         return out
 
     def schur(self, W: Sequence[Array]) -> Array:
@@ -317,16 +322,17 @@ class LMIProblem:
             N = fam.count
             UW = [U @ Wf for _, U, _ in fam.terms]   # U W: (N, r, s)
             VW = [V @ Wf for _, _, V in fam.terms]   # V W: (N, c, s)
-            for a, (X, U, _) in enumerate(fam.terms):
+            tr = fam.transposed
+            for a, (X, _, _) in enumerate(fam.terms):
                 r, c = X.shape
                 for b in range(a, len(fam.terms)):
-                    X2, U2, V2 = fam.terms[b]
+                    X2 = fam.terms[b][0]
                     r2, c2 = X2.shape
-                    t1 = VW[a] @ np.swapaxes(U2, 1, 2)   # V W U2ᵀ: (N, c, r2)
-                    t2 = VW[b] @ np.swapaxes(U, 1, 2)    # V2 W Uᵀ: (N, c2, r)
+                    t1 = VW[a] @ tr[b][0]   # V W U2ᵀ: (N, c, r2)
+                    t2 = VW[b] @ tr[a][0]   # V2 W Uᵀ: (N, c2, r)
                     H1 = (t1.reshape(N, c * r2).T @ t2.reshape(N, c2 * r)).reshape(c, r2, c2, r)
-                    t3 = VW[a] @ np.swapaxes(V2, 1, 2)   # V W V2ᵀ: (N, c, c2)
-                    t4 = UW[b] @ np.swapaxes(U, 1, 2)    # U2 W Uᵀ: (N, r2, r)
+                    t3 = VW[a] @ tr[b][1]   # V W V2ᵀ: (N, c, c2)
+                    t4 = UW[b] @ tr[a][0]   # U2 W Uᵀ: (N, r2, r)
                     H2 = (t3.reshape(N, c * c2).T @ t4.reshape(N, r2 * r)).reshape(c, c2, r2, r)
                     H = 2.0 * (H1.transpose(3, 0, 1, 2) + H2.transpose(3, 0, 2, 1)).reshape(r * c, r2 * c2)
                     if b != a and X is X2:  # the pair (b, a) too
@@ -337,13 +343,13 @@ class LMIProblem:
             GW = [G @ Wf for _, G in fam.scalars]
             for j, (s_var, _) in enumerate(fam.scalars):
                 for k in range(j, len(fam.scalars)):
-                    value = float(np.einsum("nst,nts->", GW[j], GW[k]))
+                    value = float(np.vdot(GW[j], np.swapaxes(GW[k], 1, 2)))
                     M[s_var.offset, fam.scalars[k][0].offset] += value
                     if k != j:
                         M[fam.scalars[k][0].offset, s_var.offset] += value
                 WGW = Wf @ GW[j]  # W G W
-                for X, U, V in fam.terms:
-                    cross = 2.0 * np.einsum("nrs,nst,nct->rc", U, WGW, V, optimize=True)
+                for (X, U, _), (_, Vt) in zip(fam.terms, tr):
+                    cross = 2.0 * (U @ WGW @ Vt).sum(axis=0)
                     vec = X.basis.T @ cross.reshape(-1)
                     M[s_var.offset, X.slice] += vec
                     M[X.slice, s_var.offset] += vec
