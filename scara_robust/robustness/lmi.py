@@ -418,9 +418,9 @@ OPTIMUM_RTOL = 1e-6
 
 #: Up to this many closed loops the LMI is solved on all of them at once (cvxpy's solvers).
 DIRECT_LOOPS = 16
-#: The same with the package's solver, whose iteration costs a matrix product over the loops
-#: (the SCARA's 1 024 box corners of 6 states, the arms' 95 samples of 18 or 21): the check
-#: sets still join by cutting planes.
+#: The same with the package's solver on more than :data:`SMALL_STATES` states, whose iteration
+#: costs a matrix product over the loops (the arms' 95 samples of 18 or 21 states: one solve
+#: instead of rounds); the check sets still join by cutting planes.
 IPM_DIRECT_LOOPS = 2048
 
 #: Loops added per round where the state has at most :data:`SMALL_STATES` entries: a solve is
@@ -563,8 +563,9 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
         return _solve_common_p(A_s[idx], solver, form)
 
     batch = ACTIVE_BATCH if A_v.shape[1] > SMALL_STATES else SMALL_BATCH
-    # the package's solver costs O(N n⁴) an iteration: every loop at once beats rounds of cutting planes
-    direct = IPM_DIRECT_LOOPS if solver == "IPM" else DIRECT_LOOPS
+    # the package's solver costs O(N n⁴) an iteration: on large states every loop at once beats
+    # rounds of cutting planes; on small ones a few loops a round stay cheaper
+    direct = IPM_DIRECT_LOOPS if solver == "IPM" and A_v.shape[1] > SMALL_STATES else DIRECT_LOOPS
     status, P_val, active = grow_active_set(solve, violation, np.arange(n_main) if n_main <= direct else first,
                                             batch=batch)
     if P_val is None:
