@@ -47,10 +47,8 @@ from .l2gain import bounded_real_ok
 from .lmi import (
     DECAY_FLOOR_RTOL,
     DIRECT_LOOPS,
-    IPM_DIRECT_LOOPS,
     LMI_SOLVERS,
     NOT_INSTALLED,
-    SMALL_STATES,
     VERIFY_FARKAS_RTOL,
     cvxpy_available,
     decay_floor,
@@ -496,8 +494,8 @@ def _solve_by_cuts(
         return status, None if Q is None or Y is None else (Q, Y, g)
 
     n_plants = A.shape[0]
-    if n_plants <= (IPM_DIRECT_LOOPS if solver == "IPM" and A.shape[1] > SMALL_STATES else DIRECT_LOOPS):
-        first = np.arange(n_plants)  # the package's solver takes every plant of a large state at once
+    if n_plants <= DIRECT_LOOPS:  # (every plant at once is slower here, also with the package's solver)
+        first = np.arange(n_plants)
     elif active and active[0][-1] < n_plants:
         first = active[0]
     else:  # the plant of largest norm: the fastest dynamics the gain must hold
