@@ -50,7 +50,7 @@ from .._deprecation import renamed_field
 from .._validation import check_array, check_choice, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
-from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
 from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
 from .search import bisect
 
@@ -382,7 +382,7 @@ def pdl_problem(A_s: Array, q: Array, nu_s: float,
 def _solve_ipm(A_s: Array, q: Array, nu_s: float, slopes: Array | None) -> tuple[str, Array | None, Array | None]:
     """:func:`pdl_problem` by the package's solver: (status, Q0, Q1) in normalized units, or None."""
     problem, Q0, Q1, t = pdl_problem(A_s, q, nu_s, slopes)
-    result = solve_lmi(problem, "IPM")
+    result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL)
     if result.y is None:
         return result.status, None, None
     if result.value(t) <= FEASIBILITY_TOL:

@@ -61,7 +61,7 @@ from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant
 from ..results import AnalysisResult, verdict_of
-from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
 from ._cutting import grow_active_set
 from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
 from .pdl import _balancing, _run
@@ -425,7 +425,7 @@ def _solve_lyapunov_ipm(cond: _Conditions, b: Array, rate: float, decay: float, 
     common = math.isinf(rate)
     problem, Q, t = schedule_lyapunov_problem(A_s, cond.segment[active], cond.weight[active], cond.sign[active], b,
                                               rate / scale, decay / scale)
-    result = solve_lmi(problem, "IPM")
+    result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL)
     if result.y is None:
         return result.status, None
     if result.value(t) <= FEASIBILITY_TOL:
@@ -898,7 +898,7 @@ def _solve_synthesis_ipm(grid: _Grid, b: Array, rate: float, decay: float, bound
             slope = [] if sign == 0.0 else [(Xb, 0.5 * k * ident, ident), (Xa, -0.5 * k * ident, ident)]
             problem.add_lmi(terms=base + slope, scalars=[(t, -eye)], name=f"segment {j}, rate {sign:+g}")
     problem.maximize({t: 1.0})
-    result = solve_lmi(problem, "IPM")
+    result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL)
     if result.y is None:
         return result.status, None
     if result.value(t) <= FEASIBILITY_TOL:

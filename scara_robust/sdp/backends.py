@@ -9,10 +9,10 @@ from numpy.typing import NDArray
 
 from .._validation import check_choice
 from .ipm import LMIResult, solve_ipm
-from .problem import LMIProblem
+from .problem import LMIProblem, LMIVariable
 from .reference import solve_lmi_cvxpy
 
-__all__ = ["LMI_BACKENDS", "solve_lmi"]
+__all__ = ["LMI_BACKENDS", "solve_lmi", "solve_lmi_interior"]
 
 #: The solvers of :func:`solve_lmi`: the package's own, then cvxpy's (extra ``lmi``).
 LMI_BACKENDS = ("IPM", "CLARABEL", "SCS")
@@ -38,3 +38,32 @@ def solve_lmi(problem: LMIProblem, solver: str = "IPM", *,
     if solver == "IPM":
         return solve_ipm(problem, accept=accept)
     return solve_lmi_cvxpy(problem, solver)
+
+
+def solve_lmi_interior(problem: LMIProblem, t: LMIVariable, *, floor: float = 0.0) -> LMIResult:
+    """Maximize the margin t of an always-feasible LMI; where rounding stops short, ask for t*/2.
+
+    The package's solver maximizes t; if it ends ``'optimal_inaccurate'`` (rounding stopped it
+    short of its tolerances) with ``t > floor``, the problem is solved again and stopped at the
+    first iterate, every block positive semidefinite, with ``t >= t*/2``: a strictly interior
+    point, which is all a certificate needs (cvxpy's path does the same in two problems).
+
+    Parameters
+    ----------
+    problem : LMIProblem
+        Its objective is ``maximize t``.
+    t : LMIVariable
+        The margin, a scalar.
+    floor : float
+        A margin at or below this is no interior point.
+
+    Returns
+    -------
+    LMIResult
+    """
+    result = solve_ipm(problem)
+    if result.status != "optimal_inaccurate" or result.y is None or result.value(t) <= floor:
+        return result
+    half = 0.5 * result.value(t)
+    second = solve_ipm(problem, accept=lambda y: bool(y[t.offset] >= half))
+    return second if second.accepted else result

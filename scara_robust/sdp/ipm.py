@@ -215,9 +215,10 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
             return LMIResult("unbounded", None, None, math.nan, gap, it)
         gaps.append(gap)
         if len(gaps) > STALL and gap > 0.9 * gaps[-1 - STALL] and rel_gap < INACCURATE:
-            # rounding stops the progress: the iterate is as good as it gets; optimal when its
-            # residuals are within the tolerance and its gap within ROUNDING_GAP of the objectives
-            near = rel_p < FEASIBILITY and rel_d < FEASIBILITY and (rel_gap < ROUNDING_GAP or gap < ABSOLUTE_GAP)
+            # rounding stops the progress: the iterate is as good as it gets; optimal when its gap
+            # is within ROUNDING_GAP of the objectives and its residuals within INACCURATE (the Z
+            # side's residual grows as W loses its conditioning; y's blocks stay exactly ⪰ 0)
+            near = rel_p < INACCURATE and rel_d < INACCURATE and (rel_gap < ROUNDING_GAP or gap < ABSOLUTE_GAP)
             return LMIResult("optimal" if near else "optimal_inaccurate", y, Z, obj_y, gap, it)
         if it == max_iterations:
             break
