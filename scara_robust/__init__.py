@@ -26,6 +26,7 @@ Errors (:mod:`scara_robust.exceptions`)
 The LMI solver (:mod:`scara_robust.sdp`)
     LMIProblem, LMIVariable, LMIFamily -- an LMI described once: variables, blocks of terms UᵀXV + VᵀXᵀU, objective
     solve_lmi, LMI_BACKENDS, LMIResult -- solve it: the package's interior-point method or cvxpy + Clarabel
+    solve_lmi_interior              -- a margin form's strictly interior point where rounding stops the optimum short
     solve_ipm, solve_lmi_cvxpy      -- the two backends: structure-exploiting NT predictor-corrector; cvxpy's
     dense_schur                     -- the Schur complement by its definition, the reference of the structured one
 Model (:mod:`scara_robust.model`)
