@@ -116,12 +116,12 @@ def _inner(a: Sequence[Array], b: Sequence[Array]) -> float:
     return float(sum(np.vdot(x, y) for x, y in zip(a, b)))
 
 
-def _step(X: Sequence[Array], dX: Sequence[Array]) -> float:
-    """Largest α <= ∞ with X + α dX ⪰ 0 (X ≻ 0), over every block."""
+def _step(v: Sequence[Array], scaled: Sequence[Array]) -> float:
+    """Largest α <= ∞ with diag(v) + α D ⪰ 0 over every block, D a scaled direction (v > 0)."""
     alpha = math.inf
-    for Xf, dXf in zip(X, dX):
-        Linv = np.linalg.inv(np.linalg.cholesky(Xf))
-        low = float(np.linalg.eigvalsh(_sym(Linv @ dXf @ np.swapaxes(Linv, 1, 2)))[:, 0].min())
+    for vf, D in zip(v, scaled):
+        root = 1.0 / np.sqrt(vf)
+        low = float(np.linalg.eigvalsh(_sym(D * root[:, :, None] * root[:, None, :]))[:, 0].min())
         if low < 0:
             alpha = min(alpha, -1.0 / low)
     return alpha
@@ -233,21 +233,24 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
 
         system = _Newton(problem, W, Rd, rp, M, factor)
         dy, dS, dZ = system.direction([-Zf for Zf in Z])
-        ap = min(1.0, _step(Z, dZ))
-        ad = min(1.0, _step(S, dS))
+        # in the scaled space both Z and S are diag(v): the steps' lengths and the corrector's
+        # second-order term come from G⁻¹ΔZG⁻ᵀ and GᵀΔSG
+        dZt = [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)]
+        dSt = [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]
+        ap = min(1.0, _step(v, dZt))
+        ad = min(1.0, _step(v, dSt))
         mu_aff = _inner([Zf + ap * d for Zf, d in zip(Z, dZ)], [Sf + ad * d for Sf, d in zip(S, dS)]) / dims
         sigma = min(1.0, (max(mu_aff, 0.0) / mu) ** max(1.0, 3.0 * min(ap, ad) ** 2)) if mu > 0 else 0.0
         Rc = []
-        for g, gi, vf, z, s in zip(G, Ginv, v, dZ, dS):
-            second = _sym((gi @ z @ np.swapaxes(gi, 1, 2)) @ (np.swapaxes(g, 1, 2) @ s @ g))
-            R = -second
+        for g, vf, zt, st in zip(G, v, dZt, dSt):
+            R = -_sym(zt @ st)
             idx = np.arange(vf.shape[1])
             R[:, idx, idx] += sigma * mu - vf**2
             H = 2.0 * R / (vf[:, :, None] + vf[:, None, :])
             Rc.append(_sym(g @ H @ np.swapaxes(g, 1, 2)))
         dy, dS, dZ = system.direction(Rc)
-        ap = min(1.0, gamma * _step(Z, dZ))
-        ad = min(1.0, gamma * _step(S, dS))
+        ap = min(1.0, gamma * _step(v, [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)]))
+        ad = min(1.0, gamma * _step(v, [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]))
         if max(ap, ad) < 1e-10:
             status = "solver error: the steps vanished"
             break
