@@ -48,7 +48,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
@@ -286,6 +286,9 @@ class ScheduleCertificate(AnalysisResult):
         What is proved: the grids, and that p̂ is covered exactly between them.
     seconds : float
     message : str
+    active_conditions : ndarray of int, or None
+        The conditions the last solve held (their indices on the LMIs' grid): a search's next
+        certificate on the same grid starts from them (`start` of :func:`schedule_certificate`).
     """
 
     status: str
@@ -301,6 +304,7 @@ class ScheduleCertificate(AnalysisResult):
     covers: str
     seconds: float
     message: str
+    active_conditions: NDArray[np.int64] | None = field(default=None, repr=False, compare=False)
 
     units: ClassVar[dict[str, str]] = {"decay": "1/s", "margin": "1/s", "seconds": "s"}
 
@@ -449,6 +453,7 @@ def schedule_certificate(
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
     solver: str = "IPM",
+    start_conditions: ArrayLike | None = None,
 ) -> ScheduleCertificate:
     """Certify the scheduled loop ``A(p, q) − B(p, q) K(p̂)`` for a moving, mis-measured parameter.
 
@@ -471,6 +476,10 @@ def schedule_certificate(
         The numpy verification's grid is `refine` times finer per segment (>= 2), on the
         unmeasured parameters' full samples (the LMIs: their coarse ones).
     solver : {'IPM', 'CLARABEL', 'SCS'}
+    start_conditions : array_like of int, optional
+        The conditions the cutting planes start from (:attr:`ScheduleCertificate.active_conditions`
+        of a certificate on the same grid, as a search passes it); indices beyond the grid are
+        dropped. Default: the least stable frozen loop of each segment.
 
     Returns
     -------
@@ -498,9 +507,9 @@ def schedule_certificate(
               "parameters on their coarse and full samples")
 
     def result(status: str, P: Array | None, n_cond: int, active: int, verified: int, margin: float,
-               message: str) -> ScheduleCertificate:
+               message: str, conditions: NDArray[np.int64] | None = None) -> ScheduleCertificate:
         return ScheduleCertificate(status, name, nu, delta, decay, P, n_cond, active, verified, margin, covers,
-                                   time.perf_counter() - start, message)
+                                   time.perf_counter() - start, message, conditions)
 
     if not cvxpy_available():
         return result(NOT_INSTALLED, None, 0, 0, 0, math.nan, "cvxpy is not installed (extra `lmi`)")
@@ -517,6 +526,10 @@ def schedule_certificate(
                       f"p̂ within ±{delta:g}): no P(p) exists")
     first = np.unique(np.concatenate([np.flatnonzero(coarse.segment == j)[
         [int(np.argmax(spectral[coarse.segment == j]))]] for j in range(b.size - 1)]))
+    if start_conditions is not None:  # a search's last active set, on a grid indexed alike
+        given = np.asarray(start_conditions, dtype=np.int64)
+        given = np.unique(given[(given >= 0) & (given < coarse.A.shape[0])])
+        first = np.union1d(first, given)
 
     fine = _conditions(_grid(plant, name, b, fine_points, _others(plant, name, True)), gain, delta, moving)
 
@@ -530,7 +543,7 @@ def schedule_certificate(
         status, P, active = grow_active_set(solve, violation, first)
         if P is None:
             message = (f"no {what} on the LMIs' grid" if status == "infeasible" else f"the solver returned {status!r}")
-            return result(status, None, coarse.A.shape[0], int(active.size), 0, math.nan, message)
+            return result(status, None, coarse.A.shape[0], int(active.size), 0, math.nan, message, active)
         size = float(max(np.linalg.norm(Pj, 2) for Pj in P))
         worst = _max_eigs(_lhs(fine, P, b, rate, decay), size)
         margin = float(worst.max())
@@ -546,7 +559,7 @@ def schedule_certificate(
             verdict = "not verified"
             message = (f"the LMIs' {what} fails numpy's check on the finer grid (largest eigenvalue {margin:.3g} of "
                        f"‖P‖ at {name} = {fine.p[int(np.argmax(worst))]:g})")
-        return result(verdict, P, coarse.A.shape[0], int(active.size), fine.A.shape[0], margin, message)
+        return result(verdict, P, coarse.A.shape[0], int(active.size), fine.A.shape[0], margin, message, active)
 
     found = attempt(nu, "P(p)" if moving else "P")
     if found.certified or math.isinf(nu):
@@ -676,9 +689,12 @@ def max_schedule_rate(plant: UncertainPlant, gain: ScheduledGain, *, measurement
     width = float(np.ptp(gain.breakpoints))
     cap = 1e4 * width if rate_max is None else check_real("rate_max", rate_max, positive=True)
     found: dict[float, ScheduleCertificate] = {}
+    memory: dict[str, Any] = {}  # the last certificate's active conditions: the next one starts there
 
     def ok(nu: float) -> bool:
-        cert = schedule_certificate(plant, gain, rate=nu, measurement_error=measurement_error, decay=decay, **options)
+        cert = schedule_certificate(plant, gain, rate=nu, measurement_error=measurement_error, decay=decay,
+                                    start_conditions=memory.get("active"), **options)
+        memory["active"] = cert.active_conditions
         found[nu] = cert
         return cert.certified
 
@@ -709,9 +725,12 @@ def max_measurement_error(plant: UncertainPlant, gain: ScheduledGain, *, rate: f
     """
     width = float(np.ptp(gain.breakpoints))
     found: dict[float, ScheduleCertificate] = {}
+    memory: dict[str, Any] = {}  # the last certificate's active conditions: the next one starts there
 
     def ok(delta: float) -> bool:
-        cert = schedule_certificate(plant, gain, rate=rate, measurement_error=delta, decay=decay, **options)
+        cert = schedule_certificate(plant, gain, rate=rate, measurement_error=delta, decay=decay,
+                                    start_conditions=memory.get("active"), **options)
+        memory["active"] = cert.active_conditions
         found[delta] = cert
         return cert.certified
 
@@ -744,10 +763,12 @@ def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | 
     certificate : ScheduleCertificate or None
     """
     found: dict[float, ScheduleCertificate] = {}
+    memory: dict[str, Any] = {}  # the last certificate's active conditions: the next one starts there
 
     def ok(alpha: float) -> bool:
         cert = schedule_certificate(plant, gain, rate=rate, measurement_error=measurement_error, decay=alpha,
-                                    **options)
+                                    start_conditions=memory.get("active"), **options)
+        memory["active"] = cert.active_conditions
         found[alpha] = cert
         return cert.certified
 
