@@ -28,8 +28,8 @@ blocks Z (a Farkas certificate: ``F*(Z) ≈ 0``, ``⟨C, Z⟩ < 0``), which the 
 from __future__ import annotations
 
 import functools
+import logging
 import math
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,6 +43,9 @@ from .problem import LMIProblem, LMIVariable
 __all__ = ["LMIResult", "solve_ipm"]
 
 Array = NDArray[np.float64]
+
+#: Each iteration's gap, residuals, objective and steps at the DEBUG level.
+_LOG = logging.getLogger(__name__)
 
 #: Relative gap at which an answer is optimal (Clarabel's default ``tol_gap_rel``).
 TOLERANCE = 1e-8
@@ -258,9 +261,8 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         S = [Sf + ad * d for Sf, d in zip(S, dS)]
         y = y + ad * dy
         gamma = 0.9 + 0.09 * min(ap, ad)
-        if _TRACE:
-            print(f"{it:3d} gap {gap:.3e} rel_p {rel_p:.1e} rel_d {rel_d:.1e} obj {obj_y:.10e} ap {ap:.3f} ad {ad:.3f} "
-                  f"sigma {sigma:.2e}")
+        _LOG.debug("%3d gap %.3e rel_p %.1e rel_d %.1e objective %.10e steps %.3f %.3f sigma %.2e",
+                   it, gap, rel_p, rel_d, obj_y, ap, ad, sigma)
     lin = problem.blocks(y)
     rp = -b - problem.adjoint(Z)
     rel_p = float(np.linalg.norm(rp)) / (1.0 + float(np.linalg.norm(b)))
@@ -293,9 +295,6 @@ class _Newton:
         dS = [_sym(L + d) for L, d in zip(self.problem.blocks(dy, constant=False), self.Rd)]
         dZ = [_sym(r - w @ s @ w) for r, w, s in zip(Rc, self.W, dS)]
         return dy, dS, dZ
-
-
-_TRACE = bool(os.environ.get("SCARA_ROBUST_SDP_TRACE"))
 
 
 def _psd(blocks: Sequence[Array]) -> bool:
