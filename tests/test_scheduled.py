@@ -142,6 +142,19 @@ def test_certified_rate_is_bracketed_by_a_growing_ramp(oscillator):
     assert rates[np.argmax(growth > 0)] > rate
 
 
+def test_a_search_starts_each_certificate_from_the_last_active_conditions(arm):
+    """A certificate started from another's active conditions is the same proof, verified as strictly."""
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 5), 1.0, 10.0)
+    first = sr.schedule_certificate(arm, gain, decay=0.3)
+    assert first.certified and first.active_conditions is not None
+    assert first.active_conditions.size == first.active <= first.conditions
+    again = sr.schedule_certificate(arm, gain, decay=0.31, start_conditions=[*first.active_conditions, 10**6])
+    assert again.certified and set(first.active_conditions) <= set(again.active_conditions)
+    check = schedule_condition_margin(arm, "m", gain.breakpoints, gain.gains, again.P, rate=1.0, delta=0.05,
+                                      decay=0.31, refine=4)
+    assert check["max_eig"] < 0 and check["min_P_eig"] > 0
+
+
 def test_measurement_error_is_covered_at_its_corners(arm):
     gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
     cert = sr.schedule_certificate(arm, gain, measurement_error=0.4, decay=0.2)

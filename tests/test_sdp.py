@@ -164,3 +164,28 @@ def test_a_bad_description_names_the_argument():
         pb.symmetric("P", 3)
     with pytest.raises(ArgumentValueError, match="`solver`"):
         solve(pb, "MOSEK")
+
+
+def test_a_stalled_margin_form_is_asked_for_half_its_margin(monkeypatch):
+    """Where rounding stops the solver short ('optimal_inaccurate'), the strictly interior t*/2 is returned."""
+    import dataclasses
+
+    import scara_robust.sdp.backends as backends
+    from scara_robust.sdp import solve_lmi_interior
+
+    pb, P, t = common_p_problem(_scara_loops(0.2))
+    real = backends.solve_ipm
+    optimum = real(pb)
+    calls = []
+
+    def stalled_first(problem, **options):
+        calls.append(options)
+        result = real(problem, **options)
+        return dataclasses.replace(result, status="optimal_inaccurate") if len(calls) == 1 else result
+
+    monkeypatch.setattr(backends, "solve_ipm", stalled_first)
+    found = solve_lmi_interior(pb, t)
+    assert len(calls) == 2 and found.accepted and found.status == "optimal"
+    assert 0.5 * optimum.value(t) <= found.value(t) <= optimum.value(t) * (1 + 1e-9)
+    for block in pb.blocks(found.y):  # an interior point: every block positive definite
+        assert np.linalg.eigvalsh(block)[:, 0].min() > 0
