@@ -18,7 +18,7 @@ from scara_robust.robustness.pdl import pdl_problem
 from scara_robust.robustness.polytope import box_closed_loops
 from scara_robust.robustness.scheduled import schedule_lyapunov_problem
 from scara_robust.robustness.synthesis import synthesis_problem
-from scara_robust.sdp import LMIProblem, dense_schur
+from scara_robust.sdp import LMIProblem, LMIResult, dense_schur
 from scara_robust.sdp import solve_lmi as solve
 
 
@@ -164,6 +164,8 @@ def test_a_bad_description_names_the_argument():
         pb.symmetric("P", 3)
     with pytest.raises(ArgumentValueError, match="`solver`"):
         solve(pb, "MOSEK")
+    with pytest.raises(ArgumentValueError, match="`var`.*solver error"):
+        LMIResult("solver error: numerical failure", None, None, float("nan"), float("nan"), 0).value(P)
 
 
 def test_a_stalled_margin_form_is_asked_for_half_its_margin(monkeypatch):

@@ -38,6 +38,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from ..exceptions import ArgumentValueError
 from .problem import LMIProblem, LMIVariable
 
 __all__ = ["LMIResult", "solve_ipm"]
@@ -106,7 +107,7 @@ class LMIResult:
     def value(self, var: LMIVariable) -> Array:
         """The variable's value: a float for a scalar, else an array of its shape."""
         if self.y is None:
-            raise ValueError(f"no value of {var.name!r}: the solver said {self.status}")
+            raise ArgumentValueError("var", f"has no value ({var.name!r}): the solver said {self.status}")
         value = var.value(self.y)
         return float(value[0, 0]) if var.scalar else value  # type: ignore[return-value]
 
