@@ -52,6 +52,7 @@ Model (:mod:`scara_robust.model`)
     POSITIVE_UNITS                  -- units of a mass, a length, an inertia: a parameter positive by its unit
     scara_uncertain_plant, SCARA_BOUNDS -- the SCARA with its payload as an UncertainPlant (derived or published hull)
     RobotArm, ArmSetup, JointSinusoids -- any arm from its URDF with a varying payload (Pinocchio, extra ``robots``)
+    PayloadTerms                    -- an arm's inverse-dynamics derivatives, affine in the payload mass
     effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
     holding_torque                  -- each joint's largest torque holding the reference over the payload range
     arm_feedforward, ArmFeedforward, FEEDFORWARD_RTOL -- an arm's model feedforward as the exported controller runs it

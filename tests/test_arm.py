@@ -118,17 +118,36 @@ def test_error_jacobians_agree_with_central_differences_of_aba(arm_setup, feedfo
         np.testing.assert_allclose(Minv @ arm.mass_matrix(q, m), np.eye(6), atol=1e-10)
 
 
+def test_payload_affine_terms_give_abas_derivatives_at_any_payload(arm_setup):
+    """RNEA is affine in the payload mass: two payloads' derivatives give every payload's."""
+    arm = arm_setup.arm
+    rng = np.random.default_rng(5)
+    states = [(rng.uniform(-2, 2, 6), rng.uniform(-1, 1, 6)) for _ in range(4)]
+    terms = sr.PayloadTerms.stack([arm.payload_terms(q, v) for q, v in states])
+    assert terms.mass.shape == (2, 4, 6, 6) and terms.dqa.shape == (2, 4, 6, 6, 6)
+    tau, m = rng.uniform(-20, 20, (4, 6)), np.array([0.0, 0.7, 3.0, 11.0])
+    dq, dv, Minv = terms.error_jacobians(tau, m)
+    for k, (q, v) in enumerate(states):
+        ref = arm.error_jacobians(q, v, tau[k], float(m[k]))
+        for ours, theirs in zip((dq[k], dv[k], Minv[k]), ref):
+            assert np.abs(ours - theirs).max() <= 1e-10 * np.abs(theirs).max()
+        # and the mass matrix at that payload is CRBA's
+        np.testing.assert_allclose(terms.mass[0, k] + m[k] * terms.mass[1, k], arm.mass_matrix(q, float(m[k])),
+                                   rtol=0, atol=1e-12 * np.abs(terms.mass[0, k]).max())
+
+
 def test_plant_rows_are_the_jacobians_at_the_loop_torque(arm_setup):
     plant = arm_setup.plant
     A, B = plant.plant_matrices({"t_ref": 2.0, "m_p": 2.5})
     r, rd, rdd = arm_setup.reference.at(2.0)
     tau = arm_setup.arm.feedforward("gravity", r, rd, rdd, 1.5)
     dq, dv, Minv = arm_setup.arm.error_jacobians(r, rd, tau, 2.5)
-    np.testing.assert_array_equal(A[6:, :6], dq)
-    np.testing.assert_array_equal(A[6:, 6:], dv)
-    np.testing.assert_array_equal(B[6:], Minv)
+    # the plant's rows come from the payload-affine terms (PayloadTerms), ABA's derivatives here
+    np.testing.assert_allclose(A[6:, :6], dq, rtol=0, atol=1e-11 * np.abs(dq).max())
+    np.testing.assert_allclose(A[6:, 6:], dv, rtol=0, atol=1e-11 * np.abs(dv).max())
+    np.testing.assert_allclose(B[6:], Minv, rtol=0, atol=1e-11 * np.abs(Minv).max())
     A_d, B_d = plant.frozen({"t_ref": 2.0, "m_p": 2.5})
-    assert A_d.shape == (18, 18) and np.array_equal(B_d[12:], -Minv)
+    assert A_d.shape == (18, 18) and np.array_equal(B_d[12:], -B[6:])
 
 
 def test_computed_torque_cancels_the_dynamics_at_the_nominal_payload(arm_setup):

@@ -46,7 +46,7 @@ from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
 __all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio",
-           "effort_limited_payload", "EffortPayload", "holding_torque"]
+           "effort_limited_payload", "EffortPayload", "holding_torque", "PayloadTerms"]
 
 Array = NDArray[np.float64]
 
@@ -277,6 +277,73 @@ class RigidBodies:
     armature: Array
     gravity: Array
     joint_index: NDArray[np.int64]
+
+
+@dataclass(frozen=True, eq=False)
+class PayloadTerms:
+    """The inverse dynamics' derivatives at states of an arm, each affine in the payload mass.
+
+    Every array holds ``(X₀, X₁)`` on its first axis, ``X(m_p) = X₀ + m_p X₁`` (m_p in kg),
+    then optional leading axes over states (:meth:`stack`), then the joints in the file's
+    order (n of them). From :meth:`RobotArm.payload_terms`.
+
+    Attributes
+    ----------
+    mass : ndarray, shape (2, ..., n, n)
+        ``M``, kg·m² (and kg·m² per kg).
+    bias : ndarray, shape (2, ..., n)
+        ``C(q, q̇) q̇ + G(q)``, N·m.
+    dq : ndarray, shape (2, ..., n, n)
+        ``∂τ/∂q`` at zero acceleration, N·m/rad.
+    dv : ndarray, shape (2, ..., n, n)
+        ``∂τ/∂q̇``, N·m·s/rad.
+    dqa : ndarray, shape (2, ..., n, n, n)
+        ``[j] = ∂(M e_j)/∂q``: how the acceleration's share of ``∂τ/∂q`` grows with ``q̈_j``,
+        N·m·s²/rad² per rad.
+    """
+
+    mass: Array
+    bias: Array
+    dq: Array
+    dv: Array
+    dqa: Array
+
+    @staticmethod
+    def stack(terms: Sequence[PayloadTerms]) -> PayloadTerms:
+        """One :class:`PayloadTerms` over several states (a new axis after the first)."""
+        return PayloadTerms(*(np.stack([getattr(t, f) for t in terms], axis=1)
+                              for f in ("mass", "bias", "dq", "dv", "dqa")))
+
+    def error_jacobians(self, tau: ArrayLike, m_p: ArrayLike) -> tuple[Array, Array, Array]:
+        """``∂q̈/∂q``, ``∂q̈/∂q̇`` and ``M⁻¹`` at each state, as :meth:`RobotArm.error_jacobians`.
+
+        The forward dynamics' derivatives from the inverse dynamics': ``q̈ = M⁻¹(τ − C q̇ − G)``,
+        ``∂q̈/∂q = −M⁻¹ ∂τ/∂q`` taken at that ``q̈``, ``∂q̈/∂q̇ = −M⁻¹ ∂τ/∂q̇``.
+
+        Parameters
+        ----------
+        tau : array_like, shape (..., n)
+            Joint torques, N·m (broadcast against the states).
+        m_p : array_like, shape (...)
+            Payload masses, kg.
+
+        Returns
+        -------
+        dq : ndarray, shape (..., n, n)
+            1/s².
+        dv : ndarray, shape (..., n, n)
+            1/s.
+        Minv : ndarray, shape (..., n, n)
+            1/(kg·m²).
+        """
+        m = np.asarray(m_p, dtype=float)
+        mass = self.mass[0] + m[..., None, None] * self.mass[1]
+        Minv = np.linalg.inv(mass)
+        acc = np.einsum("...ij,...j->...i", Minv, np.asarray(tau, dtype=float) - self.bias[0] - m[..., None] * self.bias[1])
+        dtau_dq = (self.dq[0] + m[..., None, None] * self.dq[1]
+                   + np.einsum("...j,...jab->...ab", acc, self.dqa[0] + m[..., None, None, None] * self.dqa[1]))
+        dtau_dv = self.dv[0] + m[..., None, None] * self.dv[1]
+        return -Minv @ dtau_dq, -Minv @ dtau_dv, Minv
 
 
 class RobotArm:
@@ -569,6 +636,41 @@ class RobotArm:
                                                        self._velocity(v), self._velocity(tau))
         return self._ours2(dq), self._ours2(dv), self._ours2(dtau, symmetric=True)
 
+    def payload_terms(self, q: ArrayLike, v: ArrayLike) -> PayloadTerms:
+        """The inverse dynamics' derivatives at one state, affine in the payload mass.
+
+        The payload's spatial inertia is its mass times a fixed unit inertia, so RNEA and its
+        derivatives are affine in ``m_p``: ``X(m_p) = X₀ + m_p X₁``. Each term is read from
+        Pinocchio's ``computeRNEADerivatives`` at ``m_p`` = 0 and 1 kg (``2(n + 1)`` calls),
+        after which :meth:`PayloadTerms.error_jacobians` gives :meth:`error_jacobians` at any
+        payload and torque by linear algebra alone.
+
+        Parameters
+        ----------
+        q, v : array_like, shape (n,)
+            Joint angles (rad) and rates (rad/s).
+
+        Returns
+        -------
+        PayloadTerms
+        """
+        n = self.n_joints
+        qq, vv = self.configuration(q), self._velocity(v)
+        zero = np.zeros(self._model.nv)
+        mass, bias, dq, dv, dqa = (np.empty((2, n, n)), np.empty((2, n)), np.empty((2, n, n)),
+                                   np.empty((2, n, n)), np.empty((2, n, n, n)))
+        for k, m_p in enumerate((0.0, 1.0)):
+            self._set_mass(m_p)
+            d_q, d_v, d_a = self._pin.computeRNEADerivatives(self._model, self._data, qq, vv, zero)
+            dq[k], dv[k], mass[k] = self._ours2(d_q), self._ours2(d_v), self._ours2(d_a, symmetric=True)
+            bias[k] = self._ours(self._pin.rnea(self._model, self._data, qq, vv, zero))
+            for j in range(n):  # ∂(M e_j)/∂q: RNEA is affine in the acceleration
+                unit = self._velocity(np.eye(n)[j])
+                dqa[k, j] = self._ours2(self._pin.computeRNEADerivatives(self._model, self._data, qq, vv, unit)[0]) - dq[k]
+        for term in (mass, bias, dq, dv, dqa):  # (value at 0 kg, value at 1 kg) -> (X₀, X₁)
+            term[1] -= term[0]
+        return PayloadTerms(mass=mass, bias=bias, dq=dq, dv=dv, dqa=dqa)
+
     def feedforward(self, kind: str, r: ArrayLike, rd: ArrayLike, rdd: ArrayLike, m_p: float) -> Array:
         """The model feedforward ``τ_ff`` of :data:`FEEDFORWARDS` at the reference, N·m, shape (n,).
 
@@ -782,20 +884,28 @@ def arm_uncertain_plant(
         A, B = memo[key]
         return A.reshape(shape + (2 * n, 2 * n)), B.reshape(shape + (2 * n, n))
 
+    at_time: dict[float, tuple[PayloadTerms, Array]] = {}  # per reference time: the terms and τ_ff
+
+    def _terms(times: Array) -> tuple[PayloadTerms, Array]:
+        missing = [t for t in times.tolist() if t not in at_time]
+        if missing:
+            r, rd, rdd = reference.sample(np.asarray(missing))
+            for i, t in enumerate(missing):  # Pinocchio once per time; every payload from these terms
+                at_time[t] = (arm.payload_terms(r[i], rd[i]), arm.feedforward(feedforward, r[i], rd[i], rdd[i], nominal))
+        found = [at_time[t] for t in times.tolist()]
+        return PayloadTerms.stack([f[0] for f in found]), np.array([f[1] for f in found])
+
     def _linearize(t_flat: Array, m_flat: Array) -> tuple[Array, Array]:
         times, where = np.unique(t_flat, return_inverse=True)
-        r, rd, rdd = reference.sample(times)
-        tau_ff = np.array([arm.feedforward(feedforward, r[i], rd[i], rdd[i], nominal) for i in range(times.size)])
+        terms, tau_ff = _terms(times)
+        picked = PayloadTerms(*(getattr(terms, f)[:, where] for f in ("mass", "bias", "dq", "dv", "dqa")))
+        dq, dv, Minv = picked.error_jacobians(tau_ff[where], m_flat)
         A = np.zeros((t_flat.size, 2 * n, 2 * n))
         A[:, :n, n:] = np.eye(n)
+        A[:, n:, :n] = dq
+        A[:, n:, n:] = dv
         B = np.zeros((t_flat.size, 2 * n, n))
-        for mass in np.unique(m_flat):  # one mass at a time: the model's payload is set once for each
-            for k in np.flatnonzero(m_flat == mass):
-                i = where[k]
-                dq, dv, Minv = arm.error_jacobians(r[i], rd[i], tau_ff[i], float(mass))
-                A[k, n:, :n] = dq
-                A[k, n:, n:] = dv
-                B[k, n:, :] = Minv
+        B[:, n:, :] = Minv
         A.setflags(write=False)
         B.setflags(write=False)
         return A, B
