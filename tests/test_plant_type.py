@@ -367,3 +367,17 @@ def test_certificate_table_runs_the_rows_asked_for(motor):
     assert table["certified"].tolist() == [True, True]
     with pytest.raises(sr.ArgumentValueError, match="`methods` must be one of"):
         sr.certificate_table(motor, d, methods=["vertex"])
+
+
+def test_spectral_abscissae_on_threads_equal_numpys_bit_for_bit(monkeypatch):
+    """The frozen scans split a stack of loops between threads: the values are numpy's own."""
+    from scara_robust.robustness import _spectra
+
+    rng = np.random.default_rng(11)
+    stack = rng.standard_normal((1001, 9, 9))
+    expected = np.linalg.eigvals(stack).real.max(axis=-1)
+    monkeypatch.setattr(_spectra, "_workers", lambda: 3)  # three threads, uneven parts
+    assert np.array_equal(_spectra.spectral_abscissae(stack), expected)
+    monkeypatch.setattr(_spectra, "_workers", lambda: 1)
+    assert np.array_equal(_spectra.spectral_abscissae(stack), expected)
+    assert np.array_equal(_spectra.spectral_abscissae(stack[:5]), expected[:5])  # below the threads' threshold

@@ -339,7 +339,8 @@ class PayloadTerms:
         m = np.asarray(m_p, dtype=float)
         mass = self.mass[0] + m[..., None, None] * self.mass[1]
         Minv = np.linalg.inv(mass)
-        acc = np.einsum("...ij,...j->...i", Minv, np.asarray(tau, dtype=float) - self.bias[0] - m[..., None] * self.bias[1])
+        bias = self.bias[0] + m[..., None] * self.bias[1]
+        acc = np.einsum("...ij,...j->...i", Minv, np.asarray(tau, dtype=float) - bias)
         dtau_dq = (self.dq[0] + m[..., None, None] * self.dq[1]
                    + np.einsum("...j,...jab->...ab", acc, self.dqa[0] + m[..., None, None, None] * self.dqa[1]))
         dtau_dv = self.dv[0] + m[..., None, None] * self.dv[1]
@@ -666,7 +667,8 @@ class RobotArm:
             bias[k] = self._ours(self._pin.rnea(self._model, self._data, qq, vv, zero))
             for j in range(n):  # ∂(M e_j)/∂q: RNEA is affine in the acceleration
                 unit = self._velocity(np.eye(n)[j])
-                dqa[k, j] = self._ours2(self._pin.computeRNEADerivatives(self._model, self._data, qq, vv, unit)[0]) - dq[k]
+                with_unit = self._pin.computeRNEADerivatives(self._model, self._data, qq, vv, unit)[0]
+                dqa[k, j] = self._ours2(with_unit) - dq[k]
         for term in (mass, bias, dq, dv, dqa):  # (value at 0 kg, value at 1 kg) -> (X₀, X₁)
             term[1] -= term[0]
         return PayloadTerms(mass=mass, bias=bias, dq=dq, dv=dv, dqa=dqa)
@@ -891,7 +893,8 @@ def arm_uncertain_plant(
         if missing:
             r, rd, rdd = reference.sample(np.asarray(missing))
             for i, t in enumerate(missing):  # Pinocchio once per time; every payload from these terms
-                at_time[t] = (arm.payload_terms(r[i], rd[i]), arm.feedforward(feedforward, r[i], rd[i], rdd[i], nominal))
+                at_time[t] = (arm.payload_terms(r[i], rd[i]),
+                              arm.feedforward(feedforward, r[i], rd[i], rdd[i], nominal))
         found = [at_time[t] for t in times.tolist()]
         return PayloadTerms.stack([f[0] for f in found]), np.array([f[1] for f in found])
 

@@ -41,6 +41,7 @@ from ..lyapunov.gain import Design, design_or_none
 from ..lyapunov.theorem1 import certify
 from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
+from ._spectra import spectral_abscissae
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .pdl import RateMargin, max_certified_rate
 from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
@@ -128,7 +129,7 @@ def _frozen(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[
             loops = plant.samples(theta=s).closed_loops(K)
         except ArgumentError as err:
             raise _Undefined(str(err)) from err
-        return bool(np.linalg.eigvals(loops).real.max() < 0)
+        return bool(spectral_abscissae(loops).max() < 0)
 
     return ok
 
@@ -356,7 +357,7 @@ def frozen_end(plant: UncertainPlant, K: ArrayLike, scale: float) -> tuple[str, 
         E.g. ``"the upper end: a frozen plant is unstable above m = 2.45 kg"``.
     """
     samples = plant.samples(theta=scale)
-    growth = np.linalg.eigvals(samples.closed_loops(K)).real.max(axis=1)
+    growth = spectral_abscissae(samples.closed_loops(K))
     if not growth.max() >= 0:
         return "", "no frozen plant of the grid is unstable"
     worst = samples.values[int(np.argmax(growth))]

@@ -23,6 +23,7 @@ from ..lyapunov.gain import Design, design_or_none
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
+from ._spectra import spectral_abscissae
 from .context import PayloadContext
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .margins import MARGIN_TOL
@@ -65,7 +66,7 @@ def _lmi(context: PayloadContext) -> Callable[[float], bool]:
 
 def _frozen(context: PayloadContext) -> Callable[[float], bool]:
     def ok(mass: float) -> bool:
-        return bool(np.linalg.eigvals(context.closed_loops(mass, context.n_times, context.n_masses)).real.max() < 0)
+        return bool(spectral_abscissae(context.closed_loops(mass, context.n_times, context.n_masses)).max() < 0)
 
     return ok
 
