@@ -11,7 +11,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test test-slow compare lint bench notebooks docs docs-figures clean
+.PHONY: test test-slow test-clarabel compare lint bench notebooks docs docs-figures clean
 
 # pip installs without compiling (one process), then compileall byte-compiles the environment and the
 # package on every core: where PYTHONDONTWRITEBYTECODE is set, no import ever writes a .pyc, and every
@@ -31,6 +31,11 @@ test: $(STAMP)
 # the full-size cross-checks (200-scenario campaigns on both engines: about 10 min on 2 cores)
 test-slow: $(STAMP)
 	SCARA_ROBUST_REQUIRE_EXTRAS=1 $(BIN)/python -m pytest -q -m slow
+
+# every LMI test again with cvxpy + Clarabel, the reference, as the default solver (sr.use_lmi_solver)
+test-clarabel: $(STAMP)
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 SCARA_ROBUST_REQUIRE_EXTRAS=1 \
+		$(BIN)/python -m pytest -q -m "lmi and not slow" --lmi-solver CLARABEL -n 2 --dist loadfile
 
 compare: $(STAMP)
 	$(BIN)/python -m scara_robust.compare

@@ -27,6 +27,8 @@ The LMI solver (:mod:`scara_robust.sdp`)
     LMIProblem, LMIVariable, LMIFamily -- an LMI described once: variables, blocks of terms UᵀXV + VᵀXᵀU, objective
     solve_lmi, LMI_BACKENDS, LMIResult -- solve it: the package's interior-point method or cvxpy + Clarabel
     solve_lmi_interior              -- a margin form's strictly interior point where rounding stops the optimum short
+    default_lmi_solver, use_lmi_solver -- the solver of every analysis's solver=None, and a block that changes it
+    resolve_lmi_solver              -- an analysis's solver argument checked, None as the default
     solve_ipm, solve_lmi_cvxpy      -- the two backends: structure-exploiting NT predictor-corrector; cvxpy's
     dense_schur                     -- the Schur complement by its definition, the reference of the structured one
 Model (:mod:`scara_robust.model`)

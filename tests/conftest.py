@@ -90,6 +90,23 @@ def pytest_runtest_setup(item):
         pytest.skip(message)
 
 
+def pytest_addoption(parser):
+    parser.addoption("--lmi-solver", default=None, choices=sr.LMI_BACKENDS,
+                     help="the default LMI solver of the whole run (sr.use_lmi_solver): `make test-clarabel` runs "
+                          "the LMI tests on cvxpy + Clarabel, the reference")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _lmi_solver(request):
+    """``--lmi-solver NAME``: every analysis called with ``solver=None`` runs on NAME, for the whole session."""
+    solver = request.config.getoption("--lmi-solver")
+    if solver is None:
+        yield None
+        return
+    with sr.use_lmi_solver(solver):
+        yield solver
+
+
 @pytest.fixture(autouse=True)
 def _close_figures():
     yield

@@ -13,6 +13,7 @@ import pytest
 
 import scara_robust as sr
 from scara_robust.exceptions import ArgumentValueError
+from scara_robust.robustness.l2gain import bounded_real_problem, frozen_hinf_norms, invariant_ellipsoid_problem
 from scara_robust.robustness.lmi import common_p_problem
 from scara_robust.robustness.pdl import pdl_problem
 from scara_robust.robustness.polytope import box_closed_loops
@@ -76,6 +77,15 @@ def _scara_loops(scale: float) -> np.ndarray:
     return loops / np.abs(loops).max()
 
 
+def _paper_disturbance_loops() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The paper's design on 9 of the SCARA's samples, w = T_d (N·m) to z = e (rad)."""
+    d = sr.design(sr.paper_model(), 3, 90)
+    s = sr.physical_samples(times=np.linspace(0, 2 * np.pi, 3), n_masses=3)
+    C = np.zeros((2, 6))
+    C[:, 2:4] = np.eye(2)
+    return s.A - s.B @ d.K, s.B, C, np.zeros((2, 2))
+
+
 def _corpus() -> dict[str, LMIProblem]:
     """Problems of the package's kinds: continuous and sampled common P, synthesis, feasible or not."""
     problems = {}
@@ -104,6 +114,16 @@ def _corpus() -> dict[str, LMIProblem]:
     for sign in (1.0, -1.0):
         problems[f"scheduled P, rate 0.5, sign {sign:+g}"] = schedule_lyapunov_problem(
             spring, segment, weight, np.full(q.size, sign), b, 0.5, 0.05)[0]
+    # the L2 and peak gains from the disturbance torque to the tracking error of the paper's design
+    A_cl, Bw, C, D = _paper_disturbance_loops()
+    problems["L2 gain, minimize gamma^2"] = bounded_real_problem(A_cl, Bw, C, D)[0]
+    lower = max(frozen_hinf_norms(A_cl, Bw, C, D))
+    problems["L2 gain, most interior P at 2x the frozen bound"] = bounded_real_problem(A_cl, Bw, C, D,
+                                                                                     gamma=2 * lower)[0]
+    decay = -np.linalg.eigvals(A_cl).real.max()
+    # z in mrad: in rad the optimum, γ² = 4.9e-5 rad², is within Clarabel's tolerances of zero
+    # (test_a_small_peak_bound_is_resolved_without_scaling)
+    problems["peak gain, alpha = decay, z in mrad"] = invariant_ellipsoid_problem(A_cl, Bw, 1e3 * C, decay)[0]
     return problems
 
 
@@ -124,7 +144,36 @@ def test_optimal_value_equals_clarabels(name):
     # and the dual bound closes the gap: bᵀy <= ⟨C, Z⟩ = bᵀy + Σ⟨Z, S⟩
     dual = sum(float(np.einsum("nst,nst->", f.const, z)) for f, z in zip(pb.families, own.duals))
     assert dual - own.objective == pytest.approx(own.gap, abs=1e-8)
-    assert own.gap <= 1e-8
+    assert own.gap <= 1e-8 * max(1.0, abs(own.objective))  # the stopping rule: 1e-8 relative
+
+
+def test_an_infeasible_l2_problem_is_infeasible_on_both_solvers():
+    """No common P on the whole SCARA box: both solvers say infeasible, and l2_gain reports no bound."""
+    pytest.importorskip("cvxpy")
+    loops = _scara_loops(1.0)
+    Bw, C, D = np.tile(np.eye(6)[:, 3:5], (64, 1, 1)), np.eye(6)[:2], np.zeros((2, 2))  # any w and z
+    pb = bounded_real_problem(loops, Bw, C, D)[0]
+    assert solve(pb, "IPM").status == "infeasible"
+    assert solve(pb, "CLARABEL").status == "infeasible"
+    gain = sr.l2_gain(loops, Bw, C, D)
+    assert gain.upper == np.inf and gain.verdict == "infeasible"
+
+
+def test_a_small_peak_bound_is_resolved_without_scaling():
+    """The peak LMI with z in rad: γ*² = 4.88e-5 rad². Clarabel stops at 1.08e-4 (its tolerances
+    are about the optimum's size) and reaches 4.88e-5 only with z in mrad; the package's solver
+    reaches it in rad, and its dual bound proves it."""
+    pytest.importorskip("cvxpy")
+    A_cl, Bw, C, _ = _paper_disturbance_loops()
+    decay = -np.linalg.eigvals(A_cl).real.max()
+    in_rad = invariant_ellipsoid_problem(A_cl, Bw, C, decay)[0]
+    in_mrad = invariant_ellipsoid_problem(A_cl, Bw, 1e3 * C, decay)[0]
+    own, scaled = solve(in_rad, "IPM"), solve(in_mrad, "CLARABEL")
+    assert own.status == "optimal" and scaled.status == "optimal"
+    assert own.objective == pytest.approx(scaled.objective * 1e-6, rel=1e-6)
+    dual = sum(float(np.einsum("nst,nst->", f.const, z)) for f, z in zip(in_rad.families, own.duals))
+    assert dual - own.objective <= 1e-8 * abs(own.objective)  # the dual bound: no γ² below, to 1e-8 relative
+    assert solve(in_rad, "CLARABEL").objective < own.objective  # maximize −γ²: Clarabel's unscaled γ² is larger
 
 
 def test_the_accept_callback_stops_at_the_first_accepted_iterate():

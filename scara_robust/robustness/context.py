@@ -60,7 +60,7 @@ class CertificateContext:
     grid: dict[str, int] = field(default_factory=dict)
     fine: dict[str, int] = field(default_factory=dict)
     coarse: dict[str, int] = field(default_factory=dict)
-    lmi_solver: str = "IPM"
+    lmi_solver: str | None = None
     falsifier_tries: int = 30
     seed: int = 0
     _sampled: dict[_Grid, tuple[Array, Array, tuple[str, ...]]] = field(default_factory=dict, repr=False)

@@ -25,13 +25,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_closed_loops
+from .._validation import check_array, check_closed_loops
 from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import UncertainPlant
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import UncertainLTVModel
 from ..results import AnalysisResult
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, decay_floor, decay_rate, lmi_certificate
+from ..sdp.backends import resolve_lmi_solver
+from .lmi import NOT_INSTALLED, cvxpy_available, decay_floor, decay_rate, lmi_certificate
 from .polytope import MAX_BOX_ELEMENTS
 
 __all__ = ["DecayRate", "certified_decay_rate", "design_decay_rate"]
@@ -123,7 +124,7 @@ def certified_decay_rate(
     check: list[ArrayLike] | tuple[ArrayLike, ...] = (),
     set_name: str = "the given closed loops",
     lmi: bool = True,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> DecayRate:
     """The decay rate of a design on closed loops: the better of its own P and an LMI's P.
 
@@ -141,15 +142,16 @@ def certified_decay_rate(
         What the loops are, for the message.
     lmi : bool
         Also search a common P (extra ``lmi``).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
     DecayRate
     """
+    solver = resolve_lmi_solver(solver)
     loops = check_closed_loops("closed_loops", closed_loops)
     checks = [check_array(f"check[{k}]", c, shape=(None, *loops.shape[1:])) for k, c in enumerate(check)]
-    check_choice("solver", solver, LMI_SOLVERS)
     every = [loops, *checks]
     floor = decay_floor(loops)
 
@@ -187,7 +189,7 @@ def design_decay_rate(
     P: ArrayLike | None = None,
     plant: UncertainPlant | None = None,
     lmi: bool = True,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> DecayRate:
     """The decay rate of a design on its uncertainty set, as every command reports it.
 
@@ -206,12 +208,14 @@ def design_decay_rate(
         when it is a plant).
     lmi : bool
         Also search a common P (extra ``lmi``).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
     DecayRate
     """
+    solver = resolve_lmi_solver(solver)
     if "parameters" in model.capabilities:  # a plant: its own interval hull has the corners
         plant = model if plant is None else plant  # type: ignore[assignment]
         model = model.interval_model()  # type: ignore[union-attr]

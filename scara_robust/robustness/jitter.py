@@ -25,6 +25,7 @@ from .._validation import check_int, check_real
 from ..controller.kinds import check_controller
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
+from ..sdp.backends import resolve_lmi_solver
 from .lmi import cvxpy_available, decay_floor
 from .sampled import (
     _plants,
@@ -124,7 +125,7 @@ def jitter_certificate(
     check: Any = None,
     periods: int = JITTER_PERIODS,
     check_periods: int = JITTER_CHECK_PERIODS,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> JitterCertificate:
     """The sampled-data certificate of `controller` for every period in ``[Ts − jitter, Ts + jitter]``.
 
@@ -140,12 +141,14 @@ def jitter_certificate(
         Plants on which P must also verify.
     periods, check_periods : int
         Periods of the LMI and of numpy's check over the interval (>= 2, ends included).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
     JitterCertificate
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     check_controller("controller", controller, ("pid", "state feedback"),
                      "a DiscretePID (Design.discretize) or a SampledStateFeedback")
@@ -180,7 +183,7 @@ def jitter_certificate(
 
 
 def max_jitter(model: Any, controller: Any, *, check: Any = None, rtol: float = 0.02,
-               solver: str = "IPM") -> tuple[float, float, JitterCertificate | None]:
+               solver: str | None = None) -> tuple[float, float, JitterCertificate | None]:
     """The largest jitter J certified by :func:`jitter_certificate`, by bisection on ``[0, 0.99 Ts]``.
 
     Parameters
@@ -199,6 +202,7 @@ def max_jitter(model: Any, controller: Any, *, check: Any = None, rtol: float = 
     certificate : JitterCertificate or None
         At the certified J.
     """
+    solver = resolve_lmi_solver(solver)
     rtol = check_real("rtol", rtol, positive=True)
     Ts = float(controller.Ts)
     best = jitter_certificate(model, controller, 0.0, check=check, solver=solver)

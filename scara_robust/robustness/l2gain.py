@@ -14,17 +14,18 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
 
 import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_closed_loops
+from .._validation import check_array, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp.backends import resolve_lmi_solver
+from .lmi import NOT_INSTALLED, cvxpy_available
 
 __all__ = ["L2Gain", "l2_gain", "L2_INFLATION", "PeakBound", "peak_gain"]
 
@@ -157,8 +158,60 @@ def bounded_real_ok(A: Array, Bw: Array, C: Array, P: Array, gamma: float, D: Ar
                 and np.linalg.eigvalsh(P)[0] > 0)
 
 
+def _sym(a: Array) -> Array:
+    return 0.5 * (a + np.swapaxes(a, -1, -2))
+
+
+def bounded_real_problem(A: Array, Bw: Array, C: Array, D: Array, *,
+                         gamma: float | None = None) -> tuple[LMIProblem, LMIVariable, LMIVariable]:
+    """The bounded-real LMI of :func:`l2_gain` as an :class:`~scara_robust.LMIProblem`.
+
+    With ``E = [I 0]`` and ``N_i = [Ā_i B_w,i]`` (n × (n+q)), each loop's block is
+    ``−(EᵀPN_i + N_iᵀPE) − [C D]ᵀ[C D] + γ² diag(0, I) ⪰ 0``, the bounded-real inequality.
+    Without `gamma`: ``minimize γ²`` over P ⪰ 1e-9 I with every block ⪰ 1e-9 I (the
+    optimum). With `gamma`: ``maximize t ≤ 1`` with ``P ⪰ tI`` and every block ⪰ tI at
+    that γ (the most interior P, which numpy can check strictly).
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    Bw : ndarray, shape (V, n, q)
+    C : ndarray, shape (r, n)
+    D : ndarray, shape (r, q)
+    gamma : float, optional
+
+    Returns
+    -------
+    problem : LMIProblem
+    P : LMIVariable
+    s : LMIVariable
+        γ² (without `gamma`) or t (with it).
+    """
+    n, q = A.shape[1], Bw.shape[2]
+    eye = np.eye(n)
+    E = np.hstack([eye, np.zeros((n, q))])
+    N = np.concatenate([A, Bw], axis=2)
+    CD = np.hstack([C, D])
+    lower = np.zeros((n + q, n + q))
+    lower[n:, n:] = np.eye(q)
+    problem = LMIProblem()
+    P, s = problem.symmetric("P", n), problem.scalar("g2" if gamma is None else "t")
+    if gamma is None:
+        problem.add_lmi(terms=[(P, 0.5 * eye, eye)], const=-1e-9 * eye, name="P >= 1e-9 I")
+        problem.add_lmi(terms=[(P, -E, N)], scalars=[(s, lower)], const=-CD.T @ CD - 1e-9 * np.eye(n + q),
+                        name="bounded real")
+        problem.minimize({s: 1.0})
+    else:
+        problem.add_lmi(terms=[(P, 0.5 * eye, eye)], scalars=[(s, -eye)], name="P >= tI")
+        problem.add_lmi(scalars=[(s, -np.ones((1, 1)))], const=np.ones((1, 1)), name="t <= 1")
+        problem.add_lmi(terms=[(P, -E, N)], scalars=[(s, -np.eye(n + q))], const=-CD.T @ CD + gamma**2 * lower,
+                        name="bounded real")
+        problem.maximize({s: 1.0})
+    return problem, P, s
+
+
 def l2_gain(
-    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, D: ArrayLike | None = None, *, solver: str = "IPM"
+    closed_loops: ArrayLike, Bw: ArrayLike, C: ArrayLike, D: ArrayLike | None = None, *, solver: str | None = None
 ) -> L2Gain:
     """Upper and lower bounds on the worst-case L2 gain from w to z over ``conv{Ā_i}``.
 
@@ -178,7 +231,8 @@ def l2_gain(
         The output z (for the robot: ``[0, I, 0]``, the tracking error e).
     D : array_like, shape (p, q), optional
         Feedthrough from w to z (default 0). The gain is at least ``σ_max(D)``.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -197,54 +251,28 @@ def l2_gain(
     peak_gain : the peak-to-peak bound.
     synthesize : with the ``l2`` objective.
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     A, Bw, C, D = check_gain_inputs(closed_loops, Bw, C, D)
-    n, q = A.shape[1], Bw.shape[2]
-    check_choice("solver", solver, LMI_SOLVERS)
     norms = frozen_hinf_norms(A, Bw, C, D)
     worst = int(np.argmax(norms))
     lower = norms[worst]
     if not cvxpy_available():
         return L2Gain(math.nan, lower, worst, NOT_INSTALLED, None, time.perf_counter() - start)
-    import cvxpy as cp
-
-    P = cp.Variable((n, n), symmetric=True)
-    g2 = cp.Variable(nonneg=True)
-    constraints = [P >> 1e-9 * np.eye(n)]
-    for A_i, B_i in zip(A, Bw):
-        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i + C.T @ D],  # type: ignore[attr-defined]
-                       [B_i.T @ P + D.T @ C, D.T @ D - g2 * np.eye(q)]])
-        constraints.append(0.5 * (lhs + lhs.T) << -1e-9 * np.eye(n + q))
-    problem = cp.Problem(cp.Minimize(g2), constraints)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
-    except cp.SolverError as err:
-        return L2Gain(math.inf, lower, worst, f"solver error: {err}", None, time.perf_counter() - start)
-    if P.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return L2Gain(math.inf, lower, worst, str(problem.status), None, time.perf_counter() - start)
-    gamma = math.sqrt(max(float(np.asarray(g2.value)), 0.0))
+    problem, P, g2 = bounded_real_problem(A, Bw, C, D)
+    result = solve_lmi(problem, solver)
+    if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+        return L2Gain(math.inf, lower, worst, result.status, None, time.perf_counter() - start)
+    gamma = math.sqrt(max(result.value(g2), 0.0))
     # The optimum sits on the boundary, where numpy cannot confirm a strict inequality:
     # re-solve at γ(1 + 1e-3) for the most interior P, and check that one.
     bound = gamma * (1 + L2_INFLATION)
-    t = cp.Variable()
-    interior = [P >> t * np.eye(n), t <= 1]
-    for A_i, B_i in zip(A, Bw):
-        lhs = cp.bmat([[A_i.T @ P + P @ A_i + C.T @ C, P @ B_i + C.T @ D],  # type: ignore[attr-defined]
-                       [B_i.T @ P + D.T @ C, D.T @ D - bound**2 * np.eye(q)]])
-        interior.append(0.5 * (lhs + lhs.T) << -t * np.eye(n + q))
-    second = cp.Problem(cp.Maximize(t), interior)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            second.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
-    except cp.SolverError:
-        pass
-    if P.value is not None and second.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        P_val = 0.5 * (np.array(P.value) + np.array(P.value).T)
+    interior, P2, _ = bounded_real_problem(A, Bw, C, D, gamma=bound)
+    second = solve_lmi(interior, solver)
+    if second.y is not None and second.status in ("optimal", "optimal_inaccurate"):
+        P_val = _sym(np.asarray(second.value(P2), dtype=float))
         if bounded_real_ok(A, Bw, C, P_val, bound, D):
-            return L2Gain(bound, lower, worst, str(problem.status), P_val, time.perf_counter() - start, L2_INFLATION)
+            return L2Gain(bound, lower, worst, result.status, P_val, time.perf_counter() - start, L2_INFLATION)
     return L2Gain(math.inf, lower, worst, "not verified", None, time.perf_counter() - start)
 
 
@@ -314,6 +342,47 @@ def _ellipsoid_bound(A: Array, Bw: Array, C: Array, P: Array, alpha: float) -> f
     return math.sqrt(float(np.linalg.eigvalsh(C @ np.linalg.inv(P) @ C.T).max()))
 
 
+def invariant_ellipsoid_problem(A: Array, Bw: Array, C: Array,
+                                alpha: float) -> tuple[LMIProblem, LMIVariable, LMIVariable]:
+    """The invariant-ellipsoid LMI of :func:`peak_gain` at one rate α, as an :class:`~scara_robust.LMIProblem`.
+
+    ``minimize γ²`` over P ⪰ 1e-9 I with ``[[P, Cᵀ], [C, γ²I]] ⪰ 0`` and, at every loop,
+    ``−(EᵀPN_i + N_iᵀPE) + α diag(0, I) ⪰ 0`` with ``E = [I 0]`` and
+    ``N_i = [Ā_i + (α/2)I, B_w,i]``: the block ``−[[Ā_iᵀP + PĀ_i + αP, PB_w], [B_wᵀP, −αI]]``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    Bw : ndarray, shape (V, n, q)
+    C : ndarray, shape (p, n)
+    alpha : float
+        1/s.
+
+    Returns
+    -------
+    problem : LMIProblem
+    P, g2 : LMIVariable
+    """
+    n, q, p = A.shape[1], Bw.shape[2], C.shape[0]
+    eye = np.eye(n)
+    E = np.hstack([eye, np.zeros((n, q))])
+    N = np.concatenate([A + 0.5 * alpha * eye, Bw], axis=2)
+    rate = np.zeros((n + q, n + q))
+    rate[n:, n:] = alpha * np.eye(q)
+    Ep = np.hstack([eye, np.zeros((n, p))])
+    output = np.zeros((n + p, n + p))
+    output[n:, :n], output[:n, n:] = C, C.T
+    lower = np.zeros((n + p, n + p))
+    lower[n:, n:] = np.eye(p)
+    problem = LMIProblem()
+    P, g2 = problem.symmetric("P", n), problem.scalar("g2")
+    problem.add_lmi(terms=[(P, 0.5 * eye, eye)], const=-1e-9 * eye, name="P >= 1e-9 I")
+    problem.add_lmi(terms=[(P, 0.5 * Ep, Ep)], scalars=[(g2, lower)], const=output, name="[[P, C'], [C, g2 I]]")
+    problem.add_lmi(terms=[(P, -E, N)], const=rate, name="invariance")
+    problem.minimize({g2: 1.0})
+    return problem, P, g2
+
+
 def peak_gain(
     closed_loops: ArrayLike,
     Bw: ArrayLike,
@@ -321,7 +390,7 @@ def peak_gain(
     D: ArrayLike | None = None,
     *,
     alphas: ArrayLike | None = None,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> PeakBound:
     """The smallest invariant-ellipsoid bound on ``‖z(t)‖`` for ``‖w(t)‖ <= 1`` over ``conv{Ā_i}``.
 
@@ -345,7 +414,8 @@ def peak_gain(
     alphas : array_like, optional
         Rates tried, 1/s (> 0; default 16 points log-spaced over [10⁻², 10²]·(smallest
         decay of the closed loops' eigenvalues)).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -353,11 +423,10 @@ def peak_gain(
         With ``lower``: the largest steady peak of a worst sinusoid on a frozen plant
         (every frozen plant is an admissible variation).
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     A, Bw, C, D = check_gain_inputs(closed_loops, Bw, C, D)
-    n = A.shape[1]
     feedthrough = float(np.linalg.norm(D, 2)) if D.size else 0.0
-    check_choice("solver", solver, LMI_SOLVERS)
     grid = None if alphas is None else check_array("alphas", alphas, ndim=1)
     if grid is not None and np.any(grid <= 0):
         raise ArgumentValueError("alphas", "must all be > 0 (1/s)")
@@ -371,34 +440,21 @@ def peak_gain(
         return PeakBound(math.nan, math.nan, None, NOT_INSTALLED, time.perf_counter() - start)
     peaks = [_sinusoid_peak(A_i, B_i, C, D) for A_i, B_i in zip(A, Bw)]
     worst = int(np.argmax(peaks))
-    import cvxpy as cp
-
-    q, p = Bw.shape[2], C.shape[0]
     best = (math.inf, math.nan, None, "infeasible")
     for alpha in grid:
-        P = cp.Variable((n, n), symmetric=True)
-        g2 = cp.Variable(nonneg=True)
-        constraints = [P >> 1e-9 * np.eye(n), cp.bmat([[P, C.T], [C, g2 * np.eye(p)]]) >> 0]  # type: ignore[attr-defined]
-        for A_i, B_i in zip(A, Bw):
-            lhs = cp.bmat([[A_i.T @ P + P @ A_i + alpha * P, P @ B_i], [B_i.T @ P, -alpha * np.eye(q)]])  # type: ignore[attr-defined]
-            constraints.append(0.5 * (lhs + lhs.T) << 0)
-        problem = cp.Problem(cp.Minimize(g2), constraints)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)
-                problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
-        except cp.SolverError:
+        problem, P, _ = invariant_ellipsoid_problem(A, Bw, C, float(alpha))
+        result = solve_lmi(problem, solver)
+        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
             continue
-        if P.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            continue
-        P_val = 0.5 * (np.array(P.value) + np.array(P.value).T)
+        status = result.status
+        P_val = _sym(np.asarray(result.value(P), dtype=float))
         # the optimum sits on the boundary; shrink P slightly (a larger ellipsoid) until numpy
         # accepts it as invariant, and report the bound numpy computes on that ellipsoid
         for factor in (1 + 1e-6, 1 + 1e-4, 1 + 1e-2):
             bound = _ellipsoid_bound(A, Bw, C, P_val / factor, float(alpha))
             if math.isfinite(bound):
                 if bound < best[0]:
-                    best = (bound, float(alpha), P_val / factor, str(problem.status))
+                    best = (bound, float(alpha), P_val / factor, status)
                 break
         else:
             if not math.isfinite(best[0]):

@@ -33,11 +33,12 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_array, check_choice, check_real
+from .._validation import check_array, check_real
 from ..results import AnalysisResult
+from ..sdp.backends import resolve_lmi_solver
 from .context import CertificateContext
 from .l2gain import L2_INFLATION, GainBound, check_gain_inputs, frozen_hinf_norms
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver
+from .lmi import NOT_INSTALLED, cvxpy_available, cvxpy_solver
 from .registry import AnalysisMethod, register_method
 from .synthesis import error_output
 
@@ -196,7 +197,7 @@ def rate_bounded_l2_gain(
     *,
     rate: float,
     check: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
-    solver: str = "IPM",
+    solver: str | None = None,
     parameter: str = "p",
     unit: str = "",
 ) -> RateL2Gain:
@@ -218,7 +219,8 @@ def rate_bounded_l2_gain(
         ν >= 0, unit of p per second; ``inf`` gives the common-P bound.
     check : tuple (closed_loops, p, Bw), optional
         A second (finer) set of samples on which the bound must also verify.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     parameter, unit : str
         The parameter's name and unit, for the message.
 
@@ -245,10 +247,10 @@ def rate_bounded_l2_gain(
     >>> g.verdict, bool(g.lower <= g.upper)
     ('certified', True)
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     A, p_, Bw_, C_, D_ = _inputs(closed_loops, p, Bw, C, D)
     nu = math.inf if rate == math.inf else check_real("rate", rate, nonnegative=True)
-    check_choice("solver", solver, LMI_SOLVERS)
     lower = max(frozen_hinf_norms(A, Bw_, C_, D_))
     n_samples = A.shape[0]
     if not cvxpy_available():

@@ -44,6 +44,7 @@ from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp.backends import resolve_lmi_solver
 from ._cutting import ACTIVE_BATCH, grow_active_set
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
@@ -432,7 +433,7 @@ SMALL_BATCH = 4
 SMALL_STATES = 8
 
 
-def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (), solver: str = "IPM",
+def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (), solver: str | None = None,
                     stop: str = "optimum", start: ArrayLike | None = None) -> LMICertificate:
     """Search a common quadratic Lyapunov matrix for the polytope ``conv{Ā_v}``.
 
@@ -450,7 +451,8 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         Further closed loops on which P must also verify (a finer sampling): a check loop
         joins the active set only where numpy finds P's decay rate on it below the floor.
         :attr:`LMICertificate.decay_rate` is the smallest over the loops and the checks.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     stop : {'optimum', 'verified'}
         ``'optimum'``: grow the active set until P meets every loop's constraint
         (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
@@ -481,10 +483,10 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
     >>> sr.lmi_certificate(A).certified
     True
     """
+    solver = resolve_lmi_solver(solver)
     A_main = check_closed_loops("closed_loops", closed_loops)
     checks = [check_array(f"check[{k}]", c, shape=(None, *A_main.shape[1:])) for k, c in enumerate(check)]
     A_v = np.concatenate([A_main, *checks]) if checks else A_main
-    check_choice("solver", solver, LMI_SOLVERS)
     check_choice("stop", stop, LMI_STOPS)
     given = None if start is None else _start_indices(start, A_v.shape[0])
     if not cvxpy_available():
@@ -698,7 +700,7 @@ def _problem(n: int, n_slots: int, form: str) -> tuple[Any, Any, Any, list[Any]]
         constraints.append(0.5 * (lhs + lhs.T) << bound)
     return cp.Problem(objective, constraints), P, t, slots
 
-def lmi_search(*, solver: str = "IPM", stop: str = "verified") -> Callable[..., LMICertificate]:
+def lmi_search(*, solver: str | None = None, stop: str = "verified") -> Callable[..., LMICertificate]:
     """The common-P test for a search over loops indexed alike (a bisection on a scale, a mass, a rate).
 
     Each solve of :func:`lmi_certificate` starts from the active loops of the previous one:
@@ -706,7 +708,8 @@ def lmi_search(*, solver: str = "IPM", stop: str = "verified") -> Callable[..., 
 
     Parameters
     ----------
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     stop : {'verified', 'optimum'}
         As for :func:`lmi_certificate`; a bisection needs only the verdict.
 
@@ -723,7 +726,7 @@ def lmi_search(*, solver: str = "IPM", stop: str = "verified") -> Callable[..., 
     >>> [test(s * A).certified for s in (1.0, 2.0)]
     [True, True]
     """
-    check_choice("solver", solver, LMI_SOLVERS)
+    solver = resolve_lmi_solver(solver)
     check_choice("stop", stop, LMI_STOPS)
     active: NDArray[np.int64] | None = None
 

@@ -41,6 +41,7 @@ from ..lyapunov.gain import Design, design_or_none
 from ..lyapunov.theorem1 import certify
 from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
+from ..sdp.backends import resolve_lmi_solver
 from ._spectra import spectral_abscissae
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .pdl import RateMargin, max_certified_rate
@@ -406,7 +407,7 @@ def parameter_rate(
     *,
     rate_max: float | None = None,
     tol: float = 1e-2,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> RateMargin:
     """The largest rate ``|ṗ|`` (unit/s) of parameter `name` that an affine ``P(p)`` certifies.
 
@@ -426,7 +427,8 @@ def parameter_rate(
         Largest rate tried, unit/s (default 1e6 times the parameter's range).
     tol : float
         Relative width of the final bracket.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -439,6 +441,7 @@ def parameter_rate(
     rate_bracket : the certified rate and a rate that destabilizes.
     rate_bounded_certificate : the test behind it.
     """
+    solver = resolve_lmi_solver(solver)
     K = _gain(plant, design)
     key = _rate_parameter(plant, name)
     width = plant.parameter(key).range[1] - plant.parameter(key).range[0]

@@ -23,6 +23,7 @@ from ..lyapunov.gain import Design, design_or_none
 from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
+from ..sdp.backends import resolve_lmi_solver
 from ._spectra import spectral_abscissae
 from .context import PayloadContext
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
@@ -280,7 +281,7 @@ def payload_rate_certificate(
     check_masses: int = 33,
     rate_max: float = 1e6,
     tol: float = 1e-2,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> RateMargin:
     """The largest payload rate ``|ṁ_p|`` (kg/s) certified for payloads in [0, M].
 
@@ -307,7 +308,8 @@ def payload_rate_certificate(
         Largest rate tried, kg/s.
     tol : float
         Relative width of the final bracket.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -320,6 +322,7 @@ def payload_rate_certificate(
     >>> d = sr.design(sr.paper_model(), 3.0, 90.0)
     >>> sr.payload_rate_certificate(d, 180.0, n_times=13, n_masses=5).rate  # doctest: +SKIP
     """
+    solver = resolve_lmi_solver(solver)
     closed, masses, _ = payload_closed_loops(design, mass_max, params, reference, n_times=n_times, n_masses=n_masses)
     closed_chk, masses_chk, _ = payload_closed_loops(design, mass_max, params, reference, n_times=check_times,
                                                      n_masses=check_masses)

@@ -47,11 +47,12 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._deprecation import renamed_field
-from .._validation import check_array, check_choice, check_closed_loops, check_real
+from .._validation import check_array, check_closed_loops, check_real
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
 from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
-from .lmi import DECAY_FLOOR_RTOL, LMI_SOLVERS, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
+from ..sdp.backends import resolve_lmi_solver
+from .lmi import DECAY_FLOOR_RTOL, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
 from .search import bisect
 
 __all__ = ["RateCertificate", "RateMargin", "rate_bounded_certificate", "verify_rate_bounded", "max_certified_rate"]
@@ -398,7 +399,7 @@ def rate_bounded_certificate(
     *,
     slopes: ArrayLike | None = None,
     check: tuple[ArrayLike, ArrayLike] | None = None,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> RateCertificate:
     """Search ``P(p) = P0 + p·P1`` proving stability for ``|ṗ| <= rate``.
 
@@ -420,7 +421,8 @@ def rate_bounded_certificate(
     check : tuple (closed_loops, p), optional
         An independent set, shapes (M, n, n) and (M,), on which numpy re-verifies the answer
         (a finer grid of p and of the other directions).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -447,6 +449,7 @@ def rate_bounded_certificate(
     >>> sr.rate_bounded_certificate(A, p, 0.2).certified
     True
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     A, p_arr = _samples("closed_loops", closed_loops, p)
     n = A.shape[1]
@@ -461,7 +464,6 @@ def rate_bounded_certificate(
         A_chk, p_chk = _samples("check[0]", check[0], check[1])
         if A_chk.shape[1:] != A.shape[1:]:
             raise ArgumentValueError("check[0]", f"must hold {n}x{n} matrices like `closed_loops`, found {A_chk.shape}")
-    check_choice("solver", solver, LMI_SOLVERS)
     n_chk = 0 if A_chk is None else int(A_chk.shape[0])
     if not cvxpy_available():
         return RateCertificate(NOT_INSTALLED, None, None, nu, math.nan, math.nan, math.nan, A.shape[0], n_chk,
@@ -546,7 +548,7 @@ def max_certified_rate(
     check: tuple[ArrayLike, ArrayLike] | None = None,
     rate_max: float = 1e6,
     tol: float = 1e-2,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> RateMargin:
     """Bisect the largest rate bound ν that :func:`rate_bounded_certificate` certifies.
 
@@ -568,6 +570,7 @@ def max_certified_rate(
     -------
     RateMargin
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     rate_max = check_real("rate_max", rate_max, positive=True)
     tol = check_real("tol", tol, positive=True)

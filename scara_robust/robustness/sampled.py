@@ -49,8 +49,8 @@ from ..model.polytopic import PolytopicModel
 from ..model.scara import PhysicalSamples
 from ..model.uncertain import UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified
+from ..sdp.backends import resolve_lmi_solver
 from .lmi import (
-    LMI_SOLVERS,
     LMI_STOPS,
     NOT_INSTALLED,
     _solve_common_p_ipm,
@@ -306,7 +306,7 @@ def sampled_certificate(
     pid: DiscretePID | SampledStateFeedback,
     *,
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
-    solver: str = "IPM",
+    solver: str | None = None,
     candidate: ArrayLike | Callable[[], ArrayLike | None] | None = None,
     stop: str = "optimum",
 ) -> SampledCertificate:
@@ -323,8 +323,9 @@ def sampled_certificate(
     check : same types as `model`, optional
         A second set of plants on which the P found must also verify (e.g. a finer
         sampling of the robot).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
-        The LMI's solver: the package's own (``scara_robust.sdp``, :func:`~scara_robust.solve_lmi`) or cvxpy's.
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI's solver: the package's own (``scara_robust.sdp``, :func:`~scara_robust.solve_lmi`) or cvxpy's;
+        None: :func:`~scara_robust.default_lmi_solver`.
     candidate : array_like, shape (3p, 3p) or (n, n), or callable, optional
         A common Lyapunov matrix of the continuous-time loops in the PID form
         ``[∫e, e, ė]`` (:func:`scara_robust.lmi_certificate` of ``A − BK``; for static
@@ -358,9 +359,9 @@ def sampled_certificate(
     >>> sr.sampled_certificate(plant, pid).certified
     True
     """
+    solver = resolve_lmi_solver(solver)
     check_controller("pid", pid, ("pid", "state feedback"),
                      "a DiscretePID (Design.discretize) or a SampledStateFeedback")
-    check_choice("solver", solver, LMI_SOLVERS)
     check_choice("stop", stop, LMI_STOPS)
     A, B = _plants(model)
     Ad, keep = _without_marginal(sampled_closed_loops(A, B, pid))
@@ -446,7 +447,7 @@ def max_sample_time(
     ts_min: float = TS_MIN,
     ts_max: float = MAX_SAMPLE_TIME_CAP,
     rtol: float = 1e-3,
-    solver: str = "IPM",
+    solver: str | None = None,
     **discretize: object,
 ) -> SampleTimeLimit:
     """Bisect the largest certified Ts and the smallest Ts at which a frozen plant is unstable.
@@ -476,7 +477,8 @@ def max_sample_time(
         frozen instability (default :data:`MAX_SAMPLE_TIME_CAP`).
     rtol : float
         Relative width of the final brackets (> 0).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     **discretize
         Options of :meth:`~scara_robust.Design.discretize` (integrator, derivative, N);
         a torque limit does not change the linear loop tested.
@@ -501,6 +503,7 @@ def max_sample_time(
     >>> print(lim.message)  # doctest: +SKIP
     certified up to Ts = 0.281 s (decay rate α >= 0.01295 1/s); a frozen plant is unstable from Ts = 0.283 s
     """
+    solver = resolve_lmi_solver(solver)
     if design_or_none(design) is None and controller_kind(design) not in ("pid", "state feedback"):
         try:
             design = SampledStateFeedback(design, 1.0)  # type: ignore[arg-type]
@@ -512,7 +515,6 @@ def max_sample_time(
     if ts_max <= ts_min:
         raise ArgumentValueError("ts_max", f"must be > ts_min = {ts_min:g} s, found {ts_max:g}")
     rtol = check_real("rtol", rtol, positive=True)
-    check_choice("solver", solver, LMI_SOLVERS)
     A, B = _plants(model)
     opts = {k: v for k, v in discretize.items() if k in ("integrator", "derivative", "N")}
     unknown = sorted(set(discretize) - set(opts) - {"torque_limit", "tracking_time", "anti_windup"})
@@ -707,7 +709,7 @@ def check_sample_time(
     check: SampledSet | tuple[ArrayLike, ArrayLike] | None = None,
     set_name: str = "the given plants",
     rtol: float = 1e-3,
-    solver: str = "IPM",
+    solver: str | None = None,
 ) -> SampleTimeCheck:
     """The sampled-data certificate of `pid` at its own Ts and, if it fails, the safe limits.
 
@@ -728,7 +730,8 @@ def check_sample_time(
         Relative width of the limits' brackets (the default is :func:`max_sample_time`'s,
         and so is its search range unless `pid`'s Ts lies outside it: one design, one
         bracket, whichever command asks).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
@@ -748,6 +751,7 @@ def check_sample_time(
     >>> sr.check_sample_time(plant, pid).certified
     False
     """
+    solver = resolve_lmi_solver(solver)
     check_controller("pid", pid, ("pid", "state feedback"),
                      "a DiscretePID (Design.discretize) or a SampledStateFeedback")
     cert = sampled_certificate(model, pid, check=check, solver=solver)

@@ -30,6 +30,7 @@ from .._validation import check_int, check_real
 from ..controller._hold import expm_stack
 from ..controller.state_feedback import SampledStateFeedback
 from ..results import AnalysisResult
+from ..sdp.backends import resolve_lmi_solver
 from .lmi import cvxpy_solver
 from .sampled import SampledCertificate, _plants, discrete_lyapunov_check, sampled_certificate
 
@@ -157,7 +158,7 @@ def synthesize_sampled(
     *,
     check: Any = None,
     gain_bound: float = 1e4,
-    solver: str = "IPM",
+    solver: str | None = None,
     first: int = FIRST_PLANTS,
     decay: float | None = None,
 ) -> SampledSynthesis:
@@ -174,7 +175,8 @@ def synthesize_sampled(
         Plants on which the gain must also verify (a finer grid).
     gain_bound : float
         ``‖K Q‖₂`` bound (with ``Q ⪰ I``), the objective minimized: a small gain that holds.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     first : int
         Plants of the first LMI.
     decay : float, optional
@@ -187,6 +189,7 @@ def synthesize_sampled(
         Certified when its own P verifies with numpy on every plant and `check`, and
         :func:`sampled_certificate` certifies ``SampledStateFeedback(K, Ts)`` on its own.
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     Ts = check_real("Ts", Ts, positive=True)
     gain_bound = check_real("gain_bound", gain_bound, positive=True)

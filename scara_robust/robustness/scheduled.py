@@ -62,8 +62,9 @@ from ..lyapunov.gain import design
 from ..model.plant import UncertainPlant
 from ..results import AnalysisResult, verdict_of
 from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
+from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
-from .lmi import LMI_SOLVERS, NOT_INSTALLED, cvxpy_available
+from .lmi import NOT_INSTALLED, cvxpy_available
 from .pdl import _balancing, _run
 from .sampled import SampledCertificate, sampled_certificate
 from .search import bisect
@@ -452,7 +453,7 @@ def schedule_certificate(
     decay: float = 0.0,
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
-    solver: str = "IPM",
+    solver: str | None = None,
     start_conditions: ArrayLike | None = None,
 ) -> ScheduleCertificate:
     """Certify the scheduled loop ``A(p, q) − B(p, q) K(p̂)`` for a moving, mis-measured parameter.
@@ -475,7 +476,8 @@ def schedule_certificate(
     refine : int
         The numpy verification's grid is `refine` times finer per segment (>= 2), on the
         unmeasured parameters' full samples (the LMIs: their coarse ones).
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     start_conditions : array_like of int, optional
         The conditions the cutting planes start from (:attr:`ScheduleCertificate.active_conditions`
         of a certificate on the same grid, as a search passes it); indices beyond the grid are
@@ -485,6 +487,7 @@ def schedule_certificate(
     -------
     ScheduleCertificate
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     name = scheduled_parameter(plant, gain.parameter)
     param = plant.parameter(name)
@@ -500,7 +503,6 @@ def schedule_certificate(
     decay = check_real("decay", decay, nonnegative=True)
     points = check_int("points", points, 2)
     refine = check_int("refine", refine, 2)
-    check_choice("solver", solver, LMI_SOLVERS)
     fine_points = refine * (points - 1) + 1
     covers = (f"p = {name} on {b.size - 1} segments, {points} points each for the LMIs and {fine_points} for the "
               f"check; p̂ exactly within ±{delta:g} {param.unit}; |ṗ| <= {nu:g} {param.unit}/s; the other "
@@ -583,7 +585,7 @@ def _sampled_pairs(plant: UncertainPlant, gain: ScheduledGain, name: str, points
 
 def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts: float, *,
                                  measurement_error: float | None = None, points: int = SCHEDULE_POINTS,
-                                 refine: int = SCHEDULE_REFINE, solver: str = "IPM") -> SampledCertificate:
+                                 refine: int = SCHEDULE_REFINE, solver: str | None = None) -> SampledCertificate:
     """The sampled-data certificate of the scheduled gain held by a zero-order hold at Ts.
 
     ``u_k = −K(p̂_k) x(t_k)`` held over ``[t_k, t_k + Ts)``: the loops ``x_{k+1} =
@@ -604,13 +606,15 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
         δ (default the parameter's effective error).
     points, refine : int
         As :func:`schedule_certificate`.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
 
     Returns
     -------
     SampledCertificate
         Of the pairs ``(A(p, q), B(p, q) K(p̂))`` under ``u' = −x`` (the gain folded into B).
     """
+    solver = resolve_lmi_solver(solver)
     name = scheduled_parameter(plant, gain.parameter)
     Ts = check_real("Ts", Ts, positive=True)
     _, delta = plant.parameter(name).motion_bounds(measurement_error=measurement_error)
@@ -955,7 +959,7 @@ def synthesize_schedule(
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
     tol: float = 0.02,
-    solver: str = "IPM",
+    solver: str | None = None,
     progress: Callable[[float, bool], None] | None = None,
 ) -> ScheduleSynthesis:
     """Synthesize a gain scheduled on a measured parameter: the largest certified decay at ‖K_j‖ <= κ.
@@ -980,7 +984,8 @@ def synthesize_schedule(
         As :func:`schedule_certificate`.
     tol : float
         Relative tolerance of the bisection on α.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     progress : callable ``progress(alpha, ok)``, optional
         Called after each step of the bisection.
 
@@ -990,6 +995,7 @@ def synthesize_schedule(
         Each step counts only when the table it gives is certified by
         :func:`schedule_certificate` (with δ and ν) at that α.
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     name = scheduled_parameter(plant, parameter)
     param = plant.parameter(name)
@@ -1000,7 +1006,6 @@ def synthesize_schedule(
                                                 f"{param.unit}, found [{b[0]:g}, {b[-1]:g}]")
     nu, _ = param.motion_bounds(rate)
     kappa = check_real("gain_bound", gain_bound, positive=True)
-    check_choice("solver", solver, LMI_SOLVERS)
     if not cvxpy_available():
         return ScheduleSynthesis(None, math.nan, None, kappa, nu, 0, 0.0, NOT_INSTALLED,
                                  "cvxpy is not installed (extra `lmi`)")
@@ -1083,7 +1088,7 @@ def synthesize_schedule_rate(
     tol: float = 0.05,
     points: int = SCHEDULE_POINTS,
     refine: int = SCHEDULE_REFINE,
-    solver: str = "IPM",
+    solver: str | None = None,
     progress: Callable[[float, bool], None] | None = None,
 ) -> ScheduleSynthesis:
     """Synthesize the scheduled gain certified for the fastest parameter: the largest ν at decay α.
@@ -1114,7 +1119,8 @@ def synthesize_schedule_rate(
         Relative tolerance of the bisection on ν.
     points, refine : int
         As :func:`schedule_certificate`.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     progress : callable ``progress(rate, ok)``, optional
 
     Returns
@@ -1124,6 +1130,7 @@ def synthesize_schedule_rate(
         rate), at decay α; ``status`` ``'infeasible'`` when not even a frozen parameter
         (ν = 0) nor any probed rate gives one.
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     name = scheduled_parameter(plant, parameter)
     param = plant.parameter(name)

@@ -41,13 +41,13 @@ from ..lyapunov.gain import Design
 from ..model.plant import ModelLike, Signal, as_model, is_model
 from ..results import AnalysisResult
 from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
 from .l2gain import bounded_real_ok
 from .lmi import (
     DECAY_FLOOR_RTOL,
     DIRECT_LOOPS,
-    LMI_SOLVERS,
     NOT_INSTALLED,
     VERIFY_FARKAS_RTOL,
     cvxpy_available,
@@ -612,7 +612,7 @@ def synthesize(
     check: tuple[ArrayLike, ArrayLike] | None = None,
     nominal: ModelLike | None = None,
     tol: float = 1e-2,
-    solver: str = "IPM",
+    solver: str | None = None,
     input_limits: ArrayLike | None = None,
     initial_errors: ArrayLike | None = None,
     structure: str = "full",
@@ -652,7 +652,8 @@ def synthesize(
         `model` itself; for sampled pairs, their average).
     tol : float
         Relative tolerance of the bisections on α or θ.
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     input_limits : float or array_like, shape (m,), optional
         ``ū_i > 0`` per input, in its unit (``inf``: none; a plant's
         :attr:`~scara_robust.UncertainPlant.input_limits`): every objective is then
@@ -701,6 +702,7 @@ def synthesize(
     >>> sr.synthesize(box, objective="decay").certified
     True
     """
+    solver = resolve_lmi_solver(solver)
     start = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)
     named = inputs if inputs is not None else getattr(model, "inputs", None)  # a plant's, before its interval model
@@ -710,7 +712,6 @@ def synthesize(
     pattern = None if structure == "full" else decentralized_pattern(n, m)
     kappa = check_real("gain_bound", gain_bound, positive=True)
     tol = check_real("tol", tol, positive=True)
-    check_choice("solver", solver, LMI_SOLVERS)
     alpha = None if decay is None else check_real("decay", decay, nonnegative=True)
     l2 = _l2_pairs(A, B, output, disturbance) if objective == "l2" else None
     A_chk, B_chk = _check_pairs(check, A, B)

@@ -37,6 +37,7 @@ from .._validation import check_choice, check_int
 from ..lyapunov.gain import Design, as_design
 from ..model.plant import ModelLike, UncertainPlant, as_model, as_plant
 from ..results import CertificateRow
+from ..sdp.backends import default_lmi_solver
 from .context import CertificateContext
 from .lmi import LMI_SOLVERS
 from .registry import analysis_methods, checked_result, get_method
@@ -57,7 +58,7 @@ def certificate_table(
     plant: UncertainPlant | None = None,
     points: Mapping[str, int] | None = None,
     lmi_points: Mapping[str, int] | None = None,
-    lmi_solver: str = "IPM",
+    lmi_solver: str | None = None,
     falsifier_tries: int = 30,
     seed: int = 0,
     methods: Sequence[str] | None = None,
@@ -84,7 +85,8 @@ def certificate_table(
     lmi_points : mapping of str to int, optional
         Coarser grid on which the physical LMI is solved (default: each parameter's
         ``coarse``); its P is then verified with numpy on both grids above.
-    lmi_solver : {'IPM', 'CLARABEL', 'SCS'}
+    lmi_solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     falsifier_tries : int
         Trajectories per falsifier row.
     seed : int
@@ -125,7 +127,7 @@ def certificate_table(
     plant = plant if plant is not None else as_plant("model", model)
     model = as_model("model", model)
     design = as_design(model, design)
-    check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
+    lmi_solver = default_lmi_solver() if lmi_solver is None else check_choice("lmi_solver", lmi_solver, LMI_SOLVERS)
     names = analysis_methods("certificate", defaults=True) if methods is None else tuple(methods)
     chosen = {name: get_method("certificate", name, argument="methods") for name in names}
     context = CertificateContext(model, design, plant, lmi_solver=lmi_solver, falsifier_tries=falsifier_tries,

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,21 +14,91 @@ from .ipm import LMIResult, solve_ipm
 from .problem import LMIProblem, LMIVariable
 from .reference import solve_lmi_cvxpy
 
-__all__ = ["LMI_BACKENDS", "solve_lmi", "solve_lmi_interior"]
+__all__ = ["LMI_BACKENDS", "solve_lmi", "solve_lmi_interior", "default_lmi_solver", "use_lmi_solver",
+           "resolve_lmi_solver"]
 
 #: The solvers of :func:`solve_lmi`: the package's own, then cvxpy's (extra ``lmi``).
 LMI_BACKENDS = ("IPM", "CLARABEL", "SCS")
 
+_DEFAULT: ContextVar[str] = ContextVar("scara_robust_lmi_solver", default="IPM")
 
-def solve_lmi(problem: LMIProblem, solver: str = "IPM", *,
+
+def default_lmi_solver() -> str:
+    """The solver an analysis uses when its ``solver`` argument is None (``'IPM'`` unless changed).
+
+    Returns
+    -------
+    str
+        A name of :data:`LMI_BACKENDS`.
+
+    See Also
+    --------
+    use_lmi_solver : change it for a block of code.
+    """
+    return _DEFAULT.get()
+
+
+@contextmanager
+def use_lmi_solver(solver: str) -> Iterator[str]:
+    """Make `solver` the default of every LMI analysis inside a ``with`` block.
+
+    Every function of the package that solves an LMI takes ``solver=None`` to mean this
+    default; inside the block, ``None`` means `solver`. The setting is a context variable:
+    it holds in the thread (or task) that entered the block, and ends with it.
+
+    Parameters
+    ----------
+    solver : {'IPM', 'CLARABEL', 'SCS'}
+
+    Yields
+    ------
+    str
+        The solver.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> with sr.use_lmi_solver("CLARABEL"):
+    ...     sr.default_lmi_solver()
+    'CLARABEL'
+    >>> sr.default_lmi_solver()
+    'IPM'
+    """
+    check_choice("solver", solver, LMI_BACKENDS)
+    token = _DEFAULT.set(solver)
+    try:
+        yield solver
+    finally:
+        _DEFAULT.reset(token)
+
+
+def resolve_lmi_solver(solver: str | None) -> str:
+    """The solver an analysis runs: `solver` checked, or the default (:func:`default_lmi_solver`) for None.
+
+    Parameters
+    ----------
+    solver : {'IPM', 'CLARABEL', 'SCS'} or None
+
+    Returns
+    -------
+    str
+    """
+    if solver is None:
+        return _DEFAULT.get()
+    check_choice("solver", solver, LMI_BACKENDS)
+    return solver
+
+
+def solve_lmi(problem: LMIProblem, solver: str | None = None, *,
           accept: Callable[[NDArray[np.float64]], bool] | None = None) -> LMIResult:
     """Solve an LMI problem.
 
     Parameters
     ----------
     problem : LMIProblem
-    solver : {'IPM', 'CLARABEL', 'SCS'}
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
         ``'IPM'``: :func:`solve_ipm`; the others through cvxpy (:func:`solve_lmi_cvxpy`).
+        None: :func:`default_lmi_solver`.
     accept : callable ``accept(y) -> bool``, optional
         With ``'IPM'``: stop at the first iterate it accepts (a bisection's question answered).
 
@@ -34,7 +106,7 @@ def solve_lmi(problem: LMIProblem, solver: str = "IPM", *,
     -------
     LMIResult
     """
-    check_choice("solver", solver, LMI_BACKENDS)
+    solver = resolve_lmi_solver(solver)
     if solver == "IPM":
         return solve_ipm(problem, accept=accept)
     return solve_lmi_cvxpy(problem, solver)
