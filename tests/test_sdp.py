@@ -14,6 +14,7 @@ import pytest
 import scara_robust as sr
 from scara_robust.exceptions import ArgumentValueError
 from scara_robust.robustness.l2gain import bounded_real_problem, frozen_hinf_norms, invariant_ellipsoid_problem
+from scara_robust.robustness.l2rate import rate_bounded_l2_problem
 from scara_robust.robustness.lmi import common_p_problem
 from scara_robust.robustness.pdl import pdl_problem
 from scara_robust.robustness.polytope import box_closed_loops
@@ -124,6 +125,14 @@ def _corpus() -> dict[str, LMIProblem]:
     # z in mrad: in rad the optimum, γ² = 4.9e-5 rad², is within Clarabel's tolerances of zero
     # (test_a_small_peak_bound_is_resolved_without_scaling)
     problems["peak gain, alpha = decay, z in mrad"] = invariant_ellipsoid_problem(A_cl, Bw, 1e3 * C, decay)[0]
+    # the rate-bounded L2 gain of the spring, w a force, z the position
+    spring_w, spring_z = np.tile([[0.0], [1.0]], (q.size, 1, 1)), np.array([[1.0, 0.0]])
+    s01 = (q - q.min()) / np.ptp(q)
+    problems["rate-bounded L2 gain, rate 0.05"] = rate_bounded_l2_problem(spring, s01, spring_w, spring_z,
+                                                                          np.zeros((1, 1)), 0.025, None)[0]
+    damped = spring + np.array([[0.0, 0.0], [0.0, -1.7]])  # damping 2 N·s/m: one P for any rate
+    problems["rate-bounded L2 gain, any rate"] = rate_bounded_l2_problem(damped, s01, spring_w, spring_z,
+                                                                         np.zeros((1, 1)), np.inf, None)[0]
     return problems
 
 

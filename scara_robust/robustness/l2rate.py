@@ -26,19 +26,19 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_real
 from ..results import AnalysisResult
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ..sdp.backends import resolve_lmi_solver
 from .context import CertificateContext
 from .l2gain import L2_INFLATION, GainBound, check_gain_inputs, frozen_hinf_norms
-from .lmi import NOT_INSTALLED, cvxpy_available, cvxpy_solver
+from .lmi import NOT_INSTALLED, cvxpy_available
 from .registry import AnalysisMethod, register_method
 from .synthesis import error_output
 
@@ -153,39 +153,81 @@ def _inputs(closed_loops: ArrayLike, p: ArrayLike, Bw: ArrayLike, C: ArrayLike,
     return A, check_array("p", p, shape=(A.shape[0],)), Bw_, C_, D_
 
 
-def _solve(cp: Any, A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float, solver: str,
+def rate_bounded_l2_problem(A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float,
+                            gamma: float | None) -> tuple[LMIProblem, LMIVariable, LMIVariable | None, LMIVariable]:
+    """The rate-bounded bounded-real LMI of :func:`rate_bounded_l2_gain` as an :class:`~scara_robust.LMIProblem`.
+
+    ``P(s) = P0 + s P1`` (``P1`` absent for ν = inf). With ``E = [I 0]`` and
+    ``N_i = [Ā_i B_w,i]``, each sample's block for each sign of ṡ is
+    ``−(EᵀP(s_i)N_i + N_iᵀP(s_i)E) ∓ ν EᵀP1E − [C D]ᵀ[C D] + γ² diag(0, I) ⪰ 0``, and
+    ``P(s_i) ⪰ 1e-9 I``. Without `gamma`: ``minimize γ²`` (blocks ⪰ 1e-9 I). With it:
+    ``maximize t ≤ 1`` with ``P(s_i) ⪰ tI`` and every block ⪰ tI (the most interior P).
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, n)
+    s : ndarray, shape (N,)
+        The parameter scaled to [0, 1].
+    Bw : ndarray, shape (N, n, q)
+    C : ndarray, shape (r, n)
+    D : ndarray, shape (r, q)
+    nu : float
+        The rate bound of s, 1/s (inf: a common P).
+    gamma : float or None
+
+    Returns
+    -------
+    problem : LMIProblem
+    P0 : LMIVariable
+    P1 : LMIVariable or None
+    g : LMIVariable
+        γ² (without `gamma`) or t.
+    """
+    n, q = A.shape[1], Bw.shape[2]
+    eye = np.eye(n)
+    E = np.hstack([eye, np.zeros((n, q))])
+    N = np.concatenate([A, Bw], axis=2)
+    CD = np.hstack([C, D])
+    corner = np.zeros((n + q, n + q))
+    corner[n:, n:] = np.eye(q)
+    problem = LMIProblem()
+    P0 = problem.symmetric("P0", n)
+    P1 = problem.symmetric("P1", n) if math.isfinite(nu) else None
+    g = problem.scalar("g2" if gamma is None else "t")
+    at_s = s[:, None, None] * eye
+    P_terms = [(P0, 0.5 * eye, eye)] + ([] if P1 is None else [(P1, 0.5 * at_s, np.broadcast_to(eye, at_s.shape))])
+    slack = np.eye(n + q)
+    if gamma is None:
+        problem.add_lmi(terms=P_terms, const=np.broadcast_to(-1e-9 * eye, at_s.shape), name="P(s) >= 1e-9 I")
+        scalars, const = [(g, corner)], -CD.T @ CD - 1e-9 * slack
+        problem.minimize({g: 1.0})
+    else:
+        problem.add_lmi(terms=P_terms, scalars=[(g, -eye)], name="P(s) >= tI")
+        problem.add_lmi(scalars=[(g, -np.ones((1, 1)))], const=np.ones((1, 1)), name="t <= 1")
+        scalars, const = [(g, -slack)], -CD.T @ CD + gamma**2 * corner
+        problem.maximize({g: 1.0})
+    for sign in ((0.0,) if P1 is None else (-1.0, 1.0)):
+        terms = [(P0, -E, N)]
+        if P1 is not None:
+            terms += [(P1, -s[:, None, None] * E, N), (P1, -0.5 * sign * nu * E, E)]
+        problem.add_lmi(terms=terms, scalars=scalars, const=np.broadcast_to(const, (A.shape[0], n + q, n + q)),
+                        name=f"bounded real, sign {sign:+g}")
+    return problem, P0, P1, g
+
+
+def _solve(A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float, solver: str,
            gamma: float | None) -> tuple[str, float, Array | None, Array | None]:
     """Minimize γ² (``gamma`` None), or at a given γ find the most interior P(s); s in [0, 1]."""
-    n, q = A.shape[1], Bw.shape[2]
-    P0 = cp.Variable((n, n), symmetric=True)
-    P1 = cp.Variable((n, n), symmetric=True) if math.isfinite(nu) else None
-    g2 = cp.Variable(nonneg=True) if gamma is None else gamma ** 2
-    t = 1e-9 if gamma is None else cp.Variable()
-    constraints = [] if gamma is None else [t <= 1]
-    for A_i, B_i, s_i in zip(A, Bw, s):
-        P = P0 if P1 is None else P0 + s_i * P1
-        constraints.append(P >> t * np.eye(n))
-        for sign in ((0.0,) if P1 is None else (-1.0, 1.0)):
-            top = A_i.T @ P + P @ A_i + C.T @ C
-            if P1 is not None:
-                top = top + sign * nu * P1
-            lhs = cp.bmat([[top, P @ B_i + C.T @ D], [B_i.T @ P + D.T @ C, D.T @ D - g2 * np.eye(q)]])
-            constraints.append(0.5 * (lhs + lhs.T) << -t * np.eye(n + q))
-    problem = cp.Problem(cp.Minimize(g2) if gamma is None else cp.Maximize(t), constraints)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=cvxpy_solver(solver))
-    except cp.SolverError as err:
-        return f"solver error: {err}", math.inf, None, None
-    status = str(problem.status)
-    if P0.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return status, math.inf, None, None
-    if gamma is not None and float(t.value) <= 0:  # type: ignore[union-attr]
+    problem, P0, P1, g = rate_bounded_l2_problem(A, s, Bw, C, D, nu, gamma)
+    result = solve_lmi(problem, solver)
+    if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+        return result.status, math.inf, None, None
+    if gamma is not None and result.value(g) <= 0:
         return "not verified", math.inf, None, None
-    value = math.sqrt(max(float(np.asarray(g2.value)), 0.0)) if gamma is None else gamma  # type: ignore[union-attr]
-    P1_value = np.zeros((n, n)) if P1 is None else np.array(P1.value, dtype=float)
-    return status, value, np.array(P0.value, dtype=float), P1_value
+    value = math.sqrt(max(result.value(g), 0.0)) if gamma is None else gamma
+    n = A.shape[1]
+    P1_value = np.zeros((n, n)) if P1 is None else np.asarray(result.value(P1), dtype=float)
+    return result.status, value, np.asarray(result.value(P0), dtype=float), P1_value
 
 
 def rate_bounded_l2_gain(
@@ -256,18 +298,16 @@ def rate_bounded_l2_gain(
     if not cvxpy_available():
         return RateL2Gain(math.nan, lower, nu, NOT_INSTALLED, None, None, n_samples, time.perf_counter() - start,
                           parameter=parameter, unit=unit)
-    import cvxpy as cp
-
     # P(s) with s = (p − lo)/width in [0, 1] (the same family of matrices, better conditioned)
     lo, width = float(p_.min()), float(np.ptp(p_)) or 1.0
     s = (p_ - lo) / width
     nu_s = nu / width
-    status, gamma, _, _ = _solve(cp, A, s, Bw_, C_, D_, nu_s, solver, None)
+    status, gamma, _, _ = _solve(A, s, Bw_, C_, D_, nu_s, solver, None)
     if not math.isfinite(gamma):
         return RateL2Gain(math.inf, lower, nu, status, None, None, n_samples, time.perf_counter() - start,
                           parameter=parameter, unit=unit)
     bound = gamma * (1 + L2_INFLATION)
-    status2, _, Q0, Q1 = _solve(cp, A, s, Bw_, C_, D_, nu_s, solver, bound)
+    status2, _, Q0, Q1 = _solve(A, s, Bw_, C_, D_, nu_s, solver, bound)
     if Q0 is None or Q1 is None:
         return RateL2Gain(math.inf, lower, nu, status2, None, None, n_samples, time.perf_counter() - start,
                           parameter=parameter, unit=unit)
