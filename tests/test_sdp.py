@@ -18,8 +18,9 @@ from scara_robust.robustness.l2rate import rate_bounded_l2_problem
 from scara_robust.robustness.lmi import common_p_problem
 from scara_robust.robustness.pdl import pdl_problem
 from scara_robust.robustness.polytope import box_closed_loops
+from scara_robust.robustness.sampled_synthesis import sampled_synthesis_problem
 from scara_robust.robustness.scheduled import schedule_lyapunov_problem
-from scara_robust.robustness.synthesis import synthesis_problem
+from scara_robust.robustness.synthesis import performance_synthesis_problem, synthesis_problem
 from scara_robust.sdp import LMIProblem, LMIResult, dense_schur
 from scara_robust.sdp import solve_lmi as solve
 
@@ -102,6 +103,10 @@ def _corpus() -> dict[str, LMIProblem]:
     problems["synthesis, decay 50 (infeasible)"] = synthesis_problem(A, B, 50.0, 10.0)[0]
     pattern = (np.eye(2), np.ones((1, 2)))
     problems["synthesis, patterned Q"] = synthesis_problem(A, B, 0.2, 10.0, pattern)[0]
+    problems["synthesis, L2 objective"] = performance_synthesis_problem(A, B, 0.2, 10.0, (B, np.eye(1, 2)), None)[0]
+    limits = (np.array([5.0]), np.array([[0.3, 0.0], [0.0, 0.3]]))
+    problems["synthesis, input limits"] = performance_synthesis_problem(A, B, 0.2, 10.0, None, limits)[0]
+    problems["sampled synthesis, Ts = 10 ms"] = sampled_synthesis_problem(A, B, 0.01, 10.0, 0.1)[0]
     # a spring whose stiffness changes with p in [−1, 1]: the rate-bounded and scheduled LMIs
     q = np.linspace(-1.0, 1.0, 9)
     spring = np.array([[[0.0, 1.0], [-(2.0 + 1.5 * qi), -0.3]] for qi in q])

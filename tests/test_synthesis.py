@@ -264,11 +264,16 @@ def test_shipped_gain_is_certified_and_a_fresh_synthesis_reaches_the_same_object
     for gain in (K, again.K):
         lower = sr.l2_gain(coarse.A - coarse.B @ gain, coarse.B, C).lower
         assert lower <= min(gamma, again.gamma)
-    assert again.gamma == pytest.approx(gamma, rel=GAMMA_RTOL)
+    # the same or better: the infimum is not attained (P grows along the integral states as γ falls), and
+    # the package's solver, which resolves γ* to 1e-8, ends nearer it than the shipped file's Clarabel run
+    assert again.gamma <= gamma * (1 + GAMMA_RTOL)
 
 
 def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):
     import cvxpy as cp
+
+    import scara_robust.robustness.synthesis as synthesis
+    from scara_robust.sdp import LMIResult
 
     poly = sr.PolytopicModel(TRIPLE, np.tile(np.eye(2), (3, 1, 1)))
 
@@ -280,14 +285,17 @@ def test_solver_errors_and_inaccurate_answers_are_results(monkeypatch):
     assert result.status.startswith("solver error") and not result.certified and result.K is None
     assert "numerical trouble" in result.message
 
-    def inaccurate(self, *args, **kwargs):
-        # an "optimal_inaccurate" answer whose Q makes nothing decay: Y = 0 and Q = I
-        for var in self.variables():
-            var.value = np.eye(2) if var.shape == (2, 2) else np.zeros(var.shape)
-        self._status = "optimal_inaccurate"
+    def inaccurate(problem, solver=None, **options):
+        # an "optimal_inaccurate" answer whose Q makes nothing decay: Y = 0, Q = I, μ = t = 1
+        y = np.zeros(problem.n_free)
+        for var in problem.variables:
+            if var.name == "Q":
+                y[var.slice] = np.linalg.lstsq(var.basis, np.eye(2).ravel(), rcond=None)[0]
+            elif var.name in ("mu", "t"):
+                y[var.offset] = 1.0
+        return LMIResult("optimal_inaccurate", y, None, 1.0, 0.0, 1, solver=solver)
 
-    monkeypatch.setattr(cp.Problem, "solve", inaccurate)
-    monkeypatch.setattr(cp.Problem, "status", property(lambda self: self._status))
+    monkeypatch.setattr(synthesis, "solve_lmi", inaccurate)
     unstable = sr.PolytopicModel(np.array([[[0.5, 0.0], [0.0, -1.0]]]), np.array([[[0.0], [1.0]]]))
     result = sr.synthesize(unstable, decay=0.1, solver="CLARABEL")
     assert result.status == "not verified" and result.solver_status == "optimal_inaccurate"

@@ -166,25 +166,6 @@ def lmi_verdict(status: str, verified: bool) -> str:
     return "unknown"
 
 
-def cvxpy_solver(solver: str) -> str:
-    """The cvxpy solver that answers an LMI written for cvxpy only: Clarabel for ``'IPM'``.
-
-    The LMIs described for the package's solver (common P, sampled data, decay synthesis)
-    run on it; the others (L2 and peak gains, rate-bounded, scheduled, sampled synthesis)
-    are still written in cvxpy and are solved by Clarabel when ``'IPM'`` is asked for.
-
-    Parameters
-    ----------
-    solver : str
-        A name of :data:`LMI_SOLVERS`.
-
-    Returns
-    -------
-    str
-    """
-    return "CLARABEL" if solver == "IPM" else solver
-
-
 def cvxpy_available() -> bool:
     """True when cvxpy can be imported (the ``lmi`` extra is installed).
 

@@ -38,9 +38,7 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -52,7 +50,7 @@ from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
 from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
 from ..sdp.backends import resolve_lmi_solver
-from .lmi import DECAY_FLOOR_RTOL, NOT_INSTALLED, cvxpy_available, cvxpy_solver, decay_floor
+from .lmi import DECAY_FLOOR_RTOL, NOT_INSTALLED, cvxpy_available, decay_floor
 from .search import bisect
 
 __all__ = ["RateCertificate", "RateMargin", "rate_bounded_certificate", "verify_rate_bounded", "max_certified_rate"]
@@ -249,24 +247,8 @@ def _balancing(A: Array) -> Array:
     return np.asarray(V @ np.diag(w**-0.5) @ V.T, dtype=float)
 
 
-def _run(problem: Any, t: Any, solver: str) -> tuple[str, float | None]:
-    """Solve; the status and the value of the variable t, or None."""
-    import cvxpy as cp
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
-            problem.solve(solver=cvxpy_solver(solver))
-    except cp.SolverError as err:
-        return f"solver error: {err}", None
-    return str(problem.status), None if t.value is None else float(t.value)
-
-
 def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> tuple[str, Array | None, Array | None]:
     """Maximize t: tI ⪯ P(p̂_i) ⪯ I, L_i ± ν̂P̂1 ⪯ −tI, in normalized units (p̂ ∈ [−1, 1], balanced Ā/scale)."""
-    import cvxpy as cp
-
-    n = A.shape[1]
     centre = 0.5 * (p.max() + p.min())
     half = 0.5 * (p.max() - p.min()) or 1.0
     # A change of state coordinates x = T z leaves feasibility unchanged; T from the
@@ -281,45 +263,11 @@ def _solve(A: Array, p: Array, nu: float, slopes: Array | None, solver: str) -> 
     A_s = A_t / scale
     q = (p - centre) / half
     nu_s = nu / (half * scale) if math.isfinite(nu) else 0.0
-    if solver == "IPM":
-        status, Q0_ipm, Q1_ipm = _solve_ipm(A_s, q, math.inf if math.isinf(nu) else nu_s, None if slopes is None else
-                                            np.unique(T_inv @ slopes @ T * half / scale, axis=0))
-        if Q0_ipm is None or Q1_ipm is None:
-            return status, None, None
-        return (status, *_back(Q0_ipm, Q1_ipm, T_inv, centre, half))
-    eye = np.eye(n)
-    Q0 = cp.Variable((n, n), symmetric=True)
-    Q1 = cp.Variable((n, n), symmetric=True)
-    t = cp.Variable()
-    constraints = []
-    if math.isinf(nu):
-        constraints.append(Q1 == 0)
-    for value in np.unique(q):
-        constraints += [Q0 + value * Q1 >> t * eye, Q0 + value * Q1 << eye]
-    for A_i, q_i in zip(A_s, q):
-        P_i = Q0 + q_i * Q1
-        lhs = A_i.T @ P_i + P_i @ A_i
-        for sign in ((0.0,) if math.isinf(nu) else (1.0, -1.0)):
-            M = lhs + sign * nu_s * Q1
-            constraints.append(0.5 * (M + M.T) << -t * eye)
-    if slopes is not None:
-        for S in np.unique(T_inv @ slopes @ T * half / scale, axis=0):
-            C = S.T @ Q1 + Q1 @ S
-            constraints.append(0.5 * (C + C.T) >> 0)
-    # Stage 1 maximizes the margin t; at that optimum the solver often stalls short of its
-    # tolerances ('optimal_inaccurate'), so stage 2 asks for the strictly interior t*/2.
-    status, t_star = _run(cp.Problem(cp.Maximize(t), constraints), t, solver)
-    if t_star is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+    status, Q0, Q1 = _solve_description(A_s, q, math.inf if math.isinf(nu) else nu_s, None if slopes is None else
+                                        np.unique(T_inv @ slopes @ T * half / scale, axis=0), solver)
+    if Q0 is None or Q1 is None:
         return status, None, None
-    if t_star <= FEASIBILITY_TOL:
-        # P = 0, t = 0 is always feasible: no strict solution (unless the solver was unsure)
-        return ("infeasible" if status == cp.OPTIMAL else status), None, None
-    if status != cp.OPTIMAL:
-        status, _ = _run(cp.Problem(cp.Minimize(0), [*constraints, t == 0.5 * t_star]), t, solver)
-        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Q0.value is None or Q1.value is None:
-            return status, None, None
-    Q1_value = np.zeros((n, n)) if math.isinf(nu) else np.array(Q1.value, dtype=float)
-    return (status, *_back(np.array(Q0.value, dtype=float), Q1_value, T_inv, centre, half))
+    return (status, *_back(Q0, Q1, T_inv, centre, half))
 
 
 def _back(Q0: Array, Q1: Array, T_inv: Array, centre: float, half: float) -> tuple[Array, Array]:
@@ -380,10 +328,11 @@ def pdl_problem(A_s: Array, q: Array, nu_s: float,
     return problem, Q0, Q1, t
 
 
-def _solve_ipm(A_s: Array, q: Array, nu_s: float, slopes: Array | None) -> tuple[str, Array | None, Array | None]:
-    """:func:`pdl_problem` by the package's solver: (status, Q0, Q1) in normalized units, or None."""
+def _solve_description(A_s: Array, q: Array, nu_s: float, slopes: Array | None,
+                       solver: str) -> tuple[str, Array | None, Array | None]:
+    """:func:`pdl_problem` by `solver`: (status, Q0, Q1) in normalized units, or None."""
     problem, Q0, Q1, t = pdl_problem(A_s, q, nu_s, slopes)
-    result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL)
+    result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL, solver=solver)
     if result.y is None:
         return result.status, None, None
     if result.value(t) <= FEASIBILITY_TOL:

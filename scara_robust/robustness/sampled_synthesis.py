@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,8 +29,8 @@ from .._validation import check_int, check_real
 from ..controller._hold import expm_stack
 from ..controller.state_feedback import SampledStateFeedback
 from ..results import AnalysisResult
+from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ..sdp.backends import resolve_lmi_solver
-from .lmi import cvxpy_solver
 from .sampled import SampledCertificate, _plants, discrete_lyapunov_check, sampled_certificate
 
 __all__ = ["synthesize_sampled", "SampledSynthesis"]
@@ -119,37 +118,64 @@ def _closed_loops(Phi: Array, Gamma: Array, K: Array) -> Array:
     return np.asarray(Phi - Gamma @ K, dtype=float)
 
 
+def sampled_synthesis_problem(M: Array, N: Array, Ts: float, gain_bound: float,
+                              decay: float) -> tuple[LMIProblem, dict[str, LMIVariable]]:
+    """The sampled-data synthesis LMI of :func:`synthesize_sampled` as an :class:`~scara_robust.LMIProblem`.
+
+    ``minimize t`` over ``I ⪯ Q ⪯ CONDITION·I``, ``[[tI, Y], [Yᵀ, I]] ⪰ 0``, ``t <= gain_bound``
+    and, at every plant, with ``Z_i = (M_iQ − N_iY)/s`` (s the largest entry of M)::
+
+        −[[Z_i + Z_iᵀ + (2·decay/s) Q, √Ts Z_i], [√Ts Z_iᵀ, −Q/s]] ⪰ 0
+
+    (V decays at `decay` over the hold: ``Z + Zᵀ + 2·decay·Q + Ts Z Q⁻¹ Zᵀ ⪯ 0``, scaled). With
+    ``E₁ = [I 0]``, ``E₂ = [0 I]`` and ``W = E₁ + √Ts E₂``, the Z terms are
+    ``−(E₁ᵀZ_iW + WᵀZ_iᵀE₁)``.
+
+    Parameters
+    ----------
+    M : ndarray, shape (V, n, n)
+    N : ndarray, shape (V, n, m)
+    Ts : float
+        s.
+    gain_bound : float
+    decay : float
+        1/s.
+
+    Returns
+    -------
+    problem : LMIProblem
+    variables : dict
+        ``'Q'``, ``'Y'``, ``'t'``.
+    """
+    n, m = M.shape[1], N.shape[2]
+    scale = max(float(np.abs(M).max()), 1e-12)
+    eye, one = np.eye(n), np.ones((1, 1))
+    problem = LMIProblem()
+    Q, Y, t = problem.symmetric("Q", n), problem.matrix("Y", m, n), problem.scalar("t")
+    problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], const=-eye, name="Q >= I")
+    problem.add_lmi(terms=[(Q, -0.5 * eye, eye)], const=CONDITION * eye, name="Q <= CONDITION I")
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    problem.add_lmi(terms=[(Y, top, bottom)], scalars=[(t, np.diag(np.r_[np.ones(m), np.zeros(n)]))],
+                    const=np.diag(np.r_[np.zeros(m), np.ones(n)]), name="gain bound")
+    problem.add_lmi(scalars=[(t, -one)], const=gain_bound * one, name="t <= gain bound")
+    E1, E2 = np.eye(n, 2 * n), np.eye(n, 2 * n, n)
+    W = E1 + math.sqrt(Ts) * E2
+    problem.add_lmi(terms=[(Q, -np.swapaxes(M, 1, 2) @ E1 / scale, W), (Y, np.swapaxes(N, 1, 2) @ E1 / scale, W),
+                           (Q, -(decay / scale) * E1, E1), (Q, (0.5 / scale) * E2, E2)],
+                    name="decay over the hold")
+    problem.minimize({t: 1.0})
+    return problem, {"Q": Q, "Y": Y, "t": t}
+
+
 def _solve(M: Array, N: Array, Ts: float, gain_bound: float, solver: str,
            decay: float) -> tuple[str, Array | None, Array | None]:
-    import cvxpy as cp
-
-    n, m = M.shape[1], N.shape[2]
-    Q = cp.Variable((n, n), symmetric=True)
-    Y = cp.Variable((m, n))
-    t = cp.Variable()
-    scale = max(float(np.abs(M).max()), 1e-12)
-    eye = np.eye(n)
-    cons = [Q >> eye, Q << CONDITION * eye, cp.bmat([[t * np.eye(m), Y], [Y.T, eye]]) >> 0,  # type: ignore[attr-defined]
-            t <= gain_bound]
-    root = math.sqrt(Ts)
-    for Mi, Ni in zip(M, N):
-        Z = (Mi @ Q - Ni @ Y) / scale
-        # V decays at `decay` at least: Z + Zᵀ + 2 decay Q + Ts Z Q⁻¹ Zᵀ ⪯ 0 (scaled)
-        block = cp.bmat([[Z + Z.T + (2 * decay / scale) * Q, root * Z],  # type: ignore[attr-defined]
-                         [root * Z.T, -Q / scale]])
-        cons.append(0.5 * (block + block.T) << 0)
-    problem = cp.Problem(cp.Minimize(t), cons)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            problem.solve(solver=cvxpy_solver(solver))  # type: ignore[no-untyped-call]
-    except cp.SolverError as err:
-        return f"solver error: {err}", None, None
-    status = str(problem.status)
-    if Q.value is None or Y.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return status, None, None
-    Qv = 0.5 * (np.array(Q.value) + np.array(Q.value).T)
-    return status, np.linalg.solve(Qv.T, np.array(Y.value).T).T, np.linalg.inv(Qv)
+    problem, var = sampled_synthesis_problem(M, N, Ts, gain_bound, decay)
+    result = solve_lmi(problem, solver)
+    if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+        return result.status, None, None
+    Qv = np.asarray(result.value(var["Q"]), dtype=float)
+    Qv = 0.5 * (Qv + Qv.T)
+    return result.status, np.linalg.solve(Qv.T, np.asarray(result.value(var["Y"]), dtype=float).T).T, np.linalg.inv(Qv)
 
 
 def synthesize_sampled(

@@ -47,6 +47,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -65,7 +66,7 @@ from ..sdp import LMIProblem, LMIVariable, solve_lmi_interior
 from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 from .lmi import NOT_INSTALLED, cvxpy_available
-from .pdl import _balancing, _run
+from .pdl import _balancing
 from .sampled import SampledCertificate, sampled_certificate
 from .search import bisect
 
@@ -84,6 +85,19 @@ SCHEDULE_REFINE = 4
 #: An optimal margin t at or below this (normalized units) counts as no strict solution.
 FEASIBILITY_TOL = 1e-9
 
+
+
+def _run(problem: Any, t: Any, solver: str) -> tuple[str, float | None]:
+    """Solve a cvxpy problem with `solver`; the status and the value of the variable t, or None."""
+    import cvxpy as cp
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
+            problem.solve(solver=solver)
+    except cp.SolverError as err:
+        return f"solver error: {err}", None
+    return str(problem.status), None if t.value is None else float(t.value)
 
 def scheduled_parameter(plant: UncertainPlant, name: str | None = None) -> str:
     """The measured parameter a gain is scheduled on: `name`, or the plant's only measured one.

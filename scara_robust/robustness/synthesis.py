@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -44,7 +43,7 @@ from ..sdp import LMIProblem, LMIVariable, solve_lmi
 from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 from .actuator import InputLimitCertificate, initial_error_vertices, input_limit_certificate, input_limits_of
-from .l2gain import bounded_real_ok
+from .l2gain import L2_INFLATION, bounded_real_ok
 from .lmi import (
     DECAY_FLOOR_RTOL,
     DIRECT_LOOPS,
@@ -302,62 +301,139 @@ def _solve(
     With the package's solver (``'IPM'``) and `accept(Q, Y)`, the first (Q, Y) it accepts is
     returned. Returns the solver status, Q, Y and γ (NaN without `l2`).
     """
-    if solver == "IPM":
-        if l2 is None and limits is None:
-            return _solve_ipm(A, B, alpha, kappa, pattern, accept)
-        solver = "CLARABEL"  # the L2 and input-limit forms are not on the package's solver yet
-    import cvxpy as cp
-
-    n, m = A.shape[1], B.shape[2]
-    Q = cp.Variable((n, n), symmetric=True)
-    Y = cp.Variable((m, n))
-    eye = np.eye(n)
-    # Q ⪰ μI and Y Q⁻¹ Yᵀ ⪯ κ²μI give ‖K‖ = ‖(YQ^{-1/2}) Q^{-1/2}‖ <= κ√μ / √μ = κ. The decay
-    # LMI is homogeneous in (Q, Y), so μ = 1 there; the bounded-real one and the limits are
-    # not, so μ is free.
-    mu: cp.Variable | float = cp.Variable(nonneg=True) if l2 is not None or limits is not None else 1.0
-    constraints = [Q >> mu * eye, cp.bmat([[kappa**2 * mu * np.eye(m), Y], [Y.T, Q]]) >> 0]  # type: ignore[attr-defined]
-    if limits is not None:
-        u_max, points = limits
-        for v in points:
-            constraints.append(cp.bmat([[np.ones((1, 1)), v[None, :]], [v[:, None], Q]]) >> 0)  # type: ignore[attr-defined]
-        for k in np.flatnonzero(np.isfinite(u_max)).tolist():
-            row = Y[k:k + 1, :]
-            constraints.append(cp.bmat([[np.full((1, 1), u_max[k] ** 2), row], [row.T, Q]]) >> 0)  # type: ignore[attr-defined]
-    if pattern is not None:
-        constraints += [cp.multiply(1.0 - pattern[0], Q) == 0,  # type: ignore[attr-defined]
-                        cp.multiply(1.0 - pattern[1], Y) == 0]  # type: ignore[attr-defined]
-    gamma = cp.Variable(nonneg=True) if l2 is not None else None
-    for i, (A_i, B_i) in enumerate(zip(A, B)):
-        AQ = A_i @ Q - B_i @ Y
-        lhs = AQ + AQ.T + 2 * alpha * Q
-        constraints.append(0.5 * (lhs + lhs.T) << -_DECAY_LMI_SLACK * eye)
-        if l2 is not None and gamma is not None:
-            Bw, C = l2[0][i], l2[1]
-            q, p = Bw.shape[1], C.shape[0]
-            block = cp.bmat([[AQ + AQ.T, Bw, Q @ C.T], [Bw.T, -gamma * np.eye(q), np.zeros((q, p))],  # type: ignore[attr-defined]
-                             [C @ Q, np.zeros((p, q)), -gamma * np.eye(p)]])
-            constraints.append(0.5 * (block + block.T) << -1e-9 * np.eye(n + q + p))
-    objective = cp.Minimize(gamma) if gamma is not None else cp.Minimize(cp.trace(Q))  # type: ignore[attr-defined]
-    if limits is not None and gamma is None:
-        # the feasible Q are bounded above by the limits, not below: make E as round as the limits allow
-        # (Q ⪰ μI, μ <= 1, the size of the initial errors) instead of shrinking it onto them
-        constraints.append(mu <= 1.0)
-        objective = cp.Maximize(mu)
-    problem = cp.Problem(objective, constraints)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "inaccurate" is reported through the status
-            problem.solve(solver=solver)  # type: ignore[no-untyped-call]
-    except cp.SolverError as err:
-        return f"solver error: {err}", None, None, math.nan
-    if Q.value is None or problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        return str(problem.status), None, None, math.nan
-    g = math.nan if gamma is None else float(np.asarray(gamma.value))
-    Q_value, Y_value = np.array(Q.value, dtype=float), np.array(Y.value, dtype=float)
+    if solver == "IPM" and l2 is None and limits is None:
+        return _solve_ipm(A, B, alpha, kappa, pattern, accept)
+    if l2 is None and limits is None:
+        problem, var = synthesis_problem(A, B, alpha, kappa, pattern)
+        result = solve_lmi(problem, solver)
+        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+            return result.status, None, None, math.nan
+        t_val, mu_val = result.value(var["t"]), result.value(var["mu"])
+        if t_val <= 0 or mu_val <= 0:  # as the package's solver: infeasible where numpy checks the proof
+            proven = result.duals is not None and synthesis_farkas_holds(A, B, alpha, kappa, result.duals)
+            return ("infeasible" if proven else "infeasible_inaccurate"), None, None, math.nan
+        Q_value, Y_value = result.value(var["Q"]) / mu_val, result.value(var["Y"]) / mu_val
+    else:
+        problem, var = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern)
+        result = solve_lmi(problem, solver)
+        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+            return result.status, None, None, math.nan
+        g = result.value(var["gamma"]) if "gamma" in var else math.nan
+        if l2 is not None:
+            # γ* sits on the boundary of the feasible set, where the gain is as fragile as the LMI is tight:
+            # the most interior (Q, Y) at γ*(1 + L2_INFLATION), as l2_gain's check does for a given loop
+            g *= 1 + L2_INFLATION
+            interior, inner = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern, gamma=g)
+            second = solve_lmi(interior, solver)
+            if second.y is not None and second.status in ("optimal", "optimal_inaccurate") \
+                    and second.value(inner["t"]) > 0:
+                result, var = second, inner
+        Q_value, Y_value = result.value(var["Q"]), result.value(var["Y"])
+        status = result.status
+        Q_value, Y_value = np.asarray(Q_value, dtype=float), np.asarray(Y_value, dtype=float)
+        if pattern is not None:
+            Q_value, Y_value = Q_value * pattern[0], Y_value * pattern[1]
+        return status, Q_value, Y_value, g
+    g = math.nan
+    Q_value, Y_value = np.asarray(Q_value, dtype=float), np.asarray(Y_value, dtype=float)
     if pattern is not None:  # exact zeros: K = Y Q⁻¹ then has the structure (numpy verifies these Q, Y)
         Q_value, Y_value = Q_value * pattern[0], Y_value * pattern[1]
-    return str(problem.status), Q_value, Y_value, g
+    return result.status, Q_value, Y_value, g
+
+
+def performance_synthesis_problem(
+    A: Array, B: Array, alpha: float, kappa: float, l2: tuple[Array, Array] | None,
+    limits: tuple[Array, Array] | None, pattern: tuple[Array, Array] | None = None, *, gamma: float | None = None,
+) -> tuple[LMIProblem, dict[str, LMIVariable]]:
+    """The synthesis LMI with an L2 objective or input limits, as an :class:`~scara_robust.LMIProblem`.
+
+    Q ⪰ μI, μ >= 0 and ``[[κ²μI, Y], [Yᵀ, Q]] ⪰ 0`` (so ‖K‖ = ‖YQ⁻¹‖ <= κ), the decay
+    ``−(A_iQ − B_iY + (·)ᵀ + 2αQ) ⪰ 10⁻⁶ I`` at every plant, and:
+
+    - with ``l2 = (B_w (V, n, q), C (p, n))``: ``minimize γ`` with the bounded-real block
+      ``−[[A_iQ − B_iY + (·)ᵀ, B_w,i, QCᵀ], [B_w,iᵀ, −γI, 0], [CQ, 0, −γI]] ⪰ 10⁻⁹ I``;
+    - with ``limits = (ū (m,), V (k, n))``: ``[[1, v_jᵀ], [v_j, Q]] ⪰ 0`` for every point and
+      ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` for every finite ū_i; without `l2`, ``maximize μ <= 1``
+      (the ellipsoid as round as the limits allow);
+    - with `l2` and a given `gamma`: ``maximize t <= 1`` with the decay and bounded-real blocks
+      ⪰ tI at that γ: the most interior (Q, Y) of the level set.
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    B : ndarray, shape (V, n, m)
+    alpha, kappa : float
+    l2 : (ndarray (V, n, q), ndarray (p, n)) or None
+    limits : (ndarray (m,), ndarray (k, n)) or None
+    pattern : (ndarray (n, n), ndarray (m, n)), optional
+    gamma : float, optional
+        A fixed γ (with `l2`).
+
+    Returns
+    -------
+    problem : LMIProblem
+    variables : dict
+        ``'Q'``, ``'Y'``, ``'mu'`` and, with `l2`, ``'gamma'`` (or ``'t'`` with `gamma` given).
+    """
+    n, m = A.shape[1], B.shape[2]
+    eye = np.eye(n)
+    problem = LMIProblem()
+    Q = problem.symmetric("Q", n, pattern=None if pattern is None else pattern[0])
+    Y = problem.matrix("Y", m, n, pattern=None if pattern is None else pattern[1])
+    mu = problem.scalar("mu")
+    variables = {"Q": Q, "Y": Y, "mu": mu}
+    one = np.ones((1, 1))
+    problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], scalars=[(mu, -eye)], name="Q >= mu I")
+    problem.add_lmi(scalars=[(mu, one)], name="mu >= 0")
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)],
+                    scalars=[(mu, kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name="gain bound")
+    interior = l2 is not None and gamma is not None
+    t = problem.scalar("t") if interior else None
+    margin = [] if t is None else [(t, -eye)]
+    problem.add_lmi(terms=[(Q, -np.swapaxes(A, 1, 2) - alpha * eye, eye), (Y, np.swapaxes(B, 1, 2), eye)],
+                    scalars=margin, const=-_DECAY_LMI_SLACK * eye, name="decay")
+    if l2 is not None:
+        Bw, C = l2
+        q, p = Bw.shape[2], C.shape[0]
+        size = n + q + p
+        En, Ep = np.eye(n, size), np.eye(p, size, n + q)
+        const = np.zeros((A.shape[0], size, size))
+        const[:, :n, n:n + q] = -Bw
+        const[:, n:n + q, :n] = -np.swapaxes(Bw, 1, 2)
+        corner = np.diag(np.r_[np.zeros(n), np.ones(q + p)])
+        terms = [(Q, -np.swapaxes(A, 1, 2) @ En, En), (Y, np.swapaxes(B, 1, 2) @ En, En), (Q, -En, C.T @ Ep)]
+        if t is None:
+            g = problem.scalar("gamma")
+            variables["gamma"] = g
+            problem.add_lmi(terms=terms, scalars=[(g, corner)], const=const - 1e-9 * np.eye(size),
+                            name="bounded real")
+            problem.minimize({g: 1.0})
+        else:
+            variables["t"] = t
+            problem.add_lmi(terms=terms, scalars=[(t, -np.eye(size))], const=const + float(gamma) * corner,
+                            name="bounded real")
+            problem.add_lmi(scalars=[(t, -one)], const=one, name="t <= 1")
+            problem.maximize({t: 1.0})
+    if limits is not None:
+        u_max, points = limits
+        F = np.eye(n, 1 + n, 1)
+        if len(points):
+            const = np.zeros((len(points), 1 + n, 1 + n))
+            const[:, 0, 0] = 1.0
+            const[:, 0, 1:], const[:, 1:, 0] = points, points
+            problem.add_lmi(terms=[(Q, 0.5 * F, F)], const=const, name="initial errors inside")
+        for k in np.flatnonzero(np.isfinite(u_max)).tolist():
+            U = np.zeros((m, 1 + n))
+            U[k, 0] = 1.0
+            problem.add_lmi(terms=[(Y, U, F), (Q, 0.5 * F, F)], const=np.diag(np.r_[u_max[k] ** 2, np.zeros(n)]),
+                            name=f"input {k} limit")
+        if l2 is None:
+            # the feasible Q are bounded above by the limits, not below: make E as round as the limits allow
+            # (Q ⪰ μI, μ <= 1, the size of the initial errors) instead of shrinking it onto them
+            problem.add_lmi(scalars=[(mu, -one)], const=one, name="mu <= 1")
+            problem.maximize({mu: 1.0})
+    return problem, variables
 
 
 def synthesis_problem(A: Array, B: Array, alpha: float, kappa: float,

@@ -112,13 +112,15 @@ def solve_lmi(problem: LMIProblem, solver: str | None = None, *,
     return solve_lmi_cvxpy(problem, solver)
 
 
-def solve_lmi_interior(problem: LMIProblem, t: LMIVariable, *, floor: float = 0.0) -> LMIResult:
+def solve_lmi_interior(problem: LMIProblem, t: LMIVariable, *, floor: float = 0.0,
+                       solver: str | None = None) -> LMIResult:
     """Maximize the margin t of an always-feasible LMI; where rounding stops short, ask for t*/2.
 
-    The package's solver maximizes t; if it ends ``'optimal_inaccurate'`` (rounding stopped it
-    short of its tolerances) with ``t > floor``, the problem is solved again and stopped at the
-    first iterate, every block positive semidefinite, with ``t >= t*/2``: a strictly interior
-    point, which is all a certificate needs (cvxpy's path does the same in two problems).
+    If the solver ends ``'optimal_inaccurate'`` (rounding stopped it short of its
+    tolerances) with ``t > floor``, a strictly interior point is asked for instead, which is
+    all a certificate needs: the package's solver solves the problem again and stops at the
+    first iterate, every block positive semidefinite, with ``t >= t*/2``; cvxpy's solvers
+    solve the feasibility problem ``t = t*/2``.
 
     Parameters
     ----------
@@ -128,14 +130,24 @@ def solve_lmi_interior(problem: LMIProblem, t: LMIVariable, *, floor: float = 0.
         The margin, a scalar.
     floor : float
         A margin at or below this is no interior point.
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+        None: :func:`default_lmi_solver`.
 
     Returns
     -------
     LMIResult
     """
-    result = solve_ipm(problem)
+    solver = resolve_lmi_solver(solver)
+    result = solve_lmi(problem, solver)
     if result.status != "optimal_inaccurate" or result.y is None or result.value(t) <= floor:
         return result
     half = 0.5 * result.value(t)
-    second = solve_ipm(problem, accept=lambda y: bool(y[t.offset] >= half))
-    return second if second.accepted else result
+    if solver == "IPM":
+        second = solve_ipm(problem, accept=lambda y: bool(y[t.offset] >= half))
+        return second if second.accepted else result
+    pinned = problem.copy()
+    one = np.ones((1, 1))
+    pinned.add_lmi(scalars=[(t, one)], const=-half * one, name="t >= t*/2")
+    pinned.add_lmi(scalars=[(t, -one)], const=half * one, name="t <= t*/2")
+    pinned.maximize({})
+    return solve_lmi_cvxpy(pinned, solver)

@@ -195,6 +195,13 @@ class LMIProblem:
         self.variables.append(var)
         return var
 
+    def copy(self) -> LMIProblem:
+        """A problem with the same variables, blocks and objective, to which blocks can be added apart."""
+        other = LMIProblem()
+        other.variables, other.families, other._size = list(self.variables), list(self.families), self._size
+        other.objective = dict(self.objective)
+        return other
+
     def symmetric(self, name: str, n: int, *, pattern: ArrayLike | None = None) -> LMIVariable:
         """A symmetric ``n × n`` variable (entries where `pattern` is 0 held at 0)."""
         return self._add(name, n, n, True, pattern)
