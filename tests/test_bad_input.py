@@ -58,7 +58,7 @@ API_CASES = [
      ValueError, r"stabilizable"),
     # (1e12 and 1e-12 are solved since care's answer is refined by Newton steps, to scipy's within 1e-8)
     ("design-rho-huge", lambda: sr.design(PAPER, 1e14, 90.0), ValueError, r"`rho`=1e\+14: the Riccati solution is "
-     r"inaccurate .relative residual 1.1e-06 > 1e-06 after 3 Newton steps"),
+     r"inaccurate .relative residual [0-9.e+-]+ > 1e-06 after 3 Newton steps"),
     ("design-rho-tiny", lambda: sr.design(PAPER, 1e-20, 90.0), ValueError, r"`rho`=1e-20: the Riccati equation of "
      r"step 2 has no stabilizing solution"),
     ("surface-rho-huge", lambda: sr.design_surface(PAPER, [1.0, 1e14], [1.0]), ValueError, r"`rho`=1e\+14"),

@@ -1,10 +1,12 @@
 """Step 2's Riccati solution refined by Newton steps, and judged by what the design needs.
 
 The SO-101 (example-robot-data's so101.urdf, examples/robot-so101.toml) at (ρ, η) = (3, 90)
-is the case: python-control's `care` returns P with a relative residual of about 1.1e-8, above
-the 1e-8 the design once required, and the design was refused although it is usable. Newton
-(Kleinman) steps bring the residual down by three orders, and the refined P agrees with scipy's
-independent `solve_continuous_are`.
+is the case: python-control's `care` returns P with a relative residual of the size of the
+1e-8 the design once required (1.1e-8 from ABA's derivatives, 5.7e-9 from the payload-affine
+terms the plant is built from now: the rounding of the linearization decides which side), so
+the design was refused on some machines although it is usable. Newton (Kleinman) steps bring
+the residual down by two orders or more, and the refined P agrees with scipy's independent
+`solve_continuous_are`.
 """
 
 from __future__ import annotations
@@ -37,18 +39,21 @@ def _care(A, B, rho):
     return 0.5 * (P + P.T)
 
 
-def test_the_so101_case_is_above_the_plain_tolerance_and_refined_below_it(so101):
+def test_the_so101_case_is_refined_far_below_the_plain_tolerance(so101):
     A, B, model = so101
-    raw = gain_module._care_error(A, B, 3.0, _care(A, B, 3.0))
-    assert raw > gain_module.CARE_RTOL  # the case that was refused
-    P = sr.riccati_solution(model, 3.0)
-    refined = gain_module._care_error(A, B, 3.0, P)
-    assert refined < raw / 100
+    raw_P = _care(A, B, 3.0)
+    raw = gain_module._care_error(A, B, 3.0, raw_P)
+    assert raw > gain_module.CARE_RTOL / 100  # the tolerance's size: refused where rounding puts it above
+    newton = gain_module._newton_step(A, B, 3.0, raw_P)
+    assert gain_module._care_error(A, B, 3.0, newton) < min(raw, gain_module.CARE_RTOL) / 100
+    P = sr.riccati_solution(model, 3.0)  # refined only where care's residual is above CARE_RTOL
+    assert gain_module._care_error(A, B, 3.0, P) <= gain_module.CARE_RTOL
     # an independent solver (scipy's Schur method) gives the same stabilizing solution
     P_scipy = sl.solve_continuous_are(A, B, 2.0 * np.eye(A.shape[0]), np.eye(B.shape[1]) / 6.0)
-    assert np.abs(P - P_scipy).max() <= 1e-9 * np.abs(P_scipy).max()
+    assert np.abs(newton - P_scipy).max() <= 1e-9 * np.abs(P_scipy).max()
+    assert np.abs(P - P_scipy).max() <= 1e-6 * np.abs(P_scipy).max()  # unrefined where within CARE_RTOL
     d = sr.design(model, 3.0, 90.0)
-    assert d.hurwitz and d.care_residual < 1e-10
+    assert d.hurwitz and d.care_residual < gain_module.CARE_ACCEPT
 
 
 def test_a_newton_step_converges_quadratically_from_a_perturbed_solution(so101):
