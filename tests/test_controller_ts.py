@@ -83,6 +83,7 @@ def test_the_page_leads_with_it(capsys):
         explorer.close()
 
 
+@pytest.mark.lmi
 def test_synthesize_ts_finds_a_gain_certified_at_the_controller_s_ts(tmp_path, capsys):
     out = tmp_path / "light-1ms.json"
     assert main(["synthesize", "--robot", LIGHT, "--ts", "0.001", "--output", str(out)]) == 0

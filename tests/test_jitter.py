@@ -18,6 +18,8 @@ import pytest
 import scara_robust as sr
 from scara_robust.cli import main
 
+pytestmark = pytest.mark.lmi
+
 pytest.importorskip("cvxpy", reason="the certificates are LMIs: pip install '.[lmi]'")
 
 

@@ -16,7 +16,8 @@ import pytest
 
 import scara_robust as sr
 
-cp = pytest.importorskip("cvxpy")
+pytestmark = pytest.mark.lmi
+cp = pytest.importorskip("cvxpy")  # the independent computation is written in cvxpy
 
 
 def independent_l2(A, p, Bw, C, rate):

@@ -254,3 +254,23 @@ def test_a_stalled_margin_form_is_asked_for_half_its_margin(monkeypatch):
     assert 0.5 * optimum.value(t) <= found.value(t) <= optimum.value(t) * (1 + 1e-9)
     for block in pb.blocks(found.y):  # an interior point: every block positive definite
         assert np.linalg.eigvalsh(block)[:, 0].min() > 0
+
+
+def test_use_lmi_solver_sets_the_default_of_every_analysis():
+    """``solver=None`` is the default; ``sr.use_lmi_solver`` changes it inside a block; a bad name is refused."""
+    pytest.importorskip("cvxpy")
+    loops = _scara_loops(0.1)
+    before = sr.default_lmi_solver()  # 'IPM', or the one `--lmi-solver` gave the whole run
+    other = "CLARABEL" if before == "IPM" else "IPM"
+    assert sr.lmi_certificate(loops).solver == before
+    with sr.use_lmi_solver(other) as chosen:
+        assert chosen == other and sr.default_lmi_solver() == other
+        inside = sr.lmi_certificate(loops)
+        assert inside.solver == other and inside.certified
+        assert sr.lmi_certificate(loops, solver=before).solver == before  # an explicit argument wins
+    assert sr.default_lmi_solver() == before
+    with pytest.raises(ArgumentValueError, match="`solver`"):
+        with sr.use_lmi_solver("MOSEK"):
+            pass
+    with pytest.raises(ArgumentValueError, match="`solver`"):
+        sr.resolve_lmi_solver("mosek")
