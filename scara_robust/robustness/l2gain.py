@@ -263,7 +263,7 @@ def l2_gain(
     result = solve_lmi(problem, solver)
     if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
         return L2Gain(math.inf, lower, worst, result.status, None, time.perf_counter() - start)
-    gamma = math.sqrt(max(result.value(g2), 0.0))
+    gamma = math.sqrt(max(float(result.value(g2)), 0.0))
     # The optimum sits on the boundary, where numpy cannot confirm a strict inequality:
     # re-solve at γ(1 + 1e-3) for the most interior P, and check that one.
     bound = gamma * (1 + L2_INFLATION)
@@ -440,7 +440,7 @@ def peak_gain(
         return PeakBound(math.nan, math.nan, None, NOT_INSTALLED, time.perf_counter() - start)
     peaks = [_sinusoid_peak(A_i, B_i, C, D) for A_i, B_i in zip(A, Bw)]
     worst = int(np.argmax(peaks))
-    best = (math.inf, math.nan, None, "infeasible")
+    best: tuple[float, float, Array | None, str] = (math.inf, math.nan, None, "infeasible")
     for alpha in grid:
         problem, P, _ = invariant_ellipsoid_problem(A, Bw, C, float(alpha))
         result = solve_lmi(problem, solver)

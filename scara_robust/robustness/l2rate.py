@@ -224,7 +224,7 @@ def _solve(A: Array, s: Array, Bw: Array, C: Array, D: Array, nu: float, solver:
         return result.status, math.inf, None, None
     if gamma is not None and result.value(g) <= 0:
         return "not verified", math.inf, None, None
-    value = math.sqrt(max(result.value(g), 0.0)) if gamma is None else gamma
+    value = math.sqrt(max(float(result.value(g)), 0.0)) if gamma is None else gamma
     n = A.shape[1]
     P1_value = np.zeros((n, n)) if P1 is None else np.asarray(result.value(P1), dtype=float)
     return result.status, value, np.asarray(result.value(P0), dtype=float), P1_value

@@ -318,7 +318,7 @@ def _solve(
         result = solve_lmi(problem, solver)
         if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
             return result.status, None, None, math.nan
-        g = result.value(var["gamma"]) if "gamma" in var else math.nan
+        g = float(result.value(var["gamma"])) if "gamma" in var else math.nan
         if l2 is not None:
             # γ* sits on the boundary of the feasible set, where the gain is as fragile as the LMI is tight:
             # the most interior (Q, Y) at γ*(1 + L2_INFLATION), as l2_gain's check does for a given loop
@@ -388,8 +388,7 @@ def performance_synthesis_problem(
     top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
     problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)],
                     scalars=[(mu, kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name="gain bound")
-    interior = l2 is not None and gamma is not None
-    t = problem.scalar("t") if interior else None
+    t = problem.scalar("t") if l2 is not None and gamma is not None else None
     margin = [] if t is None else [(t, -eye)]
     problem.add_lmi(terms=[(Q, -np.swapaxes(A, 1, 2) - alpha * eye, eye), (Y, np.swapaxes(B, 1, 2), eye)],
                     scalars=margin, const=-_DECAY_LMI_SLACK * eye, name="decay")
@@ -403,7 +402,7 @@ def performance_synthesis_problem(
         const[:, n:n + q, :n] = -np.swapaxes(Bw, 1, 2)
         corner = np.diag(np.r_[np.zeros(n), np.ones(q + p)])
         terms = [(Q, -np.swapaxes(A, 1, 2) @ En, En), (Y, np.swapaxes(B, 1, 2) @ En, En), (Q, -En, C.T @ Ep)]
-        if t is None:
+        if t is None or gamma is None:
             g = problem.scalar("gamma")
             variables["gamma"] = g
             problem.add_lmi(terms=terms, scalars=[(g, corner)], const=const - 1e-9 * np.eye(size),
@@ -411,7 +410,7 @@ def performance_synthesis_problem(
             problem.minimize({g: 1.0})
         else:
             variables["t"] = t
-            problem.add_lmi(terms=terms, scalars=[(t, -np.eye(size))], const=const + float(gamma) * corner,
+            problem.add_lmi(terms=terms, scalars=[(t, -np.eye(size))], const=const + gamma * corner,
                             name="bounded real")
             problem.add_lmi(scalars=[(t, -one)], const=one, name="t <= 1")
             problem.maximize({t: 1.0})
