@@ -103,6 +103,7 @@ def _corpus() -> dict[str, LMIProblem]:
     problems["synthesis, decay 50 (infeasible)"] = synthesis_problem(A, B, 50.0, 10.0)[0]
     pattern = (np.eye(2), np.ones((1, 2)))
     problems["synthesis, patterned Q"] = synthesis_problem(A, B, 0.2, 10.0, pattern)[0]
+    problems["synthesis, decay 0.5, minimize trace Q"] = performance_synthesis_problem(A, B, 0.5, 10.0, None, None)[0]
     problems["synthesis, L2 objective"] = performance_synthesis_problem(A, B, 0.2, 10.0, (B, np.eye(1, 2)), None)[0]
     limits = (np.array([5.0]), np.array([[0.3, 0.0], [0.0, 0.3]]))
     problems["synthesis, input limits"] = performance_synthesis_problem(A, B, 0.2, 10.0, None, limits)[0]

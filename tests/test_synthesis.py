@@ -313,7 +313,7 @@ def test_the_package_solvers_failures_are_results(monkeypatch):
         raise np.linalg.LinAlgError("Schur complement not positive definite")
 
     monkeypatch.setattr(ipm, "_factor", singular)
-    result = sr.synthesize(poly, decay=0.1)
+    result = sr.synthesize(poly, decay=0.1, solver="IPM")  # whatever the run's default solver
     assert result.status.startswith("solver error") and not result.certified and result.K is None
     assert "Schur complement" in result.message
     monkeypatch.undo()
@@ -323,7 +323,7 @@ def test_the_package_solvers_failures_are_results(monkeypatch):
 
     monkeypatch.setattr(synthesis, "_solve", lying)
     unstable = sr.PolytopicModel(np.array([[[0.5, 0.0], [0.0, -1.0]]]), np.array([[[0.0], [1.0]]]))
-    result = sr.synthesize(unstable, decay=0.1)
+    result = sr.synthesize(unstable, decay=0.1, solver="IPM")
     assert result.status == "not verified" and result.solver_status == "optimal_inaccurate"
     assert not result.certified and "numpy does not certify" in result.message
 

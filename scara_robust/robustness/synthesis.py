@@ -303,49 +303,33 @@ def _solve(
     """
     if solver == "IPM" and l2 is None and limits is None:
         return _solve_ipm(A, B, alpha, kappa, pattern, accept)
-    if l2 is None and limits is None:
-        problem, var = synthesis_problem(A, B, alpha, kappa, pattern)
-        result = solve_lmi(problem, solver)
-        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
-            return result.status, None, None, math.nan
-        t_val, mu_val = result.value(var["t"]), result.value(var["mu"])
-        if t_val <= 0 or mu_val <= 0:  # as the package's solver: infeasible where numpy checks the proof
-            proven = result.duals is not None and synthesis_farkas_holds(A, B, alpha, kappa, result.duals)
-            return ("infeasible" if proven else "infeasible_inaccurate"), None, None, math.nan
-        Q_value, Y_value = result.value(var["Q"]) / mu_val, result.value(var["Y"]) / mu_val
-    else:
-        problem, var = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern)
-        result = solve_lmi(problem, solver)
-        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
-            return result.status, None, None, math.nan
-        g = float(result.value(var["gamma"])) if "gamma" in var else math.nan
-        if l2 is not None:
-            # γ* sits on the boundary of the feasible set, where the gain is as fragile as the LMI is tight:
-            # the most interior (Q, Y) at γ*(1 + L2_INFLATION), as l2_gain's check does for a given loop
-            g *= 1 + L2_INFLATION
-            interior, inner = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern, gamma=g)
-            second = solve_lmi(interior, solver)
-            if second.y is not None and second.status in ("optimal", "optimal_inaccurate") \
-                    and second.value(inner["t"]) > 0:
-                result, var = second, inner
-        Q_value, Y_value = result.value(var["Q"]), result.value(var["Y"])
-        status = result.status
-        Q_value, Y_value = np.asarray(Q_value, dtype=float), np.asarray(Y_value, dtype=float)
-        if pattern is not None:
-            Q_value, Y_value = Q_value * pattern[0], Y_value * pattern[1]
-        return status, Q_value, Y_value, g
-    g = math.nan
+    problem, var = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern)
+    result = solve_lmi(problem, solver)
+    if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+        return result.status, None, None, math.nan
+    g = float(result.value(var["gamma"])) if "gamma" in var else math.nan
+    if l2 is not None:
+        # γ* sits on the boundary of the feasible set, where the gain is as fragile as the LMI is tight:
+        # the most interior (Q, Y) at γ*(1 + L2_INFLATION), as l2_gain's check does for a given loop
+        g *= 1 + L2_INFLATION
+        interior, inner = performance_synthesis_problem(A, B, alpha, kappa, l2, limits, pattern, gamma=g)
+        second = solve_lmi(interior, solver)
+        if second.y is not None and second.status in ("optimal", "optimal_inaccurate") \
+                and second.value(inner["t"]) > 0:
+            result, var = second, inner
+    Q_value, Y_value = result.value(var["Q"]), result.value(var["Y"])
+    status = result.status
     Q_value, Y_value = np.asarray(Q_value, dtype=float), np.asarray(Y_value, dtype=float)
-    if pattern is not None:  # exact zeros: K = Y Q⁻¹ then has the structure (numpy verifies these Q, Y)
+    if pattern is not None:
         Q_value, Y_value = Q_value * pattern[0], Y_value * pattern[1]
-    return result.status, Q_value, Y_value, g
+    return status, Q_value, Y_value, g
 
 
 def performance_synthesis_problem(
     A: Array, B: Array, alpha: float, kappa: float, l2: tuple[Array, Array] | None,
     limits: tuple[Array, Array] | None, pattern: tuple[Array, Array] | None = None, *, gamma: float | None = None,
 ) -> tuple[LMIProblem, dict[str, LMIVariable]]:
-    """The synthesis LMI with an L2 objective or input limits, as an :class:`~scara_robust.LMIProblem`.
+    """The synthesis LMI (decay, L2 objective or input limits) as an :class:`~scara_robust.LMIProblem`.
 
     Q ⪰ μI, μ >= 0 and ``[[κ²μI, Y], [Yᵀ, Q]] ⪰ 0`` (so ‖K‖ = ‖YQ⁻¹‖ <= κ), the decay
     ``−(A_iQ − B_iY + (·)ᵀ + 2αQ) ⪰ 10⁻⁶ I`` at every plant, and:
@@ -356,7 +340,10 @@ def performance_synthesis_problem(
       ``[[ū_i², Y_i], [Y_iᵀ, Q]] ⪰ 0`` for every finite ū_i; without `l2`, ``maximize μ <= 1``
       (the ellipsoid as round as the limits allow);
     - with `l2` and a given `gamma`: ``maximize t <= 1`` with the decay and bounded-real blocks
-      ⪰ tI at that γ: the most interior (Q, Y) of the level set.
+      ⪰ tI at that γ: the most interior (Q, Y) of the level set;
+    - with neither: μ = 1 (the decay LMI is homogeneous in (Q, Y)) and ``minimize trace Q``,
+      the decay synthesis as cvxpy's solvers answer it (the package's solver takes
+      :func:`synthesis_problem`, its always-feasible form).
 
     Parameters
     ----------
@@ -373,21 +360,30 @@ def performance_synthesis_problem(
     -------
     problem : LMIProblem
     variables : dict
-        ``'Q'``, ``'Y'``, ``'mu'`` and, with `l2`, ``'gamma'`` (or ``'t'`` with `gamma` given).
+        ``'Q'``, ``'Y'``; with `l2` or `limits` ``'mu'``; with `l2`, ``'gamma'`` (or ``'t'`` with `gamma`).
     """
     n, m = A.shape[1], B.shape[2]
     eye = np.eye(n)
     problem = LMIProblem()
     Q = problem.symmetric("Q", n, pattern=None if pattern is None else pattern[0])
     Y = problem.matrix("Y", m, n, pattern=None if pattern is None else pattern[1])
-    mu = problem.scalar("mu")
-    variables = {"Q": Q, "Y": Y, "mu": mu}
+    variables = {"Q": Q, "Y": Y}
     one = np.ones((1, 1))
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    upper_left = kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)])
+    if l2 is None and limits is None:
+        problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], const=-eye, name="Q >= I")
+        problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)], const=upper_left, name="gain bound")
+        problem.add_lmi(terms=[(Q, -np.swapaxes(A, 1, 2) - alpha * eye, eye), (Y, np.swapaxes(B, 1, 2), eye)],
+                        const=-_DECAY_LMI_SLACK * eye, name="decay")
+        problem.minimize({Q: eye})
+        return problem, variables
+    mu = problem.scalar("mu")
+    variables["mu"] = mu
     problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], scalars=[(mu, -eye)], name="Q >= mu I")
     problem.add_lmi(scalars=[(mu, one)], name="mu >= 0")
-    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
-    problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)],
-                    scalars=[(mu, kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name="gain bound")
+    problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)], scalars=[(mu, upper_left)],
+                    name="gain bound")
     t = problem.scalar("t") if l2 is not None and gamma is not None else None
     margin = [] if t is None else [(t, -eye)]
     problem.add_lmi(terms=[(Q, -np.swapaxes(A, 1, 2) - alpha * eye, eye), (Y, np.swapaxes(B, 1, 2), eye)],
