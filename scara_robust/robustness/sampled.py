@@ -503,7 +503,6 @@ def max_sample_time(
     >>> print(lim.message)  # doctest: +SKIP
     certified up to Ts = 0.281 s (decay rate α >= 0.01295 1/s); a frozen plant is unstable from Ts = 0.283 s
     """
-    solver = resolve_lmi_solver(solver)
     if design_or_none(design) is None and controller_kind(design) not in ("pid", "state feedback"):
         try:
             design = SampledStateFeedback(design, 1.0)  # type: ignore[arg-type]
@@ -583,7 +582,7 @@ def max_sample_time(
                                   f"no frozen instability up to the cap ts_max = {ts_max:g} s") + left_out)
     else:
         c_lo, c_hi = bisect(certified, ts_min, top, rtol, midpoint="geometric", desc="certified Ts")
-    cert = _at_optimum(certs[c_lo], (A, B), pid_at(c_lo), check, solver, candidate)
+    cert = _at_optimum(certs[c_lo], (A, B), pid_at(c_lo), check, resolve_lmi_solver(solver), candidate)
     message = (
         f"certified up to Ts = {c_lo:.4g} s (decay rate α >= {cert.rate:.4g} 1/s); "
         + (f"a frozen plant is unstable from Ts = {hi:.4g} s" if math.isfinite(hi) else

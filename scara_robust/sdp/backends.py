@@ -50,10 +50,10 @@ def use_lmi_solver(solver: str) -> Iterator[str]:
     ----------
     solver : {'IPM', 'CLARABEL', 'SCS'}
 
-    Yields
-    ------
-    str
-        The solver.
+    Returns
+    -------
+    contextlib.AbstractContextManager
+        Entered by ``with``, it gives the solver's name.
 
     Examples
     --------
