@@ -14,6 +14,8 @@ from .feedforward import *  # noqa: F403
 from .feedforward import __all__ as _feedforward
 from .initial import *  # noqa: F403
 from .initial import __all__ as _initial
+from .perturbation import *  # noqa: F403
+from .perturbation import __all__ as _perturbation
 from .plant import *  # noqa: F403
 from .plant import __all__ as _plant
 from .polytopic import *  # noqa: F403
@@ -28,4 +30,4 @@ from .uncertain import *  # noqa: F403
 from .uncertain import __all__ as _uncertain
 
 __all__ = [*_base, *_robot, *_signals, *_initial, *_uncertain, *_polytopic, *_augment, *_plant, *_scara, *_arm,
-           *_feedforward]
+           *_feedforward, *_perturbation]

@@ -21,8 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
+from .perturbation import PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant, hull_of_stacks
-from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, paper_payload, payload_range
+from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, forward_dynamics, paper_payload, payload_range
 from .signals import Reference, paper_reference
 from .uncertain import UncertainElement, UncertainLTVModel
 
@@ -33,6 +34,7 @@ __all__ = [
     "derived_model",
     "physical_samples",
     "PhysicalSamples",
+    "scara_perturbed_samples",
 ]
 
 Array = NDArray[np.float64]
@@ -311,3 +313,69 @@ def derived_model(
     rtol = check_real("rtol", rtol, nonnegative=True)
     samples = physical_samples(params, reference, payload, times=times, n_masses=n_masses)
     return hull_of_stacks(samples.A, samples.B, "derived (model-based)", 2, rtol=rtol)
+
+
+#: The bound given to a channel that is zero on every sample (the LMI needs w̄ > 0).
+_TINY_BOUND = 1e-12
+
+
+def scara_perturbed_samples(
+    params: ScaraParams | None = None,
+    reference: Reference | None = None,
+    payload: PayloadProfile | None = None,
+    *,
+    disturbance: float = 5.0,
+    times: ArrayLike | None = None,
+    n_masses: int = 5,
+) -> PerturbedSamples:
+    """The robot's sampled plants with the perturbation w of Eq. (4) as four bounded channels.
+
+    Channels ``T_d1, T_d2`` (N·m, ``|T_dj| <= disturbance``) enter through each sample's
+    input matrix (rows 5–6: ``ḡ = −M⁻¹(r, m_p)``); channels ``f̄_1, f̄_2`` (rad/s²) enter
+    rows 5–6 directly, bounded by the largest ``|f̄_i| = |r̈_i − q̈_i(r, ṙ, T = 0, m_p)|``
+    over the samples (the error's acceleration at ``e = ė = 0`` with no torque: paper,
+    Eq. (3)).
+
+    Parameters
+    ----------
+    params : ScaraParams, optional
+    reference : Reference, optional
+    payload : callable, optional
+        As for :func:`physical_samples`.
+    disturbance : float
+        Bound on each joint's disturbance torque, N·m (>= 0; the paper's square waves: 5).
+    times : array_like, shape (n_t,), optional
+        Reference times, s (default: 37 points over [0, 2π]).
+    n_masses : int
+
+    Returns
+    -------
+    PerturbedSamples
+        ``k = n_t * n_masses`` samples, time-major; n = 6, m = 2, q = 4.
+
+    Examples
+    --------
+    >>> import scara_robust as sr
+    >>> s = sr.scara_perturbed_samples(times=[0.0, 1.0], n_masses=2)
+    >>> s.disturbance.shape, s.channels
+    ((4, 6, 4), ('T_d1', 'T_d2', 'fbar_1', 'fbar_2'))
+    """
+    params = params or ScaraParams()
+    reference = reference or paper_reference()
+    payload = payload if payload is not None else paper_payload(params)
+    t = np.linspace(0.0, 2 * np.pi, 37) if times is None else check_array("times", times, ndim=1)
+    bound = check_real("disturbance", disturbance, nonnegative=True)
+    samples = physical_samples(params, reference, payload, times=t, n_masses=n_masses)
+    lo, hi = payload_range(payload, t)
+    masses = np.linspace(lo, hi, check_int("n_masses", n_masses, 1))
+    r, rd, rdd = reference.sample(t)
+    drift = rdd[:, None, :] - forward_dynamics(params, r[:, None, :], rd[:, None, :], np.zeros(2), masses[None, :])
+    f_bound = np.abs(drift).reshape(-1, 2).max(axis=0)
+    k = samples.n_samples
+    Bw = np.zeros((k, 6, 4))
+    Bw[:, :, :2] = samples.B
+    Bw[:, 4, 2] = Bw[:, 5, 3] = 1.0
+    w_bound = np.maximum(np.r_[bound, bound, f_bound], _TINY_BOUND)
+    return PerturbedSamples(samples.A, samples.B, Bw, w_bound, ("T_d1", "T_d2", "fbar_1", "fbar_2"),
+                            ("N·m", "N·m", "rad/s²", "rad/s²"),
+                            f"{t.size} reference times x {masses.size} payloads, |T_d| <= {bound:g} N·m")

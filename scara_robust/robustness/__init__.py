@@ -49,7 +49,11 @@ from .synthesis import *  # noqa: F403
 from .synthesis import __all__ as _synthesis
 from .table import *  # noqa: F403
 from .table import __all__ as _table
+from .tracking import *  # noqa: F403
+from .tracking import __all__ as _tracking
+from .tuning import *  # noqa: F403
+from .tuning import __all__ as _tuning
 
 __all__ = [*_polytope, *_lmi, *_falsifier, *_table, *_margins, *_synthesis, *_l2gain, *_pdl, *_sampled,
            *_sampled_synthesis, *_jitter, *_parameters, *_payload, *_registry, *_context, *_search, *_l2rate, *_decay,
-           *_actuator, *_loop_margins, *_scheduled]
+           *_actuator, *_loop_margins, *_scheduled, *_tracking, *_tuning]

@@ -15,6 +15,9 @@ export_certified, ExportedDesign -- certify a controller at its Ts on the system
 export_pid -- K(ρ, η) discretized with the PID's defaults, certified and written as C (the page's export)
 state_feedback_of, check_state_form -- the controller of a plant in the state form
 simulate_system -- one closed-loop run of any system under any controller, a Run
+Requirements, tune_system, TuneReport -- a PID tuned to stated requirements, certified and run on the robot
+evaluate_gain, GainEvaluation -- one gain against the requirements: certified bound beside the simulated error
+TUNE_GRID, TUNE_CHECK_GRID -- the samples of the tuning's LMI and of its independent check
 """
 
 from .design import *  # noqa: F403
@@ -25,5 +28,7 @@ from .simulate import *  # noqa: F403
 from .simulate import __all__ as _simulate
 from .system import *  # noqa: F403
 from .system import __all__ as _system
+from .tune import *  # noqa: F403
+from .tune import __all__ as _tune
 
-__all__ = [*_system, *_design, *_export, *_simulate]
+__all__ = [*_system, *_design, *_export, *_simulate, *_tune]

@@ -1,0 +1,384 @@
+"""The smallest gain whose certified tracking-error bound meets a requirement.
+
+For the sampled plants ``(A_i, B_i)`` of a loop, the perturbation ``|w_k| <= w̄_k`` entering
+through ``B_w`` and a rate α, the synthesis LMI in ``Q = P⁻¹`` and ``Y = KQ`` (the congruence
+of :mod:`~scara_robust.robustness.tracking`'s invariance block by ``diag(Q, I)``)::
+
+    [[A_iQ − B_iY + (·)ᵀ + αQ, B_w diag(w̄)], [diag(w̄) B_wᵀ, −diag(μ)]] ⪯ 0   at every i,
+    Σ μ_k / α <= 1,   c_j Q c_jᵀ <= β,   Q ⪰ νI,   [[κ²νI, Y], [Yᵀ, Q]] ⪰ 0
+
+makes ``{xᵀQ⁻¹x <= 1}`` invariant under every perturbation and time variation, decaying at α
+outside it, keeps ``|e_j| <= √β`` on it and ``‖K‖₂ <= κ``. ``minimize β`` for each α of a
+grid; numpy then proves the bound after the settling time from the initial states with
+``P = Q⁻¹`` (:func:`~scara_robust.robustness.tracking.ellipsoid_tracking_bound`). A larger
+κ never gives a worse bound, so the smallest κ that meets the requirement is found by
+bisection: the gain that meets it with the most room for the torque and the sample time.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_array, check_real
+from ..exceptions import ArgumentValueError
+from ..results import AnalysisResult
+from ..sdp import LMIProblem, solve_lmi
+from ..sdp.backends import resolve_lmi_solver
+from ._cutting import grow_active_set
+from .tracking import verified_ellipsoid
+
+__all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem"]
+
+Array = NDArray[np.float64]
+
+#: Rates tried per gain bound: log-spaced multiples of 1/T (with a settling time T), 1/s.
+ALPHA_SETTLING = np.logspace(0, math.log10(30.0), 7)
+#: Plants the cutting planes start from (evenly spread over the samples).
+FIRST_ACTIVE = 12
+#: Relative width at which the bisection on κ stops.
+KAPPA_RTOL = 0.05
+
+
+@dataclass(frozen=True)
+class GainTuning(AnalysisResult):
+    """The gain :func:`tune_gain` found, with the bound numpy proved for it.
+
+    Attributes
+    ----------
+    K : ndarray, shape (m, n), or None
+    P : ndarray, shape (n, n), or None
+        The ellipsoid's matrix (``P = Q⁻¹``).
+    bound : ndarray, shape (p,)
+        The certified bound on each output after the settling time (output units).
+    requirement : float
+        The largest bound asked for (output units).
+    alpha : float
+        1/s.
+    kappa : float
+        The gain bound at the answer (``‖K‖₂ <= κ``).
+    mu : ndarray, shape (q,), or None
+        The multipliers of the perturbation channels.
+    best_reachable : float
+        With every requirement met, the bound; otherwise the smallest bound of a gain that
+        meets the others (inf: none does), or the bound at the largest κ tried.
+    status : str
+        ``'met'`` or ``'requirement not met'``.
+    binding : str
+        What stops the requirement from being met (``''`` when met).
+    search : str
+        The bisection's steps, one ``κ: bound`` per step.
+    seconds : float
+    """
+
+    K: Array | None
+    P: Array | None
+    mu: Array | None
+    bound: Array
+    requirement: float
+    alpha: float
+    kappa: float
+    best_reachable: float
+    status: str
+    binding: str
+    search: str
+    seconds: float
+
+    @property
+    def certified(self) -> bool:
+        """True when a gain meets the requirement with a bound numpy proved."""
+        return bool(self.status == "met" and self.K is not None and np.all(np.isfinite(self.bound))
+                    and self.bound.max() <= self.requirement)
+
+    @property
+    def verdict(self) -> str:
+        """``'met'`` or ``'not met'``."""
+        return "met" if self.certified else "not met"
+
+    @property
+    def message(self) -> str:
+        """One sentence saying what the result means."""
+        if self.certified:
+            return (f"‖K‖₂ = {np.linalg.norm(self.K, 2):.4g} keeps every output within "
+                    f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
+        return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; the best certified "
+                f"bound reachable is {self.best_reachable:.4g}")
+
+
+def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C: Array, alpha: float,
+                               kappa: float) -> tuple[LMIProblem, dict[str, object]]:
+    """The synthesis LMI of the module docstring at one α and κ.
+
+    Parameters
+    ----------
+    A : ndarray, shape (V, n, n)
+    B : ndarray, shape (V, n, m)
+    Bw : ndarray, shape (V, n, q)
+    w_bound : ndarray, shape (q,)
+    C : ndarray, shape (p, n)
+    alpha, kappa : float
+
+    Returns
+    -------
+    problem : LMIProblem
+    variables : dict
+        ``'Q'``, ``'Y'``, ``'mu'`` (list of q scalars), ``'beta'``.
+    """
+    n, m, q = A.shape[1], B.shape[2], len(w_bound)
+    eye, one = np.eye(n), np.ones((1, 1))
+    problem = LMIProblem()
+    Q, Y = problem.symmetric("Q", n), problem.matrix("Y", m, n)
+    nu, beta = problem.scalar("nu"), problem.scalar("beta")
+    mu = [problem.scalar(f"mu{k}") for k in range(q)]
+    problem.add_lmi(terms=[(Q, 0.5 * eye, eye)], scalars=[(nu, -eye)], name="Q >= nu I")
+    problem.add_lmi(scalars=[(nu, one)], name="nu >= 0")
+    top, bottom = np.eye(m, m + n), np.eye(n, m + n, m)
+    problem.add_lmi(terms=[(Y, top, bottom), (Q, 0.5 * bottom, bottom)],
+                    scalars=[(nu, kappa**2 * np.diag(np.r_[np.ones(m), np.zeros(n)]))], name="gain bound")
+    size = n + q
+    En = np.eye(n, size)
+    const = np.zeros((A.shape[0], size, size))
+    const[:, :n, n:] = -Bw * w_bound
+    const[:, n:, :n] = np.swapaxes(const[:, :n, n:], 1, 2)
+    channels = []
+    for k in range(q):
+        G = np.zeros((size, size))
+        G[n + k, n + k] = 1.0
+        channels.append((mu[k], G))
+    problem.add_lmi(terms=[(Q, -(np.swapaxes(A, 1, 2) + 0.5 * alpha * eye) @ En, En),
+                           (Y, np.swapaxes(B, 1, 2) @ En, En)], scalars=channels, const=const, name="invariance")
+    problem.add_lmi(scalars=[(mk, -one / alpha) for mk in mu], const=one, name="V_inf <= 1")
+    problem.add_lmi(terms=[(Q, -0.5 * C[:, :, None], C[:, :, None])], scalars=[(beta, one)], name="outputs")
+    problem.minimize({beta: 1.0})
+    return problem, {"Q": Q, "Y": Y, "mu": mu, "beta": beta}
+
+
+@dataclass(frozen=True)
+class TrackingGain:
+    """The best gain of one gain bound κ: the synthesis at each α of a grid, the smallest proved bound.
+
+    Attributes
+    ----------
+    kappa : float
+    value : float
+        The largest output bound numpy proved after T (inf without a gain).
+    bound : ndarray, shape (p,)
+    K : ndarray, shape (m, n), or None
+    P : ndarray, shape (n, n), or None
+    mu : ndarray, shape (q,), or None
+    alpha : float
+        1/s (NaN without a gain).
+    """
+
+    kappa: float
+    value: float
+    bound: Array
+    K: Array | None
+    P: Array | None
+    mu: Array | None
+    alpha: float
+
+
+def _invariance_violation(A: Array, B: Array, Bw: Array, w: Array, alpha: float, Q: Array, Y: Array,
+                          mu: Array) -> Array:
+    """Each plant's largest eigenvalue of the synthesis's invariance block (> 0: violated), shape (V,)."""
+    n, q = Q.shape[0], len(w)
+    top = A @ Q - B @ Y
+    top = top + np.swapaxes(top, 1, 2) + alpha * Q
+    block = np.zeros((len(A), n + q, n + q))
+    block[:, :n, :n], block[:, :n, n:] = top, Bw * w
+    block[:, n:, :n] = np.swapaxes(block[:, :n, n:], 1, 2)
+    block[:, n:, n:] = -np.diag(mu)
+    return np.asarray(np.linalg.eigvalsh(block)[:, -1], dtype=float)
+
+
+def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, alpha: float, kappa: float,
+               solver: str) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
+    """One synthesis at (α, κ) on an active set of the plants grown by cutting planes.
+
+    Returns the bound numpy proves for its gain on every plant, the gain, P and μ
+    (inf, None, None, None where there is none).
+    """
+    p = C.shape[0]
+    nothing: tuple[float, Array | None, Array | None, Array | None, Array, float] = (
+        math.inf, None, None, None, np.full(p, math.inf), math.nan)
+
+    def solve(active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, Array] | None]:
+        problem, var = tracking_synthesis_problem(A[active], B[active], Bw[active], w, C, alpha, kappa)
+        result = solve_lmi(problem, solver)
+        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+            return result.status, None
+        Q = np.asarray(result.value(var["Q"]), dtype=float)  # type: ignore[arg-type]
+        Y = np.asarray(result.value(var["Y"]), dtype=float)  # type: ignore[arg-type]
+        mu = np.array([float(np.asarray(result.value(mk))) for mk in var["mu"]])  # type: ignore[attr-defined]
+        return result.status, (0.5 * (Q + Q.T), Y, mu)
+
+    first = np.unique(np.linspace(0, len(A) - 1, min(len(A), FIRST_ACTIVE)).round().astype(np.int64))
+    _, answer, _ = grow_active_set(solve, lambda a: _invariance_violation(A, B, Bw, w, alpha, *a), first)
+    if answer is None:
+        return nothing
+    Q, Y, mu = answer
+    try:
+        P = np.linalg.inv(Q)
+    except np.linalg.LinAlgError:
+        return nothing
+    K = Y @ P
+    bound, _, _, mu_v, alpha_v = verified_ellipsoid(A - B @ K, Bw, w, C, X0, T, P, mu, alpha)
+    if not np.all(np.isfinite(bound)):
+        return nothing
+    return float(bound.max()), K, P, mu_v, bound, alpha_v
+
+
+def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, kappa: float,
+                  alphas: Array, solver: str) -> TrackingGain:
+    """:class:`TrackingGain` at κ over the rates `alphas` (1/s): the smallest bound numpy proved.
+
+    Parameters
+    ----------
+    A, B, Bw : ndarray, shapes (V, n, n), (V, n, m), (V, n, q)
+    w : ndarray, shape (q,)
+    C : ndarray, shape (p, n)
+    X0 : ndarray, shape (k, n)
+    T, kappa : float
+    alphas : ndarray, shape (r,)
+    solver : str
+
+    Returns
+    -------
+    TrackingGain
+    """
+    best = TrackingGain(kappa, math.inf, np.full(C.shape[0], math.inf), None, None, None, math.nan)
+    for alpha in alphas:
+        value, K, P, mu, bound, alpha_v = _candidate(A, B, Bw, w, C, X0, T, float(alpha), kappa, solver)
+        if value < best.value:
+            best = TrackingGain(kappa, value, bound, K, P, mu, alpha_v)
+    return best
+
+
+def _check_problem(plants: tuple[ArrayLike, ArrayLike], disturbance: ArrayLike, w_bound: ArrayLike,
+                   output: ArrayLike, initial_states: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array,
+                                                                                  Array]:
+    A = check_array("plants[0]", plants[0], ndim=3)
+    B = check_array("plants[1]", plants[1], ndim=3)
+    if A.shape[1] != A.shape[2] or B.shape[:2] != A.shape[:2]:
+        raise ArgumentValueError("plants", f"must hold A (V, n, n) and B (V, n, m), found {A.shape}, {B.shape}")
+    V, n = A.shape[:2]
+    Bw = check_array("disturbance", disturbance)
+    Bw = np.broadcast_to(Bw, (V, *Bw.shape)) if Bw.ndim == 2 else Bw
+    if Bw.ndim != 3 or Bw.shape[:2] != (V, n):
+        raise ArgumentValueError("disturbance", f"must have shape ({n}, q) or ({V}, {n}, q), found {Bw.shape}")
+    w = check_array("w_bound", w_bound, shape=(Bw.shape[2],))
+    if np.any(w <= 0) or not np.all(np.isfinite(w)):
+        raise ArgumentValueError("w_bound", f"must hold finite bounds > 0, found {w.tolist()}")
+    C = check_array("output", output, shape=(None, n))
+    X0 = np.zeros((0, n)) if initial_states is None else np.atleast_2d(check_array("initial_states", initial_states))
+    if X0.ndim != 2 or X0.shape[1] != n:
+        raise ArgumentValueError("initial_states", f"must have shape (k, {n}) (state units), found {X0.shape}")
+    return A, B, np.ascontiguousarray(Bw, dtype=float), w, C, X0
+
+
+def tune_gain(
+    plants: tuple[ArrayLike, ArrayLike],
+    disturbance: ArrayLike,
+    w_bound: ArrayLike,
+    output: ArrayLike,
+    requirement: float,
+    *,
+    initial_states: ArrayLike | None = None,
+    settling_time: float = 0.0,
+    kappa_range: tuple[float, float] = (1.0, 1e4),
+    accept: Callable[[TrackingGain], str] | None = None,
+    solver: str | None = None,
+) -> GainTuning:
+    """The smallest gain bound κ whose synthesized gain keeps every output within `requirement` after T.
+
+    At each κ of a bisection on ``log κ``, :func:`tracking_gain` (its rates: :data:`ALPHA_SETTLING`
+    over T, the first time; then the best rate so far and its two neighbours). When the
+    answer fails `accept` (the requirements the synthesis does not hold: a sample time, a
+    torque limit, margins), a second bisection finds the largest κ below it that passes, and
+    its bound is the best reachable.
+
+    Parameters
+    ----------
+    plants : tuple (A (V, n, n), B (V, n, m))
+        Sampled plants (the linearized loop along the reference, over the payload range).
+    disturbance : array_like, shape (n, q) or (V, n, q)
+    w_bound : array_like, shape (q,)
+        ``|w_k| <= w̄_k`` (> 0).
+    output : array_like, shape (p, n)
+    requirement : float
+        The largest output magnitude allowed after T (> 0, output units).
+    initial_states : array_like, shape (k, n), optional
+    settling_time : float
+        T, s.
+    kappa_range : (float, float)
+        The gain bounds searched (0 < low < high).
+    accept : callable ``accept(TrackingGain) -> str``, optional
+        ``''`` when the gain meets every other requirement, else what it fails (one phrase).
+    solver : {'IPM', 'CLARABEL', 'SCS'}, optional
+
+    Returns
+    -------
+    GainTuning
+    """
+    solver = resolve_lmi_solver(solver)
+    start = time.perf_counter()
+    A, B, Bw, w, C, X0 = _check_problem(plants, disturbance, w_bound, output, initial_states)
+    req = check_real("requirement", requirement, positive=True)
+    T = check_real("settling_time", settling_time, nonnegative=True)
+    if len(kappa_range) != 2:
+        raise ArgumentValueError("kappa_range", f"must be (low, high), found {kappa_range}")
+    lo, hi = (check_real("kappa_range", k, positive=True) for k in kappa_range)
+    if not lo < hi:
+        raise ArgumentValueError("kappa_range", f"must be (low, high) with 0 < low < high, found {kappa_range}")
+    grid = ALPHA_SETTLING / T if T > 0 else float(np.linalg.norm(A, 2, axis=(1, 2)).max()) * np.logspace(-2, 0, 7)
+    steps: list[str] = []
+    last = {"alpha": math.nan}
+
+    def at(kappa: float) -> TrackingGain:
+        if math.isnan(last["alpha"]):
+            alphas = grid
+        else:
+            i = int(np.argmin(np.abs(np.log(grid / last["alpha"]))))
+            alphas = grid[max(i - 1, 0):i + 2]
+        found = tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver)
+        if found.K is not None:
+            last["alpha"] = found.alpha
+        steps.append(f"κ = {kappa:.4g}: {found.value:.4g}")
+        return found
+
+    def result(answer: TrackingGain, best: float, status: str, binding: str) -> GainTuning:
+        return GainTuning(answer.K, answer.P, answer.mu, answer.bound, req, answer.alpha, answer.kappa, best, status,
+                          binding, "; ".join(steps), time.perf_counter() - start)
+
+    top = at(hi)
+    if not top.value <= req:
+        return result(top, top.value, "requirement not met", f"the error bound: {top.value:.4g} at κ = {hi:.4g}")
+    answer = top
+    while hi / lo > 1 + KAPPA_RTOL:
+        mid = math.sqrt(lo * hi)
+        found = at(mid)
+        if found.value <= req:
+            hi, answer = mid, found
+        else:
+            lo = mid
+    failed = accept(answer) if accept is not None else ""
+    if not failed:
+        return result(answer, answer.value, "met", "")
+    # the others fail at the smallest gain that meets the bound: the largest gain they allow
+    low, high, best = kappa_range[0], answer.kappa, None
+    while high / low > 1 + KAPPA_RTOL:
+        mid = math.sqrt(low * high)
+        found = at(mid)
+        if found.K is not None and not accept(found):  # type: ignore[misc]
+            low, best = mid, found
+        else:
+            high = mid
+    if best is None:
+        return result(answer, math.inf, "requirement not met", failed)
+    return result(best, best.value, "requirement not met", failed)

@@ -1,0 +1,396 @@
+"""Which gain? A PID tuned to the tracking a user asks for, certified, and run on the nonlinear robot.
+
+:class:`Requirements` states what the loop must do in the user's words (the largest tracking
+error after a settling time, the sample time, the disturbance bound, the torque limit, the
+smallest disk and delay margins and decay rate). :func:`tune_system` finds the smallest gain
+whose certified tracking-error bound meets the error requirement
+(:func:`~scara_robust.tune_gain` on the system's perturbed samples), checks the others, and
+evaluates it beside any other gains (the paper's, a design file's) against the same
+requirements: the certified bound next to the simulated error of every initial condition,
+the certified and simulated peak torque, the sampled-data certificate at the sample time, the
+margins. Where the requirements cannot all be met it says which binds and the best error
+bound reachable under the others.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from .._validation import check_real
+from ..exceptions import ArgumentValueError, OptionError
+from ..lyapunov.gain import Design
+from ..model.initial import SCENARIOS, Scenario
+from ..model.perturbation import PerturbedSamples
+from ..model.scara import scara_perturbed_samples
+from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_TRANSIENT
+from ..robustness.sampled import check_sample_time
+from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
+from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
+from ..simulation.metrics import TRACKING_TOLERANCE
+from .simulate import simulate_system
+from .system import LoadedSystem, ScaraSystem
+
+__all__ = ["Requirements", "TuneReport", "GainEvaluation", "tune_system", "evaluate_gain", "TUNE_GRID",
+           "TUNE_CHECK_GRID"]
+
+Array = NDArray[np.float64]
+
+#: (reference times over one period, payloads) of the samples every bound holds on: the LMIs see an
+#: active set of them (cutting planes), numpy checks every one.
+TUNE_GRID = (73, 9)
+#: A finer grid on which numpy re-verifies every bound (never seen by a solver).
+TUNE_CHECK_GRID = (181, 11)
+
+
+@dataclass(frozen=True)
+class Requirements:
+    """What the loop must do, in the user's units.
+
+    Attributes
+    ----------
+    error : float
+        The largest tracking error allowed after `settling_time`, per joint, rad (> 0).
+    settling_time : float
+        s (>= 0).
+    sample_time : float or None
+        The controller's sample time, s (> 0): the tuned PID is discretized as ``export``
+        does and must be certified there by the sampled-data certificate.
+    disturbance : float or None
+        Bound on each joint's disturbance torque, N·m (>= 0; None: the scenario's
+        amplitude, the paper's 5 N·m).
+    torque_limit : float or None
+        The largest control torque allowed, N·m (> 0): the certified peak must stay below.
+    disk_margin : float or None
+        Smallest symmetric disk margin α of every loop over the frozen plants (> 0).
+    delay_margin : float or None
+        Smallest delay margin, s (> 0).
+    decay : float or None
+        Smallest certified decay rate, 1/s (> 0).
+    scenarios : tuple of str
+        The initial conditions the bound holds from and the runs start from (names of
+        :data:`~scara_robust.SCENARIOS`).
+    """
+
+    error: float = TRACKING_TOLERANCE
+    settling_time: float = PAPER_TRANSIENT
+    sample_time: float | None = None
+    disturbance: float | None = None
+    torque_limit: float | None = None
+    disk_margin: float | None = None
+    delay_margin: float | None = None
+    decay: float | None = None
+    scenarios: tuple[str, ...] = ("large", "small")
+
+    def __post_init__(self) -> None:
+        check_real("error", self.error, positive=True)
+        check_real("settling_time", self.settling_time, nonnegative=True)
+        for name, unit in (("sample_time", "s"), ("torque_limit", "N·m"), ("disk_margin", ""),
+                           ("delay_margin", "s"), ("decay", "1/s")):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ArgumentValueError(name, f"must be a finite number > 0{' ' + unit if unit else ''}, "
+                                               f"found {value!r}")
+        if self.disturbance is not None and not (math.isfinite(self.disturbance) and self.disturbance >= 0):
+            raise ArgumentValueError("disturbance", f"must be a finite torque >= 0 N·m, found {self.disturbance!r}")
+        if self.error > 3.2:
+            raise ArgumentValueError("error", f"must be an angle in rad (below π), found {self.error!r}: "
+                                              "degrees? divide by 57.3")
+        unknown = [s for s in self.scenarios if s not in SCENARIOS]
+        if unknown or not self.scenarios:
+            raise ArgumentValueError("scenarios", f"must name scenarios of {sorted(SCENARIOS)}, found "
+                                                  f"{list(self.scenarios)}")
+
+    def rows(self) -> list[tuple[str, str]]:
+        """Each requirement as ``(name, 'value unit')``, for the report's header.
+
+        Returns
+        -------
+        list of (str, str)
+        """
+        out = [("error", f"|e| <= {self.error:g} rad after {self.settling_time:g} s")]
+        for name, unit in (("sample_time", "s"), ("disturbance", "N·m"), ("torque_limit", "N·m"),
+                           ("disk_margin", ""), ("delay_margin", "s"), ("decay", "1/s")):
+            value = getattr(self, name)
+            if value is not None:
+                out.append((name, f"{value:g} {unit}".strip()))
+        return out
+
+
+@dataclass(frozen=True)
+class GainEvaluation:
+    """One gain against the requirements.
+
+    Attributes
+    ----------
+    name : str
+    K : ndarray, shape (m, n)
+    bound : TrackingBound
+        The certified tracking-error bound (on the tuning's samples and the check samples).
+    simulated : dict
+        Per scenario: the largest ``|e|`` after the settling time (rad), NaN if the run failed.
+    simulated_torque : float
+        The largest ``|T_c|`` over every run, N·m.
+    certified_torque : float
+        The largest ``|k_i x|`` on the ellipsoid that holds every trajectory, N·m (inf
+        without one).
+    sampled : bool or None
+        Certified at the sample time (None: none asked).
+    disk_margin, delay_margin : float
+        The smallest over the loops and frozen plants (s for the delay).
+    decay : float
+        The certified decay rate, 1/s.
+    failed : tuple of str
+        The requirements it does not meet.
+    """
+
+    name: str
+    K: Array
+    bound: TrackingBound
+    simulated: dict[str, float]
+    simulated_torque: float
+    certified_torque: float
+    sampled: bool | None
+    disk_margin: float
+    delay_margin: float
+    decay: float
+    failed: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class TuneReport:
+    """What :func:`tune_system` found.
+
+    Attributes
+    ----------
+    requirements : Requirements
+    tuning : GainTuning
+    design : Design or None
+        The tuned gain in the system's design form (what a design file holds).
+    gains : tuple of GainEvaluation
+        The tuned gain first, then the others asked for.
+    samples : str
+        The samples the bounds hold on.
+    seconds : float
+    """
+
+    requirements: Requirements
+    tuning: GainTuning
+    design: Design | None
+    gains: tuple[GainEvaluation, ...]
+    samples: str
+    seconds: float = field(default=math.nan)
+
+    def table(self) -> pd.DataFrame:
+        """One row per gain: certified bound and simulated error side by side, and every check.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        rows = []
+        for g in self.gains:
+            row: dict[str, Any] = {"gain": g.name, "||K||_2 [N·m/rad]": float(np.linalg.norm(g.K, 2)),
+                                   "certified |e| after T [rad]": g.bound.worst}
+            for name, value in g.simulated.items():
+                row[f"simulated |e| after T, {name} [rad]"] = value
+            row["certified peak torque [N·m]"] = g.certified_torque
+            row["simulated peak torque [N·m]"] = g.simulated_torque
+            if self.requirements.sample_time is not None:
+                row[f"certified at Ts = {self.requirements.sample_time:g} s"] = g.sampled
+            row["disk margin"] = g.disk_margin
+            row["delay margin [s]"] = g.delay_margin
+            row["decay [1/s]"] = g.decay
+            row["meets"] = "all" if not g.failed else "not: " + ", ".join(g.failed)
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+
+def _perturbed(system: LoadedSystem, grid: tuple[int, int], disturbance: float) -> PerturbedSamples:
+    """The system's perturbed samples (the SCARA's; other kinds are refused with the option that chose them)."""
+    if not isinstance(system, ScaraSystem):
+        raise OptionError("tune needs the SCARA's model of the perturbation (its drift along the reference and "
+                          "the disturbance through M⁻¹); a plant file or an arm is not supported yet")
+    setup = system.setup
+    return scara_perturbed_samples(setup.params, setup.reference, setup.payload, disturbance=disturbance,
+                                   times=np.linspace(0.0, 2 * np.pi, grid[0]), n_masses=grid[1])
+
+
+def _initial_states(scenarios: Sequence[str]) -> Array:
+    """The PID-form states ``[∫e, e, ė]`` (∫e = 0) of the scenarios, shape (k, 6)."""
+    out = []
+    for name in scenarios:
+        s: Scenario = SCENARIOS[name]
+        out.append(np.r_[0.0, 0.0, s.e0, s.edot0])
+    return np.asarray(out, dtype=float)
+
+
+def _error_output(n: int, m: int) -> Array:
+    C = np.zeros((m, n))
+    C[:, m:2 * m] = np.eye(m)
+    return C
+
+
+def _certified_torque(K: Array, bound: TrackingBound) -> float:
+    """``max_i |k_i x|`` on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m."""
+    if bound.P is None or bound.mu is None:
+        return math.inf
+    level = max(bound.initial_level, float(np.sum(bound.mu)) / bound.alpha)
+    gains = np.einsum("ij,ij->i", K, np.linalg.solve(bound.P, K.T).T)
+    return float(np.sqrt(np.max(gains) * level))
+
+
+def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
+                  grid: tuple[int, int] = TUNE_GRID, check_grid: tuple[int, int] = TUNE_CHECK_GRID,
+                  ellipsoid: TrackingGain | None = None, simulate: bool = True) -> GainEvaluation:
+    """One gain against `requirements` on `system` (see :class:`GainEvaluation`).
+
+    Parameters
+    ----------
+    system : LoadedSystem
+    name : str
+    K : array_like, shape (m, n)
+    requirements : Requirements
+    grid, check_grid : (int, int)
+        Samples of the bound's LMI and of numpy's second check.
+    ellipsoid : TrackingGain, optional
+        The tuning's own ellipsoid for this gain: numpy re-checks it on the check samples
+        instead of solving the analysis LMI again.
+    simulate : bool
+        Run the scenarios on the nonlinear robot (False: NaN).
+
+    Returns
+    -------
+    GainEvaluation
+    """
+    K = np.asarray(K, dtype=float)
+    disturbance = _disturbance(system, requirements)
+    coarse, fine = _perturbed(system, grid, disturbance), _perturbed(system, check_grid, disturbance)
+    C = _error_output(coarse.A.shape[1], coarse.B.shape[2])
+    X0 = _initial_states(requirements.scenarios)
+    T = requirements.settling_time
+    loops = np.concatenate([coarse.A - coarse.B @ K, fine.A - fine.B @ K])
+    Bw = np.concatenate([coarse.disturbance, fine.disturbance])
+    if ellipsoid is not None and ellipsoid.P is not None and ellipsoid.mu is not None:
+        start = time.perf_counter()
+        b, u, v0, mu, alpha = verified_ellipsoid(loops, Bw, coarse.w_bound, C, X0, T, ellipsoid.P, ellipsoid.mu,
+                                                 ellipsoid.alpha)
+        ok = bool(np.all(np.isfinite(b)))
+        bound = TrackingBound(b, u, T, alpha, ellipsoid.P if ok else None, mu if ok else None,
+                              v0, "optimal" if ok else "not verified on the check samples", len(loops),
+                              time.perf_counter() - start)
+    else:
+        bound = tracking_bound(coarse.A - coarse.B @ K, coarse.disturbance, coarse.w_bound, C, initial_states=X0,
+                               settling_time=T, check=(fine.A - fine.B @ K, fine.disturbance))
+    design = Design.from_gain(system.model, K)
+    simulated, torque = _runs(system, design, requirements) if simulate else ({}, math.nan)
+    sampled = None
+    if requirements.sample_time is not None:
+        plants, check, set_name = system.sampled()
+        sampled = check_sample_time(plants, design.discretize(requirements.sample_time), check=check,
+                                    set_name=set_name).certified
+    margins = system.loop_margins(design)
+    disk, delay = float(np.min(margins.disk_margin)), float(np.min(margins.delay_margin))
+    decay = system.decay_rate(design).rate
+    certified_torque = _certified_torque(K, bound)
+    failed = []
+    if not bound.worst <= requirements.error:
+        failed.append("error")
+    if any(not v <= requirements.error for v in simulated.values()):
+        failed.append("simulated error")
+    if requirements.sample_time is not None and not sampled:
+        failed.append("sample_time")
+    if requirements.torque_limit is not None and not certified_torque <= requirements.torque_limit:
+        failed.append("torque_limit")
+    if requirements.disk_margin is not None and not disk >= requirements.disk_margin:
+        failed.append("disk_margin")
+    if requirements.delay_margin is not None and not delay >= requirements.delay_margin:
+        failed.append("delay_margin")
+    if requirements.decay is not None and not decay >= requirements.decay:
+        failed.append("decay")
+    return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
+                          tuple(failed))
+
+
+def _disturbance(system: LoadedSystem, requirements: Requirements) -> float:
+    if requirements.disturbance is not None:
+        return requirements.disturbance
+    signals = system.setup.disturbance
+    return float(signals.amplitude) if signals is not None else PAPER_DISTURBANCE_AMPLITUDE
+
+
+def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> tuple[dict[str, float], float]:
+    """The largest |e| after T of each scenario's run (the PID discretized at Ts where one is asked) and peak torque."""
+    controller: Any = design if requirements.sample_time is None else design.discretize(requirements.sample_time)
+    errors, torque = {}, 0.0
+    for name in requirements.scenarios:
+        run = simulate_system(system, controller, scenario=name, t_transient=requirements.settling_time)
+        errors[name] = float(run.max_abs_error) if run.success else math.nan
+        torque = max(torque, float(run.peak_input))
+    return errors, torque
+
+
+def tune_system(system: LoadedSystem, requirements: Requirements, *,
+                others: Mapping[str, Any] | None = None, grid: tuple[int, int] = TUNE_GRID,
+                check_grid: tuple[int, int] = TUNE_CHECK_GRID, kappa_range: tuple[float, float] = (1.0, 1e4),
+                simulate: bool = True) -> TuneReport:
+    """Tune a PID to `requirements` on `system`, then evaluate it and `others` against them.
+
+    Parameters
+    ----------
+    system : LoadedSystem
+        The SCARA (its robot file's parameters, reference and payload).
+    requirements : Requirements
+    others : mapping of str to array_like (m, n), optional
+        More gains to evaluate in the same table (the paper's, a design file's).
+    grid, check_grid : (int, int)
+        (reference times, payloads) of the LMI's samples and of numpy's independent check.
+    kappa_range : (float, float)
+        The gain bounds ``‖K‖₂ <= κ`` searched, N·m/rad.
+    simulate : bool
+        Run every gain on the nonlinear robot from each scenario.
+
+    Returns
+    -------
+    TuneReport
+    """
+    start = time.perf_counter()
+    disturbance = _disturbance(system, requirements)
+    samples = _perturbed(system, grid, disturbance)
+    n, m = samples.A.shape[1], samples.B.shape[2]
+    C = _error_output(n, m)
+    X0 = _initial_states(requirements.scenarios)
+
+    def accept(found: TrackingGain) -> str:
+        if found.K is None:
+            return "no gain"
+        failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
+                               ellipsoid=found, simulate=False).failed
+        return ", ".join(f for f in failed if f != "error")
+
+    checks = any(getattr(requirements, k) is not None for k in
+                 ("sample_time", "torque_limit", "disk_margin", "delay_margin", "decay"))
+    tuning = tune_gain((samples.A, samples.B), samples.disturbance, samples.w_bound, C, requirements.error,
+                       initial_states=X0, settling_time=requirements.settling_time, kappa_range=kappa_range,
+                       accept=accept if checks else None)
+    gains: list[GainEvaluation] = []
+    design = None
+    if tuning.K is not None:
+        design = Design.from_gain(system.model, tuning.K)
+        own = TrackingGain(tuning.kappa, tuning.best_reachable, tuning.bound, tuning.K, tuning.P, tuning.mu,
+                           tuning.alpha)
+        gains.append(evaluate_gain(system, "tuned", tuning.K, requirements, grid=grid, check_grid=check_grid,
+                                   ellipsoid=own, simulate=simulate))
+    for name, K in (others or {}).items():
+        gains.append(evaluate_gain(system, name, K, requirements, grid=grid, check_grid=check_grid,
+                                   simulate=simulate))
+    return TuneReport(requirements, tuning, design, tuple(gains),
+                      f"{samples.description}; verified on {check_grid[0]} x {check_grid[1]}",
+                      time.perf_counter() - start)
