@@ -28,6 +28,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
               'robustness margins: the largest scaling of the uncertainty '
               'set each method certifies, and upper bounds'),
     "synthesize": ("_synthesize", 'synthesize a PID gain together with its Lyapunov certificate (LMI)'),
+    "tune": ("_tune", "the smallest PID gain whose certified tracking error meets stated requirements (error after "
+                      "a settling time, Ts, disturbance, torque, margins), run on the robot beside the paper's"),
     "simulate": ("_simulate", 'one closed-loop run and its time series'),
     "compare": ("_compare",
                'PID vs sliding-mode control on both scenarios; with '
@@ -77,6 +79,11 @@ OPTION_NAMES: dict[str, str] = {
     "checkpoint": "--checkpoint",
     "controller": "--controller",
     "method": "--method",
+    "error": "--error",
+    "settling_time": "--settling-time",
+    "sample_time": "--ts",
+    "disk_margin": "--disk-margin",
+    "delay_margin": "--delay-margin",
 }
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -221,7 +222,7 @@ def verified_ellipsoid(closed_loops: Array, Bw: Array, w_bound: Array, C: Array,
 
 
 def tracking_bound_problem(closed_loops: Array, Bw: Array, w_bound: Array, C: Array, initial_states: Array,
-                           settling_time: float, alpha: float) -> tuple[LMIProblem, dict[str, object]]:
+                           settling_time: float, alpha: float) -> tuple[LMIProblem, dict[str, Any]]:
     """The LMI of :func:`tracking_bound` at one rate α, as an :class:`~scara_robust.LMIProblem`.
 
     ``minimize τ`` over symmetric P, ``μ >= 0``, s and τ with, at every loop, the invariance
@@ -395,8 +396,8 @@ def tracking_bound(
             result = solve_lmi(problem, solver)
             if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
                 return result.status, None
-            P_s = np.asarray(result.value(var["P"]), dtype=float)  # type: ignore[arg-type]
-            mu = np.array([float(np.asarray(result.value(m))) for m in var["mu"]])  # type: ignore[attr-defined]
+            P_s = np.array(result.value(var["P"]), dtype=np.float64)
+            mu = np.array([float(result.value(m)) for m in var["mu"]], dtype=np.float64)
             return result.status, (P_s, mu)
 
         status, answer, _ = grow_active_set(

@@ -21,6 +21,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -104,14 +105,14 @@ class GainTuning(AnalysisResult):
     def message(self) -> str:
         """One sentence saying what the result means."""
         if self.certified:
-            return (f"‖K‖₂ = {np.linalg.norm(self.K, 2):.4g} keeps every output within "
+            return (f"‖K‖₂ = {float(np.linalg.norm(np.asarray(self.K), 2)):.4g} keeps every output within "
                     f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
         return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; the best certified "
                 f"bound reachable is {self.best_reachable:.4g}")
 
 
 def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C: Array, alpha: float,
-                               kappa: float) -> tuple[LMIProblem, dict[str, object]]:
+                               kappa: float) -> tuple[LMIProblem, dict[str, Any]]:
     """The synthesis LMI of the module docstring at one α and κ.
 
     Parameters
@@ -213,9 +214,9 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
         result = solve_lmi(problem, solver)
         if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
             return result.status, None
-        Q = np.asarray(result.value(var["Q"]), dtype=float)  # type: ignore[arg-type]
-        Y = np.asarray(result.value(var["Y"]), dtype=float)  # type: ignore[arg-type]
-        mu = np.array([float(np.asarray(result.value(mk))) for mk in var["mu"]])  # type: ignore[attr-defined]
+        Q = np.array(result.value(var["Q"]), dtype=np.float64)
+        Y = np.array(result.value(var["Y"]), dtype=np.float64)
+        mu = np.array([float(result.value(mk)) for mk in var["mu"]], dtype=np.float64)
         return result.status, (0.5 * (Q + Q.T), Y, mu)
 
     first = np.unique(np.linspace(0, len(A) - 1, min(len(A), FIRST_ACTIVE)).round().astype(np.int64))

@@ -17,9 +17,10 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
+import control as ct
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
@@ -29,17 +30,20 @@ from ..exceptions import ArgumentValueError, OptionError
 from ..lyapunov.gain import Design
 from ..model.initial import SCENARIOS, Scenario
 from ..model.perturbation import PerturbedSamples
+from ..model.robot import ConstantPayload, SinusoidalPayload, paper_payload, payload_range
 from ..model.scara import scara_perturbed_samples
-from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_TRANSIENT
+from ..model.signals import SquareWave
+from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD, PAPER_T_FINAL, PAPER_TRANSIENT
 from ..robustness.sampled import check_sample_time
 from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
 from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
 from ..simulation.metrics import TRACKING_TOLERANCE
+from ..simulation.run import run_scenarios
 from .simulate import simulate_system
 from .system import LoadedSystem, ScaraSystem
 
-__all__ = ["Requirements", "TuneReport", "GainEvaluation", "tune_system", "evaluate_gain", "TUNE_GRID",
-           "TUNE_CHECK_GRID"]
+__all__ = ["Requirements", "TuneReport", "GainEvaluation", "TrackingSearch", "tune_system", "evaluate_gain",
+           "search_tracking_error", "TUNE_GRID", "TUNE_CHECK_GRID"]
 
 Array = NDArray[np.float64]
 
@@ -149,6 +153,8 @@ class GainEvaluation:
         The certified decay rate, 1/s.
     failed : tuple of str
         The requirements it does not meet.
+    search : TrackingSearch or None
+        The search over payload and disturbance profiles for a larger error (None: not run).
     """
 
     name: str
@@ -162,6 +168,28 @@ class GainEvaluation:
     delay_margin: float
     decay: float
     failed: tuple[str, ...]
+    search: TrackingSearch | None = None
+
+
+@dataclass(frozen=True)
+class TrackingSearch:
+    """The largest tracking error after the settling time found over payload and disturbance profiles.
+
+    Attributes
+    ----------
+    worst : float
+        The largest ``max |e(t)|`` for ``t >= T`` over the runs, rad (NaN if none finished).
+    profile : str
+        The run that gave it (scenario, payload, disturbance).
+    runs : int
+    failed : int
+        Runs that did not finish (the integrator failed or the error diverged).
+    """
+
+    worst: float
+    profile: str
+    runs: int
+    failed: int
 
 
 @dataclass(frozen=True)
@@ -205,6 +233,8 @@ class TuneReport:
             row["simulated peak torque [N·m]"] = g.simulated_torque
             if self.requirements.sample_time is not None:
                 row[f"certified at Ts = {self.requirements.sample_time:g} s"] = g.sampled
+            if g.search is not None:
+                row["worst searched |e| after T [rad]"] = g.search.worst
             row["disk margin"] = g.disk_margin
             row["delay margin [s]"] = g.delay_margin
             row["decay [1/s]"] = g.decay
@@ -249,7 +279,8 @@ def _certified_torque(K: Array, bound: TrackingBound) -> float:
 
 def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
                   grid: tuple[int, int] = TUNE_GRID, check_grid: tuple[int, int] = TUNE_CHECK_GRID,
-                  ellipsoid: TrackingGain | None = None, simulate: bool = True) -> GainEvaluation:
+                  ellipsoid: TrackingGain | None = None, simulate: bool = True,
+                  search: bool = False) -> GainEvaluation:
     """One gain against `requirements` on `system` (see :class:`GainEvaluation`).
 
     Parameters
@@ -264,7 +295,9 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         The tuning's own ellipsoid for this gain: numpy re-checks it on the check samples
         instead of solving the analysis LMI again.
     simulate : bool
-        Run the scenarios on the nonlinear robot (False: NaN).
+        Run the scenarios on the nonlinear robot (False: none).
+    search : bool
+        Also :func:`search_tracking_error` (with `simulate`).
 
     Returns
     -------
@@ -315,8 +348,11 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         failed.append("delay_margin")
     if requirements.decay is not None and not decay >= requirements.decay:
         failed.append("decay")
+    found = search_tracking_error(system, K, requirements) if simulate and search else None
+    if found is not None and not found.worst <= requirements.error:
+        failed.append("searched error")
     return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
-                          tuple(failed))
+                          tuple(failed), found)
 
 
 def _disturbance(system: LoadedSystem, requirements: Requirements) -> float:
@@ -332,7 +368,7 @@ def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> t
     errors, torque = {}, 0.0
     for name in requirements.scenarios:
         run = simulate_system(system, controller, scenario=name, t_transient=requirements.settling_time)
-        errors[name] = float(run.max_abs_error) if run.success else math.nan
+        errors[name] = float(run.max_abs_error) if run.status in ("tracking", "not tracking") else math.nan
         torque = max(torque, float(run.peak_input))
     return errors, torque
 
@@ -340,7 +376,7 @@ def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> t
 def tune_system(system: LoadedSystem, requirements: Requirements, *,
                 others: Mapping[str, Any] | None = None, grid: tuple[int, int] = TUNE_GRID,
                 check_grid: tuple[int, int] = TUNE_CHECK_GRID, kappa_range: tuple[float, float] = (1.0, 1e4),
-                simulate: bool = True) -> TuneReport:
+                simulate: bool = True, search: bool = True) -> TuneReport:
     """Tune a PID to `requirements` on `system`, then evaluate it and `others` against them.
 
     Parameters
@@ -356,6 +392,8 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         The gain bounds ``‖K‖₂ <= κ`` searched, N·m/rad.
     simulate : bool
         Run every gain on the nonlinear robot from each scenario.
+    search : bool
+        Search payload and disturbance profiles for a larger error (:func:`search_tracking_error`).
 
     Returns
     -------
@@ -387,10 +425,85 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         own = TrackingGain(tuning.kappa, tuning.best_reachable, tuning.bound, tuning.K, tuning.P, tuning.mu,
                            tuning.alpha)
         gains.append(evaluate_gain(system, "tuned", tuning.K, requirements, grid=grid, check_grid=check_grid,
-                                   ellipsoid=own, simulate=simulate))
+                                   ellipsoid=own, simulate=simulate, search=search))
     for name, K in (others or {}).items():
         gains.append(evaluate_gain(system, name, K, requirements, grid=grid, check_grid=check_grid,
-                                   simulate=simulate))
+                                   simulate=simulate, search=search))
     return TuneReport(requirements, tuning, design, tuple(gains),
                       f"{samples.description}; verified on {check_grid[0]} x {check_grid[1]}",
                       time.perf_counter() - start)
+
+
+def _resonance(system: LoadedSystem, K: Array) -> float:
+    """The frequency (rad/s) where the frozen closed loops' largest |T_d → e| peaks (python-control's linfnorm)."""
+    setup = system.setup
+    samples = scara_perturbed_samples(setup.params, setup.reference, setup.payload, times=np.linspace(0, 2 * np.pi, 9),
+                                      n_masses=2)
+    C = _error_output(6, 2)
+    best, omega = -1.0, 1.0
+    for A, B in zip(samples.A, samples.B):
+        gain, w = ct.linfnorm(ct.ss(A - B @ K, B, C, 0))
+        if math.isfinite(gain) and gain > best and w > 0:
+            best, omega = gain, float(w)
+    return omega
+
+
+def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requirements, *,
+                          periods: int = 4) -> TrackingSearch:
+    """Look for a larger tracking error than the bound: the nonlinear robot over payload and disturbance profiles.
+
+    Square waves of the disturbance bound on both joints, in phase and in opposition, at
+    the closed loop's resonant period (where the frozen loops' ``|T_d → e|`` peaks), half
+    and twice it and the paper's π/5 s, each at phases 0 and π; payloads: the scenario's
+    profile, its mirror (phase π), and constant at both ends of its range (the
+    slowest variations; the scenario's is the fastest the rate bound allows). Every
+    initial condition of the requirements. The continuous PID (the loop the bound is about)
+    on the compiled engine, batched.
+
+    Parameters
+    ----------
+    system : LoadedSystem
+    K : array_like, shape (2, 6)
+    requirements : Requirements
+    periods : int
+        How many of the periods listed (1–4, in that order).
+
+    Returns
+    -------
+    TrackingSearch
+    """
+    K = np.asarray(K, dtype=float)
+    setup = system.setup
+    amplitude = _disturbance(system, requirements)
+    omega = _resonance(system, K)
+    period_list = [2 * math.pi / omega, math.pi / omega, 4 * math.pi / omega, PAPER_DISTURBANCE_PERIOD][:periods]
+    payload = setup.payload or paper_payload(setup.params)
+    lo, hi = payload_range(payload, np.linspace(0.0, 2 * math.pi, 721))
+    payloads: list[tuple[str, Any]] = [("scenario's", payload), ("constant min", ConstantPayload(lo)),
+                                       ("constant max", ConstantPayload(hi))]
+    if isinstance(payload, SinusoidalPayload):
+        payloads.append(("mirrored", replace(payload, phase=payload.phase + math.pi)))
+    controller = "pid"  # the continuous loop the bound is about (the compiled engine runs it; the runs of
+    requests, labels = [], []  # evaluate_gain use the sampled PID where a Ts is asked)
+    for scenario in requirements.scenarios:
+        for pname, profile in payloads:
+            for period in period_list:
+                for signs in ((1.0, 1.0), (1.0, -1.0)):
+                    for phase in (0.0, math.pi):
+                        wave = SquareWave(amplitude, period, phase, signs)
+                        requests.append({"controller": controller, "scenario": scenario, "K": K, "params": setup.params,
+                                         "reference": setup.reference, "payload": profile, "disturbance": wave,
+                                         "method": "compiled", "t_transient": requirements.settling_time,
+                                         "t_final": max(PAPER_T_FINAL, requirements.settling_time + 10.0)})
+                        labels.append(f"{scenario}, payload {pname}, T_d ±{amplitude:g} N·m period {period:.3g} s "
+                                      f"signs {signs}, phase {phase:.3g}")
+    runs = run_scenarios(requests, errors="return")
+    worst, where, failed = math.nan, "", 0
+    for run, label in zip(runs, labels):
+        if isinstance(run, Exception) or not run.success:
+            failed += 1
+            continue
+        value = float(run.metrics().max_abs_error)
+        if not value <= worst:
+            worst, where = value, label
+    return TrackingSearch(worst, where, len(runs), failed)
