@@ -123,8 +123,8 @@ def _text(report: TuneReport) -> str:
         lines.append(f"  |e| after {report.requirements.settling_time:g} s: certified <= {_number(g.bound.worst)} rad, "
                      f"simulated {sims} rad")
         if g.search is not None:
-            lines.append(f"  largest |e| after {report.requirements.settling_time:g} s over {g.search.runs} payload and "
-                         f"disturbance profiles ({g.search.failed} failed): {_number(g.search.worst)} rad "
+            lines.append(f"  largest |e| after {report.requirements.settling_time:g} s over {g.search.runs} payload "
+                         f"and disturbance profiles ({g.search.failed} failed): {_number(g.search.worst)} rad "
                          f"({g.search.profile})")
         lines.append(f"  peak torque: certified <= {_number(g.certified_torque)} N·m, simulated "
                      f"{_number(g.simulated_torque)} N·m")
