@@ -315,6 +315,8 @@ def derived_model(
     return hull_of_stacks(samples.A, samples.B, "derived (model-based)", 2, rtol=rtol)
 
 
+#: (times over the samples' span, payloads) on which the drift's bound is taken.
+DRIFT_GRID = (3601, 21)
 #: The bound given to a channel that is zero on every sample (the LMI needs w̄ > 0).
 _TINY_BOUND = 1e-12
 
@@ -333,8 +335,10 @@ def scara_perturbed_samples(
     Channels ``T_d1, T_d2`` (N·m, ``|T_dj| <= disturbance``) enter through each sample's
     input matrix (rows 5–6: ``ḡ = −M⁻¹(r, m_p)``); channels ``f̄_1, f̄_2`` (rad/s²) enter
     rows 5–6 directly, bounded by the largest ``|f̄_i| = |r̈_i − q̈_i(r, ṙ, T = 0, m_p)|``
-    over the samples (the error's acceleration at ``e = ė = 0`` with no torque: paper,
-    Eq. (3)).
+    (the error's acceleration at ``e = ė = 0`` with no torque: paper, Eq. (3)) on
+    :data:`DRIFT_GRID` (the span of `times`, one period of the reference, times the payload
+    range), finer than the samples: on the paper's robot 0.3–0.4 % above the maximum over
+    37 × 5 samples.
 
     Parameters
     ----------
@@ -368,8 +372,11 @@ def scara_perturbed_samples(
     samples = physical_samples(params, reference, payload, times=t, n_masses=n_masses)
     lo, hi = payload_range(payload, t)
     masses = np.linspace(lo, hi, check_int("n_masses", n_masses, 1))
-    r, rd, rdd = reference.sample(t)
-    drift = rdd[:, None, :] - forward_dynamics(params, r[:, None, :], rd[:, None, :], np.zeros(2), masses[None, :])
+    # the drift's bound on a fine grid of the samples' time span and the payload range, not only the samples
+    t_fine = np.linspace(float(t.min()), float(t.max()), DRIFT_GRID[0]) if t.size > 1 else t
+    m_fine = np.linspace(lo, hi, DRIFT_GRID[1])
+    r, rd, rdd = reference.sample(t_fine)
+    drift = rdd[:, None, :] - forward_dynamics(params, r[:, None, :], rd[:, None, :], np.zeros(2), m_fine[None, :])
     f_bound = np.abs(drift).reshape(-1, 2).max(axis=0)
     k = samples.n_samples
     Bw = np.zeros((k, 6, 4))

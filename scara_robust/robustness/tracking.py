@@ -418,7 +418,7 @@ def tracking_bound(
         return value
 
     grid = (np.asarray(check_array("alphas", alphas, ndim=1), dtype=float) if alphas is not None
-            else -2.0 * spectral * np.logspace(-2.5, math.log10(0.95), N_ALPHAS))
+            else -2.0 * spectral * np.logspace(-2.5, math.log10(0.999), N_ALPHAS))
     if np.any(grid <= 0):
         raise ArgumentValueError("alphas", "must all be > 0 (1/s)")
     values = [evaluate(float(a)) for a in grid]
@@ -427,7 +427,7 @@ def tracking_bound(
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
         if hi > lo:
             scipy.optimize.minimize_scalar(lambda la: evaluate(math.exp(la)), bounds=(lo, hi), method="bounded",
-                                           options={"xatol": 2e-3, "maxiter": 8})
+                                           options={"xatol": 1e-3, "maxiter": 16})
     seconds = time.perf_counter() - start
     if not math.isfinite(float(best["value"])):  # type: ignore[arg-type]
         inf = np.full(p, math.inf)

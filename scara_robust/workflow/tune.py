@@ -43,7 +43,7 @@ from .simulate import simulate_system
 from .system import LoadedSystem, ScaraSystem
 
 __all__ = ["Requirements", "TuneReport", "GainEvaluation", "TrackingSearch", "tune_system", "evaluate_gain",
-           "search_tracking_error", "TUNE_GRID", "TUNE_CHECK_GRID"]
+           "search_tracking_error", "loop_checks", "TUNE_GRID", "TUNE_CHECK_GRID"]
 
 Array = NDArray[np.float64]
 
@@ -280,7 +280,8 @@ def _certified_torque(K: Array, bound: TrackingBound) -> float:
 def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
                   grid: tuple[int, int] = TUNE_GRID, check_grid: tuple[int, int] = TUNE_CHECK_GRID,
                   ellipsoid: TrackingGain | None = None, simulate: bool = True,
-                  search: bool = False) -> GainEvaluation:
+                  search: bool = False, checks: tuple[bool | None, float, float, float] | None = None
+                  ) -> GainEvaluation:
     """One gain against `requirements` on `system` (see :class:`GainEvaluation`).
 
     Parameters
@@ -298,6 +299,8 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         Run the scenarios on the nonlinear robot (False: none).
     search : bool
         Also :func:`search_tracking_error` (with `simulate`).
+    checks : tuple, optional
+        This gain's :func:`loop_checks`, when already computed.
 
     Returns
     -------
@@ -324,14 +327,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
                                settling_time=T, check=(fine.A - fine.B @ K, fine.disturbance))
     design = Design.from_gain(system.model, K)
     simulated, torque = _runs(system, design, requirements) if simulate else ({}, math.nan)
-    sampled = None
-    if requirements.sample_time is not None:
-        plants, check, set_name = system.sampled()
-        sampled = check_sample_time(plants, design.discretize(requirements.sample_time), check=check,
-                                    set_name=set_name).certified
-    margins = system.loop_margins(design)
-    disk, delay = float(np.min(margins.disk_margin)), float(np.min(margins.delay_margin))
-    decay = system.decay_rate(design).rate
+    sampled, disk, delay, decay = loop_checks(system, design, requirements) if checks is None else checks
     certified_torque = _certified_torque(K, bound)
     failed = []
     if not bound.worst <= requirements.error:
@@ -353,6 +349,35 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         failed.append("searched error")
     return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
                           tuple(failed), found)
+
+
+def loop_checks(system: LoadedSystem, design: Design,
+                requirements: Requirements) -> tuple[bool | None, float, float, float]:
+    """The checks of a gain that need no bound: sampled-data certificate at Ts, margins, decay rate.
+
+    Parameters
+    ----------
+    system : LoadedSystem
+    design : Design
+    requirements : Requirements
+
+    Returns
+    -------
+    sampled : bool or None
+        Certified at the sample time (None without one).
+    disk_margin, delay_margin : float
+        The smallest over the loops and frozen plants (the delay in s).
+    decay : float
+        The certified decay rate, 1/s.
+    """
+    sampled = None
+    if requirements.sample_time is not None:
+        plants, check, set_name = system.sampled()
+        sampled = check_sample_time(plants, design.discretize(requirements.sample_time), check=check,
+                                    set_name=set_name).certified
+    margins = system.loop_margins(design)
+    disk, delay = float(np.min(margins.disk_margin)), float(np.min(margins.delay_margin))
+    return sampled, disk, delay, system.decay_rate(design).rate
 
 
 def _disturbance(system: LoadedSystem, requirements: Requirements) -> float:
@@ -401,16 +426,27 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
     """
     start = time.perf_counter()
     disturbance = _disturbance(system, requirements)
-    samples = _perturbed(system, grid, disturbance)
+    # the LMI sees an active set of both grids (cutting planes); numpy verifies every sample of both
+    coarse, fine = _perturbed(system, grid, disturbance), _perturbed(system, check_grid, disturbance)
+    samples = replace(coarse, A=np.concatenate([coarse.A, fine.A]), B=np.concatenate([coarse.B, fine.B]),
+                      disturbance=np.concatenate([coarse.disturbance, fine.disturbance]),
+                      w_bound=np.maximum(coarse.w_bound, fine.w_bound))
     n, m = samples.A.shape[1], samples.B.shape[2]
     C = _error_output(n, m)
     X0 = _initial_states(requirements.scenarios)
+
+    checked: dict[bytes, tuple[bool | None, float, float, float]] = {}
+
+    def checks_of(K: Array) -> tuple[bool | None, float, float, float]:
+        if K.tobytes() not in checked:
+            checked[K.tobytes()] = loop_checks(system, Design.from_gain(system.model, K), requirements)
+        return checked[K.tobytes()]
 
     def accept(found: TrackingGain) -> str:
         if found.K is None:
             return "no gain"
         failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
-                               ellipsoid=found, simulate=False).failed
+                               ellipsoid=found, simulate=False, checks=checks_of(found.K)).failed
         return ", ".join(f for f in failed if f != "error")
 
     checks = any(getattr(requirements, k) is not None for k in
@@ -425,12 +461,13 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         own = TrackingGain(tuning.kappa, tuning.best_reachable, tuning.bound, tuning.K, tuning.P, tuning.mu,
                            tuning.alpha)
         gains.append(evaluate_gain(system, "tuned", tuning.K, requirements, grid=grid, check_grid=check_grid,
-                                   ellipsoid=own, simulate=simulate, search=search))
+                                   ellipsoid=own, simulate=simulate, search=search, checks=checks_of(tuning.K)))
     for name, K in (others or {}).items():
         gains.append(evaluate_gain(system, name, K, requirements, grid=grid, check_grid=check_grid,
                                    simulate=simulate, search=search))
     return TuneReport(requirements, tuning, design, tuple(gains),
-                      f"{samples.description}; verified on {check_grid[0]} x {check_grid[1]}",
+                      f"{coarse.description} and {check_grid[0]} x {check_grid[1]}: the LMIs on the samples that "
+                      "bind (cutting planes), numpy on every one",
                       time.perf_counter() - start)
 
 
