@@ -46,6 +46,7 @@ Model (:mod:`scara_robust.model`)
     ANCHORS                         -- what a margin θ scales the set about: the lower corner or the centre
     paper_model, derived_model      -- published bounds / bounds derived from the robot
     physical_samples, PhysicalSamples -- the robot's own (A, B) along the reference
+    scara_perturbed_samples, PerturbedSamples -- those plants with Eq. (4)'s perturbation as bounded channels
     PolytopicModel                  -- (A(t), B(t)) in the convex hull of vertices; box_hull() for Theorem 1
     pid_augment, integral_augment, augment_table, AUGMENT_FORMS -- your plant in PID form (Eq. 4) / integral form
     UncertainPlant, Parameter, Signal -- the uncertain plant over named physical parameters (units, ranges, rates)
@@ -103,6 +104,10 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     l2_gain, L2Gain, L2_INFLATION   -- worst-case L2 gain: bounded-real LMI (upper, inflated), frozen H∞ norms (lower)
     rate_bounded_l2_gain, RateL2Gain, verify_rate_bounded_l2 -- the L2 gain for |ṗ| <= ν, P(p) = P0 + p·P1
     peak_gain, PeakBound            -- worst-case peak for bounded disturbances: invariant ellipsoid, worst sinusoid
+    tracking_bound, TrackingBound   -- the certified tracking error after a settling time: invariant ellipsoid, decay
+    tracking_bound_problem, ellipsoid_tracking_bound -- its LMI at one rate; numpy's check of an ellipsoid
+    tune_gain, GainTuning           -- the smallest gain bound whose synthesized gain meets an error requirement
+    tracking_gain, TrackingGain, tracking_synthesis_problem, ALPHA_SETTLING -- the best gain at one bound; its LMI
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     synthesize_schedule, ScheduleSynthesis, schedule_riccati -- a gain scheduled on a measured parameter
     synthesize_schedule_rate        -- the scheduled gain certified for the fastest parameter (extra ``lmi``)
@@ -194,6 +199,10 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     export_pid                      -- K(ρ, η) with the PID's defaults, certified and written as C (the page's)
     state_feedback_of, check_state_form -- static state feedback for a plant in the state form
     simulate_system                 -- one closed-loop run of any system under any controller: a Run
+    Requirements, tune_system, TuneReport -- a PID tuned to stated requirements, certified, run on the robot
+    evaluate_gain, GainEvaluation, loop_checks -- one gain against the requirements: bound beside simulated error
+    search_tracking_error, TrackingSearch -- the nonlinear robot over payload and disturbance profiles
+    TUNE_GRID, TUNE_CHECK_GRID      -- the samples of the tuning's LMIs and numpy's checks
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ PAGES = (
     "docs/guide/robust.md",
     "docs/guide/variation.md",
     "docs/guide/synthesis.md",
+    "docs/guide/which-gain.md",
     "docs/guide/scheduled.md",
     "docs/performance.md",
     "docs/guide/deployment.md",
@@ -177,7 +178,10 @@ SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "cer
               # tests/test_robust_certificates.py and tests/test_margins.py check the same tables
               "certify --rho 3 --eta 90 --bounds paper", "margin --rho 3 --eta 90 --bounds",
               # the light robot's comparison: tests/test_inputs.py runs it end to end
-              "compare --robot examples/robot-light.toml")
+              "compare --robot examples/robot-light.toml",
+              # tuning at full size (2 to 3 min each) and the comparison of its design file:
+              # tests/test_tracking.py runs the same workflow at test sizes and checks its answers
+              "tune --ts", "compare --design tuned.json")
 
 
 def _command_param(page: str, line: str) -> object:

@@ -78,12 +78,12 @@ def requirements_of(args: argparse.Namespace) -> Requirements:
         raise CommandLineError(f"`--error` is in rad, found {args.error:g} (degrees? divide by 57.3)")
     if args.settling_time < 0:
         raise CommandLineError(f"`--settling-time` must be >= 0 s, found {args.settling_time:g}")
-    for name, unit in (("ts", "s"), ("torque_limit", "N·m"), ("disk_margin", ""), ("delay_margin", "s"),
-                       ("decay", "1/s")):
-        value = getattr(args, name)
+    positive = (("--ts", args.ts, " s"), ("--torque-limit", args.torque_limit, " N·m"),
+                ("--disk-margin", args.disk_margin, ""), ("--delay-margin", args.delay_margin, " s"),
+                ("--decay", args.decay, " 1/s"))
+    for name, value, unit in positive:
         if value is not None and value <= 0:
-            raise CommandLineError(f"`--{name.replace('_', '-')}` must be > 0{' ' + unit if unit else ''}, "
-                                   f"found {value:g}")
+            raise CommandLineError(f"`{name}` must be > 0{unit}, found {value:g}")
     if args.disturbance is not None and args.disturbance < 0:
         raise CommandLineError(f"`--disturbance` must be >= 0 N·m, found {args.disturbance:g}")
     if args.max_gain <= 1:

@@ -43,8 +43,7 @@ from ..sdp import LMIProblem, solve_lmi
 from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 
-__all__ = ["TrackingBound", "tracking_bound", "tracking_bound_problem", "ellipsoid_tracking_bound",
-           "invariance_eigenvalues", "verified_ellipsoid", "INFLATIONS"]
+__all__ = ["TrackingBound", "tracking_bound", "tracking_bound_problem", "ellipsoid_tracking_bound"]
 
 Array = NDArray[np.float64]
 

@@ -34,8 +34,7 @@ from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 from .tracking import verified_ellipsoid
 
-__all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem", "ALPHA_SETTLING",
-           "KAPPA_RTOL"]
+__all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem", "ALPHA_SETTLING"]
 
 Array = NDArray[np.float64]
 

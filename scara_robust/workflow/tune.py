@@ -120,11 +120,13 @@ class Requirements:
         list of (str, str)
         """
         out = [("error", f"|e| <= {self.error:g} rad after {self.settling_time:g} s")]
-        for name, unit in (("sample_time", "s"), ("disturbance", "N·m"), ("torque_limit", "N·m"),
-                           ("disk_margin", ""), ("delay_margin", "s"), ("decay", "1/s")):
+        labels = (("sample_time", "Ts = {:g} s"), ("disturbance", "|T_d| <= {:g} N·m"),
+                  ("torque_limit", "|T_c| <= {:g} N·m"), ("disk_margin", "disk margin >= {:g}"),
+                  ("delay_margin", "delay margin >= {:g} s"), ("decay", "decay >= {:g} 1/s"))
+        for name, text in labels:
             value = getattr(self, name)
             if value is not None:
-                out.append((name, f"{value:g} {unit}".strip()))
+                out.append((name, text.format(value)))
         return out
 
 
