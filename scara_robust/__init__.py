@@ -92,6 +92,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     certificate_table, CERTIFICATE_METHODS -- every certificate of one design (``certify`` command)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
     worst_loop_margins, LoopMargins -- each input's worst disk margin (±dB, ±°) and delay margin (s), frozen plants
+    loop_view, LoopView             -- one loop of one frozen plant: its step response and Bode data, its margins
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ
@@ -188,6 +189,7 @@ Plotting (:mod:`scara_robust.plotting`)
     plot_plant_run                  -- a plant run: outputs and references, errors, inputs, parameters, with units
     plot_arm_run                    -- an arm run: joint errors, torques and payload over time
     plot_schedule                   -- a scheduled gain's entries against its parameter, a fixed gain beside
+    plot_loop_views                 -- each loop's step response and Bode plot, the margins marked, per gain
 The workflow the front ends share (:mod:`scara_robust.workflow`)
     open_system, SYSTEM_KINDS, LoadedSystem -- the system a design runs on, from the files a user names, by kind
     ScaraSystem, PlantFileSystem, ArmSystem -- the built-in SCARA, a plant file, an arm of a URDF robot file
@@ -202,6 +204,7 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     Requirements, tune_system, TuneReport -- a PID tuned to stated requirements, certified, run on the robot
     evaluate_gain, GainEvaluation, loop_checks -- one gain against the requirements: bound beside simulated error
     search_tracking_error, TrackingSearch -- the nonlinear robot over payload and disturbance profiles
+    worst_loop_views                -- each loop's step response and Bode data at its worst frozen plant
     TUNE_GRID, TUNE_CHECK_GRID      -- the samples of the tuning's LMIs and numpy's checks
 """
 

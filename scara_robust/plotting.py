@@ -8,7 +8,7 @@ at about 800 pixels wide.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from .controller.scheduled import ScheduledGain
     from .lyapunov.surface import DesignSurface
     from .model.plant import UncertainPlant
+    from .robustness.loop_margins import LoopMargins, LoopView
     from .simulation.arm import ArmRun
     from .simulation.plants import PlantRun
     from .simulation.run import SimulationResult
@@ -40,6 +41,7 @@ __all__ = [
     "plot_plant_run",
     "plot_arm_run",
     "plot_schedule",
+    "plot_loop_views",
 ]
 
 #: Quantities :func:`plot_signals` draws, with their axis labels.
@@ -1004,3 +1006,84 @@ def plot_schedule(gain: ScheduledGain, plant: UncertainPlant, *, fixed: Any = No
     fig.suptitle(title or f"{plant.name}: {what}, scheduled on {gain.parameter} ({gain.method})")
     return fig
 
+
+
+def plot_loop_views(views: Mapping[str, Sequence[LoopView]], *, margins: Mapping[str, LoopMargins] | None = None,
+                    outputs: Sequence[str] | None = None, title: str | None = None) -> Any:
+    """Step responses and Bode plots of each loop of each gain, with the disk and delay margins.
+
+    Parameters
+    ----------
+    views : mapping of str to sequence of LoopView
+        Per gain (its name), one view per loop (:func:`scara_robust.worst_loop_views`).
+    margins : mapping of str to LoopMargins, optional
+        Per gain, the worst margins over every frozen plant: the legend gives these
+        (default: each view's own plant's).
+    outputs : sequence of str, optional
+        The loops' names (default ``joint 1``, ``joint 2``, ...).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One row per loop: the outputs after a unit step of its reference (rad per rad), the
+        loop transfer's magnitude (dB, the gain crossover of the delay margin marked) and
+        phase (degrees, −180° marked); the margins in the legend below the panels.
+    """
+    import matplotlib.pyplot as plt
+
+    names = list(views)
+    m = len(next(iter(views.values())))
+    labels = list(outputs) if outputs is not None else [f"joint {i + 1}" for i in range(m)]
+    fig, axes = plt.subplots(m, 3, figsize=(13, 3.4 * m + 1.2), layout="constrained", squeeze=False)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    handles = []
+    for g, name in enumerate(names):
+        color = colors[g % len(colors)]
+        for i, view in enumerate(views[name]):
+            step_ax, mag_ax, phase_ax = axes[i]
+            (line,) = step_ax.plot(view.t, view.step[i], color=color, lw=1.3)
+            for j in range(view.step.shape[0]):
+                if j != i:
+                    step_ax.plot(view.t, view.step[j], color=color, lw=0.9, ls="--")
+            magnitude = 20 * np.log10(np.maximum(np.abs(view.L), 1e-300))
+            phase = np.degrees(np.unwrap(np.angle(view.L)))
+            # the branch on which the phase at the gain crossover lies in (−360°, 0]: the margin is its distance
+            # to −180°
+            at = np.interp(np.log(view.crossover), np.log(view.omega), phase) if np.isfinite(view.crossover) \
+                else phase[-1]
+            phase = phase - 360.0 * np.ceil(at / 360.0)
+            mag_ax.semilogx(view.omega, magnitude, color=color, lw=1.3)
+            phase_ax.semilogx(view.omega, phase, color=color, lw=1.3)
+            if np.isfinite(view.crossover):
+                mag_ax.axvline(view.crossover, color=color, ls=":", lw=1.0)
+                phase_ax.axvline(view.crossover, color=color, ls=":", lw=1.0)
+            if i == 0:
+                handles.append(line)
+            line.set_label(None)
+        worst = None if margins is None else margins.get(name)
+        parts = []
+        for i, v in enumerate(views[name]):
+            disk = v.disk_margin if worst is None else float(worst.disk_margin[i])
+            delay = v.delay_margin if worst is None else float(worst.delay_margin[i])
+            parts.append(f"{labels[i]} disk margin {_plain(disk)}, delay margin {_plain(delay * 1e3)} ms")
+        handles[-1].set_label(f"{name}: " + "; ".join(parts) + (" (worst over the frozen plants)" if worst else ""))
+    for i in range(m):
+        step_ax, mag_ax, phase_ax = axes[i]
+        step_ax.axhline(1.0, color="0.6", lw=0.8)
+        step_ax.set_ylabel(f"{labels[i]} step: output [rad/rad]")
+        mag_ax.axhline(0.0, color="0.6", lw=0.8)
+        mag_ax.set_ylabel(f"|L| at input {i + 1} [dB]")
+        phase_ax.axhline(-180.0, color="0.6", lw=0.8)
+        phase_ax.set_ylabel(f"arg L at input {i + 1} [deg]")
+        for ax in (mag_ax, phase_ax):
+            ax.set_xlabel("frequency [rad/s]")
+            ax.grid(True, which="major", color="0.9")
+        step_ax.set_xlabel("time [s]")
+    axes[0, 0].set_title("unit reference step (dashed: the other joint)", fontsize=10)
+    axes[0, 1].set_title("|L(jω)| (dotted: gain crossover)", fontsize=10)
+    axes[0, 2].set_title("arg L(jω) (grey: −180°)", fontsize=10)
+    fig.legend(handles=handles, loc="outside lower center", fontsize=_LEGEND_SIZE, frameon=False)
+    if title:
+        fig.suptitle(title)
+    return fig

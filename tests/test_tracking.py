@@ -240,3 +240,32 @@ def test_tune_refuses_bad_requirements_in_one_line(capsys, args, words):
     assert main(["tune", *args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("scara_robust: error: ") and words in err
+
+
+def test_a_loop_view_has_the_margins_of_the_frozen_plant():
+    """python-control's stability and disk margins of L_i equal the package's own scan on the same plant."""
+    S = sr.physical_samples(times=[0.7], n_masses=1)
+    K = sr.design(sr.paper_model(), 3, 90).K
+    worst = sr.worst_loop_margins(sr.PolytopicModel(S.A, S.B), K)
+    for i in range(2):
+        view = sr.loop_view(S.A[0], S.B[0], K, i)
+        assert view.disk_margin == pytest.approx(worst.disk_margin[i], rel=1e-6)
+        assert view.delay_margin == pytest.approx(worst.delay_margin[i], rel=1e-6)
+        assert view.step[i, 0] == 0.0 and view.step[i, -1] == pytest.approx(1.0, abs=0.05)
+    with pytest.raises(sr.ArgumentValueError, match="`loop` must be an input index in"):
+        sr.loop_view(S.A[0], S.B[0], K, 2)
+
+
+def test_the_loop_views_figure_has_units_and_margins(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    S = sr.physical_samples(times=[0.0], n_masses=1)
+    views = {name: [sr.loop_view(S.A[0], S.B[0], K, i) for i in range(2)]
+             for name, K in (("paper", sr.design(sr.paper_model(), 3, 90).K),
+                             ("slower", sr.design(sr.paper_model(), 1, 30).K))}
+    fig = sr.plot_loop_views(views)
+    labels = [ax.get_ylabel() + ax.get_xlabel() for ax in fig.axes]
+    assert all("[" in text for text in labels)
+    legend = fig.legends[0].get_texts()
+    assert len(legend) == 2 and all("disk margin" in t.get_text() and "ms" in t.get_text() for t in legend)
+    fig.savefig(tmp_path / "views.png")

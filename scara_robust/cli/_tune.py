@@ -14,9 +14,10 @@ from ..io import write_design
 from ..lyapunov.gain import design
 from ..model.scara import paper_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_TRANSIENT
+from ..plotting import plot_loop_views
 from ..simulation.metrics import TRACKING_TOLERANCE
-from ..workflow.tune import Requirements, TuneReport, tune_system
-from ._common import CommandLineError, add_setup_options, finite_float
+from ..workflow.tune import Requirements, TuneReport, tune_system, worst_loop_views
+from ._common import CommandLineError, add_setup_options, finite_float, save_figure
 from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
 
@@ -55,6 +56,9 @@ def add_parser(sub: Any) -> None:
                    help="smallest certified decay rate, 1/s")
     p.add_argument("--max-gain", type=finite_float, default=MAX_GAIN, metavar="NM_PER_RAD",
                    help=f"the largest ||K||_2 searched, N·m/rad (default {MAX_GAIN:g})")
+    p.add_argument("--plot", metavar="FILE.png",
+                   help="each loop's step response and Bode plot at its worst frozen plant, for every gain, with the "
+                        "disk and delay margins (.png, .pdf or .svg)")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--output", dest="design_output", metavar="FILE.json",
                    help="write the tuned gain's design file (read by simulate/compare/export --design)")
@@ -178,6 +182,12 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
                                                  design(paper_model(), rho, eta).K}
     report = tune_system(system, requirements, others=others, kappa_range=(1.0, args.max_gain))
     text = _json(report) if args.format == "json" else _text(report)
+    if args.plot is not None:
+        views = {g.name: worst_loop_views(system, g.K, t_final=requirements.settling_time) for g in report.gains}
+        margins = {g.name: system.loop_margins(g.K) for g in report.gains}
+        save_figure("--plot", args.plot, plot_loop_views(views, margins=margins, title=f"{system.title()}: each loop "
+                                                             "at its worst frozen plant (smallest delay margin)"))
+        text += f"\nfigure: {args.plot}"
     if output is not None:
         tuned = report.gains[0] if report.gains and report.gains[0].name == "tuned" else None
         if tuned is None or tuned.failed or report.design is None:

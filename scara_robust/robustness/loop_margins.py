@@ -55,7 +55,7 @@ from ..model.plant import as_model, require_plant
 from ..results import AnalysisResult
 from .polytope import MAX_BOX_ELEMENTS
 
-__all__ = ["LoopMargins", "worst_loop_margins"]
+__all__ = ["LoopMargins", "worst_loop_margins", "LoopView", "loop_view"]
 
 Array = NDArray[np.float64]
 
@@ -636,3 +636,94 @@ def worst_loop_margins(
                        np.asarray(delay_frequency, dtype=float), np.asarray(delay_worst, dtype=int), frozen.names,
                        frozen.units, np.asarray(frozen.values, dtype=float), plant_disk, plant_delay, max_real, grid,
                        frozen.description, time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class LoopView:
+    """What an engineer reads of one loop of one frozen plant: its step response and its Bode plot.
+
+    Attributes
+    ----------
+    input : int
+        The loop (plant input i, broken there, the others closed).
+    t : ndarray, shape (k,)
+        s.
+    step : ndarray, shape (m, k)
+        The outputs ``y_j = r_j − e_j`` of the PID form after a unit step of reference i from
+        rest (``e_i(0) = 1``, every other state 0): row i is the loop's own step response, the
+        others its coupling into the other joints (output units per unit step).
+    omega : ndarray, shape (F,)
+        rad/s.
+    L : ndarray of complex, shape (F,)
+        ``L_i(jω)`` (module docstring).
+    disk_margin : float
+        ``control.disk_margins`` of L_i on `omega` (symmetric α).
+    delay_margin : float
+        s (inf without a gain crossover).
+    crossover : float
+        The gain crossover of the delay margin, rad/s (NaN without one).
+    """
+
+    input: int
+    t: Array
+    step: Array
+    omega: Array
+    L: NDArray[np.complex128]
+    disk_margin: float
+    delay_margin: float
+    crossover: float
+
+
+def loop_view(A: ArrayLike, B: ArrayLike, K: ArrayLike, loop: int, *, omega: ArrayLike | None = None,
+              t_final: float = 6.0) -> LoopView:
+    """Step response and Bode data of loop `loop` of the frozen plant ``(A, B)`` under ``u = −Kx`` (PID form).
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+    B : array_like, shape (n, m)
+        A design-form plant of the PID form, ``x = [∫e, e, ė]`` (n = 3m).
+    K : array_like, shape (m, n)
+    loop : int
+        The input i broken.
+    omega : array_like, optional
+        rad/s (default 400 points log-spaced over [10⁻², 10⁴]).
+    t_final : float
+        Horizon of the step response, s.
+
+    Returns
+    -------
+    LoopView
+    """
+    A_, B_, K_ = (check_array(name, v) for name, v in (("A", A), ("B", B), ("K", K)))
+    n, m = B_.shape
+    if A_.shape != (n, n) or K_.shape != (m, n) or n != 3 * m:
+        raise ArgumentValueError("K", f"must be (m, 3m) for a PID-form plant A (3m, 3m), B (3m, m); found A "
+                                      f"{A_.shape}, B {B_.shape}, K {K_.shape}")
+    if not 0 <= loop < m:
+        raise ArgumentValueError("loop", f"must be an input index in [0, {m}), found {loop}")
+    w = np.logspace(-2, 4, 400) if omega is None else _check_omega(omega)
+    others = [j for j in range(m) if j != loop]
+    A_open = A_ - B_[:, others] @ K_[others]
+    L_sys = ct.ss(A_open, B_[:, [loop]], K_[[loop]], 0)
+    L = np.asarray(L_sys(1j * w), dtype=complex).reshape(-1)
+    disk = float(np.min(ct.disk_margins(L_sys, w)[0]))
+    _, pm, _, _, wgc, _ = ct.stability_margins(L_sys, returnall=True)
+    crossings = np.atleast_1d(np.asarray(wgc, dtype=float))
+    phases = np.atleast_1d(np.asarray(pm, dtype=float))
+    delay, crossover = math.inf, math.nan
+    for wc, phase in zip(crossings, phases):
+        if wc > 0 and np.isfinite(phase):
+            tau = (math.radians(phase) % (2 * math.pi)) / wc
+            if tau < delay:
+                delay, crossover = tau, float(wc)
+    t = np.linspace(0.0, t_final, 2001)
+    C = np.zeros((m, n))
+    C[:, m:2 * m] = np.eye(m)
+    x0 = np.zeros(n)
+    x0[m + loop] = 1.0
+    response = ct.initial_response(ct.ss(A_ - B_ @ K_, np.zeros((n, 1)), C, 0), T=t, X0=x0)
+    e = np.asarray(response.outputs, dtype=float).reshape(m, -1)
+    step = -e
+    step[loop] += 1.0
+    return LoopView(loop, t, step, w, L, disk, delay, crossover)

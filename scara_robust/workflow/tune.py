@@ -34,6 +34,7 @@ from ..model.robot import ConstantPayload, SinusoidalPayload, paper_payload, pay
 from ..model.scara import scara_perturbed_samples
 from ..model.signals import SquareWave
 from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD, PAPER_T_FINAL, PAPER_TRANSIENT
+from ..robustness.loop_margins import LoopView, loop_view
 from ..robustness.sampled import check_sample_time
 from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
 from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
@@ -43,7 +44,7 @@ from .simulate import simulate_system
 from .system import LoadedSystem, ScaraSystem
 
 __all__ = ["Requirements", "TuneReport", "GainEvaluation", "TrackingSearch", "tune_system", "evaluate_gain",
-           "search_tracking_error", "loop_checks", "TUNE_GRID", "TUNE_CHECK_GRID"]
+           "search_tracking_error", "loop_checks", "worst_loop_views", "TUNE_GRID", "TUNE_CHECK_GRID"]
 
 Array = NDArray[np.float64]
 
@@ -445,8 +446,15 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         return checked[K.tobytes()]
 
     def accept(found: TrackingGain) -> str:
-        if found.K is None:
+        if found.K is None or found.P is None or found.mu is None:
             return "no gain"
+        if requirements.torque_limit is not None:  # the cheap check first: the ellipsoid's torque
+            v0 = float(np.einsum("ki,ij,kj->k", X0, found.P, X0).max()) if len(X0) else 0.0
+            level = max(v0, float(np.sum(found.mu)) / found.alpha)
+            torque = float(np.sqrt(np.einsum("ij,ij->i", found.K, np.linalg.solve(found.P, found.K.T).T).max()
+                                   * level))
+            if not torque <= requirements.torque_limit:
+                return "torque_limit"
         failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
                                ellipsoid=found, simulate=False, checks=checks_of(found.K)).failed
         return ", ".join(f for f in failed if f != "error")
@@ -546,3 +554,32 @@ def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requiremen
         if not value <= worst:
             worst, where = value, label
     return TrackingSearch(worst, where, len(runs), failed)
+
+
+def worst_loop_views(system: LoadedSystem, K: Any, *, t_final: float = PAPER_TRANSIENT) -> tuple[LoopView, ...]:
+    """Each loop's step response and Bode data at its worst frozen plant (the smallest delay margin).
+
+    Parameters
+    ----------
+    system : LoadedSystem
+        A system with physical parameters (the SCARA: reference time and payload).
+    K : array_like, shape (m, 3m)
+    t_final : float
+        Horizon of the step responses, s.
+
+    Returns
+    -------
+    tuple of LoopView
+        One per input, in order; each at the frozen plant where :meth:`LoadedSystem.loop_margins`
+        finds that input's smallest delay margin (the Bode plot shows it: the phase at the
+        gain crossover).
+    """
+    K = np.asarray(K, dtype=float)
+    physical = system.require_physical("the loop views need a plant with physical parameters")
+    margins = system.loop_margins(K)
+    views = []
+    for i in range(K.shape[0]):
+        point = dict(zip(margins.names, margins.values[int(margins.delay_worst[i])]))
+        A, B = physical.design_form(*physical.plant_matrices(point))
+        views.append(loop_view(A, B, K, i, t_final=t_final))
+    return tuple(views)
