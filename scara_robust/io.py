@@ -90,6 +90,8 @@ __all__ = [
     "is_arm_file",
     "controller_sample_time",
     "CONTROLLER_KEYS",
+    "file_requirements",
+    "REQUIREMENT_KEYS",
     "ARM_KEYS",
     "load_scenario",
     "DesignFile",
@@ -118,6 +120,10 @@ _MODEL_KEYS = ("name", "form", "A", "B", "C", "elements", "vertices", "controlle
 _PLANT_KEYS = ("name", "form", "A", "B", "C", "parameters", "inputs", "outputs", "prefix", "description", "controller")
 #: A robot or plant file's ``[controller]`` table: the controller the design will run as.
 CONTROLLER_KEYS: dict[str, str] = {"sample_time": "s"}
+#: Fields of a SCARA robot file's ``[requirements]`` table (what ``tune`` asks of the loop), with their units.
+REQUIREMENT_KEYS: dict[str, str] = {"error": "rad", "settling_time": "s", "sample_time": "s", "disturbance": "N·m",
+                                    "torque_limit": "N·m", "disk_margin": "-", "delay_margin": "s",
+                                    "decay": "1/s"}
 _PARAMETER_KEYS = ("unit", "range", "value", "nominal", "rate", "samples", "physical", "description", "measured",
                    "measurement_error", "measurement_delay")
 _ELEMENT_KEYS = {"matrix": "-", "row": "-", "col": "-", "lower": "matrix entry", "upper": "matrix entry"}
@@ -226,7 +232,7 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
     """
     text_path = os.fspath(path)
     data = read_mapping(text_path)
-    _top(text_path, data, ("robot", "controller"))
+    _top(text_path, data, ("robot", "controller", "requirements"))
     table = field_table(repr(text_path), data, "robot", ROBOT_UNITS)
     values = {}
     for f in fields(ScaraParams):
@@ -334,6 +340,32 @@ def controller_sample_time(path: str | os.PathLike[str]) -> float | None:
     if not ts > 0:
         raise InputFileError(f"{where} field `controller.sample_time` [s] must be > 0, found {ts:g}")
     return ts
+
+
+def file_requirements(path: str | os.PathLike[str]) -> dict[str, float]:
+    """What a SCARA robot file's ``[requirements]`` table asks of the loop (:data:`REQUIREMENT_KEYS`), in SI units.
+
+    Parameters
+    ----------
+    path : path-like
+        A robot file of the SCARA.
+
+    Returns
+    -------
+    dict of str to float
+        The fields given (none: an empty dict); the values are checked by
+        :class:`~scara_robust.Requirements`, which names the field.
+
+    Raises
+    ------
+    InputFileError
+        Naming the file and the field, for an unknown field or a value that is not a number.
+    """
+    text_path = os.fspath(path)
+    where = f"{text_path!r}:"
+    table = field_table(where, read_mapping(text_path), "requirements", REQUIREMENT_KEYS)
+    return {key: field_number(where, f"requirements.{key}", value, REQUIREMENT_KEYS[key])
+            for key, value in table.items()}
 
 
 def is_arm_file(path: str | os.PathLike[str]) -> bool:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -269,3 +270,30 @@ def test_the_loop_views_figure_has_units_and_margins(tmp_path):
     legend = fig.legends[0].get_texts()
     assert len(legend) == 2 and all("disk margin" in t.get_text() and "ms" in t.get_text() for t in legend)
     fig.savefig(tmp_path / "views.png")
+
+
+@pytest.mark.parametrize(("table", "words"), [
+    ("error = -0.05", "field `requirements.error` must be > 0"),
+    ("error = 30", "field `requirements.error` must be an angle in rad"),
+    ("sample_time = 0", "field `requirements.sample_time` must be a finite number > 0 s"),
+    ("bandwidth = 10", "unknown field"),
+    ('error = "small"', "requirements.error"),
+])
+def test_a_robot_file_s_bad_requirements_name_the_file_and_field(tmp_path, capsys, table, words):
+    from scara_robust.cli import main
+    robot = (Path(__file__).resolve().parents[1] / "examples" / "robot-paper.toml").read_text(encoding="utf-8")
+    path = tmp_path / "robot.toml"
+    path.write_text(robot.split("[requirements]")[0] + "[requirements]\n" + table + "\n", encoding="utf-8")
+    assert main(["tune", "--robot", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "robot.toml" in err and words in err, err
+
+
+def test_the_robot_file_s_requirements_are_read_and_options_override_them(tmp_path):
+    import argparse
+
+    from scara_robust.cli._tune import requirements_of
+    args = argparse.Namespace(error=0.03, settling_time=None, ts=None, disturbance=None, torque_limit=None,
+                              disk_margin=None, delay_margin=None, decay=None, max_gain=1e4)
+    req = requirements_of(args, str(Path(__file__).resolve().parents[1] / "examples" / "robot-paper.toml"))
+    assert (req.error, req.settling_time, req.sample_time, req.disturbance) == (0.03, 6.0, 0.001, 5.0)

@@ -10,12 +10,14 @@ from typing import Any
 import numpy as np
 
 from .._validation import os_error_text
-from ..io import write_design
+from ..exceptions import ArgumentValueError
+from ..io import file_requirements, write_design
 from ..lyapunov.gain import design
 from ..model.scara import paper_model
 from ..paper import PAPER_DESIGN_POINT, PAPER_TRANSIENT
 from ..plotting import plot_loop_views
 from ..simulation.metrics import TRACKING_TOLERANCE
+from ..workflow.system import load_input
 from ..workflow.tune import Requirements, TuneReport, tune_system, worst_loop_views
 from ._common import CommandLineError, add_setup_options, finite_float, save_figure
 from ._parser import COMMAND_HELP
@@ -36,10 +38,11 @@ def add_parser(sub: Any) -> None:
     """
     p = sub.add_parser("tune", help=COMMAND_HELP["tune"])
     add_setup_options(p, bounds=False, scenario="signals")
-    p.add_argument("--error", type=finite_float, default=TRACKING_TOLERANCE, metavar="RAD",
-                   help=f"largest tracking error allowed after the settling time, rad, per joint (default "
-                        f"{TRACKING_TOLERANCE:g})")
-    p.add_argument("--settling-time", type=finite_float, default=PAPER_TRANSIENT, metavar="S",
+    p.add_argument("--error", type=finite_float, default=None, metavar="RAD",
+                   help=f"largest tracking error allowed after the settling time, rad, per joint (default: the robot "
+                        f"file's [requirements] error, else {TRACKING_TOLERANCE:g}); every requirement below also "
+                        "comes from that table unless given here")
+    p.add_argument("--settling-time", type=finite_float, default=None, metavar="S",
                    help=f"time after which the error must stay within --error, s (default {PAPER_TRANSIENT:g})")
     p.add_argument("--ts", type=finite_float, default=None, metavar="S",
                    help="the controller's sample time, s: the tuned PID discretized as export does must be "
@@ -65,22 +68,34 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def requirements_of(args: argparse.Namespace) -> Requirements:
-    """The :class:`~scara_robust.Requirements` of the options (their checks name the options).
+def requirements_of(args: argparse.Namespace, file: str | None = None) -> Requirements:
+    """The :class:`~scara_robust.Requirements` of the robot file's ``[requirements]`` and the options over them.
 
     Parameters
     ----------
     args : argparse.Namespace
+    file : str, optional
+        The robot file (its ``[requirements]`` table, checked with the file and field named).
 
     Returns
     -------
     Requirements
     """
-    if args.error <= 0:
+    given: dict[str, Any] = {}
+    if file is not None:
+        given = load_input("--robot", file, file_requirements)
+        try:
+            Requirements(**given)
+        except ArgumentValueError as err:
+            raise CommandLineError(f"{file!r}: field `requirements.{err.argument}` {err.problem}") from err
+    options = {"error": args.error, "settling_time": args.settling_time, "sample_time": args.ts,
+               "disturbance": args.disturbance, "torque_limit": args.torque_limit, "disk_margin": args.disk_margin,
+               "delay_margin": args.delay_margin, "decay": args.decay}
+    if args.error is not None and args.error <= 0:
         raise CommandLineError(f"`--error` must be > 0 rad, found {args.error:g}")
-    if args.error > 3.2:
+    if args.error is not None and args.error > 3.2:
         raise CommandLineError(f"`--error` is in rad, found {args.error:g} (degrees? divide by 57.3)")
-    if args.settling_time < 0:
+    if args.settling_time is not None and args.settling_time < 0:
         raise CommandLineError(f"`--settling-time` must be >= 0 s, found {args.settling_time:g}")
     positive = (("--ts", args.ts, " s"), ("--torque-limit", args.torque_limit, " N·m"),
                 ("--disk-margin", args.disk_margin, ""), ("--delay-margin", args.delay_margin, " s"),
@@ -92,15 +107,15 @@ def requirements_of(args: argparse.Namespace) -> Requirements:
         raise CommandLineError(f"`--disturbance` must be >= 0 N·m, found {args.disturbance:g}")
     if args.max_gain <= 1:
         raise CommandLineError(f"`--max-gain` must be > 1 N·m/rad, found {args.max_gain:g}")
-    if args.disk_margin is not None and args.disk_margin >= 2:
+    merged = {**given, **{k: v for k, v in options.items() if v is not None}}
+    if merged.get("disk_margin") is not None and merged["disk_margin"] >= 2:
         raise CommandLineError(f"`--disk-margin` must be below 2 (a symmetric disk margin of 2 is an infinite "
-                               f"gain margin), found {args.disk_margin:g}")
-    if args.ts is not None and args.ts >= args.settling_time > 0:
-        raise CommandLineError(f"`--ts` {args.ts:g} s is not below `--settling-time` {args.settling_time:g} s: "
-                               "the loop cannot settle within one sample")
-    return Requirements(error=args.error, settling_time=args.settling_time, sample_time=args.ts,
-                        disturbance=args.disturbance, torque_limit=args.torque_limit, disk_margin=args.disk_margin,
-                        delay_margin=args.delay_margin, decay=args.decay)
+                               f"gain margin), found {merged['disk_margin']:g}")
+    ts, settle = merged.get("sample_time"), merged.get("settling_time", PAPER_TRANSIENT)
+    if ts is not None and ts >= settle > 0:
+        raise CommandLineError(f"`--ts` {ts:g} s is not below `--settling-time` {settle:g} s: the loop cannot "
+                               "settle within one sample")
+    return Requirements(**merged)
 
 
 def _number(value: float) -> str:
@@ -173,7 +188,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     -------
     str
     """
-    requirements = requirements_of(args)
+    requirements = requirements_of(args, system.file)
     output = args.design_output
     if output is not None and not output.lower().endswith(".json"):
         raise CommandLineError(f"`--output` {output!r}: a design file is .json")

@@ -396,7 +396,7 @@ def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> t
     errors, torque = {}, 0.0
     for name in requirements.scenarios:
         run = simulate_system(system, controller, scenario=name, t_transient=requirements.settling_time)
-        errors[name] = float(run.max_abs_error) if run.status in ("tracking", "not tracking") else math.nan
+        errors[name] = float(run.max_abs_error) if run.status in ("tracking", "not-tracking") else math.nan
         torque = max(torque, float(run.peak_input))
     return errors, torque
 
