@@ -156,6 +156,7 @@ Files (:mod:`scara_robust.io`)
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
     load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
     controller_sample_time, CONTROLLER_KEYS -- the sample time a robot or plant file gives its controller, s
+    file_requirements, REQUIREMENT_KEYS -- what a SCARA robot file's [requirements] asks of the loop (tune)
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
     load_pid_controller, PidControllerGains -- a ros2_control pid_controller's YAML (``--design F.yaml``)
     PID_CONTROLLER_GAINS, PID_CONTROLLER_KEYS, PID_CONTROLLER_TYPE -- its per-joint keys, its keys, its type
