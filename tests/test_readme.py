@@ -181,7 +181,7 @@ SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "cer
               "compare --robot examples/robot-light.toml",
               # tuning at full size (2 to 3 min each) and the comparison of its design file:
               # tests/test_tracking.py runs the same workflow at test sizes and checks its answers
-              "tune --ts", "compare --design tuned.json",
+              "tune --ts", "tune --robot", "compare --design tuned.json",
               # the SCARA's schedule (1.5 to 2 min each): tests/test_scheduled.py synthesizes, certifies and
               # compares schedules at test sizes; the plant file's schedule above runs here in full
               "synthesize --schedule m_p", "compare --design scara-schedule.json",
