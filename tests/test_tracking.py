@@ -211,6 +211,19 @@ def test_the_tuned_scara_gain_meets_the_requirements_and_tracks(scara_report):
             "worst searched |e| after T [rad]"} <= set(table.columns)
 
 
+def test_the_command_s_text_and_json_give_the_table_s_figures(scara_report):
+    import json
+
+    from scara_robust.cli._tune import _json, _text
+    record = json.loads(_json(scara_report))
+    tuned = record["gains"][0]
+    assert record["verdict"] == "met" and tuned["name"] == "tuned" and tuned["failed"] == []
+    assert tuned["certified_error [rad]"] == pytest.approx(scara_report.gains[0].bound.worst)
+    assert set(tuned["simulated_error [rad]"]) == {"large", "small"}
+    text = _text(scara_report)
+    assert "meets every requirement" in text and "does NOT meet: error" in text and "Ts = 0.001 s" in text
+
+
 @pytest.mark.parametrize(("field", "value", "words"), [
     ("error", -0.1, "`error` must be > 0"),
     ("error", 5.0, "degrees?"),
