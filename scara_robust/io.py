@@ -233,6 +233,7 @@ def load_robot(path: str | os.PathLike[str]) -> ScaraParams:
     text_path = os.fspath(path)
     data = read_mapping(text_path)
     _top(text_path, data, ("robot", "controller", "requirements"))
+    file_requirements(text_path)  # every command refuses a typo in what `tune` reads
     table = field_table(repr(text_path), data, "robot", ROBOT_UNITS)
     values = {}
     for f in fields(ScaraParams):

@@ -143,7 +143,8 @@ def _cli_cases(tmp):
     bad_toml = tmp / "bad.toml"
     bad_toml.write_text("[robot\nm1 = 1\n")
     unknown = tmp / "unknown.toml"
-    unknown.write_text((EXAMPLES / "robot-paper.toml").read_text() + "colour = 'red'\n")
+    robot_text = (EXAMPLES / "robot-paper.toml").read_text()
+    unknown.write_text(robot_text.replace("\n[robot]\n", "\n[robot]\ncolour = 'red'\n"))
     negative = tmp / "negative.toml"
     negative.write_text((EXAMPLES / "robot-paper.toml").read_text().replace("m1 = 2.61", "m1 = -2.61"))
     typed = tmp / "typed.toml"

@@ -310,3 +310,13 @@ def test_the_robot_file_s_requirements_are_read_and_options_override_them(tmp_pa
                               disk_margin=None, delay_margin=None, decay=None, max_gain=1e4)
     req = requirements_of(args, str(Path(__file__).resolve().parents[1] / "examples" / "robot-paper.toml"))
     assert (req.error, req.settling_time, req.sample_time, req.disturbance) == (0.03, 6.0, 0.001, 5.0)
+
+
+def test_every_command_refuses_a_typo_in_the_requirements(tmp_path, capsys):
+    from scara_robust.cli import main
+    robot = (Path(__file__).resolve().parents[1] / "examples" / "robot-paper.toml").read_text(encoding="utf-8")
+    path = tmp_path / "robot.toml"
+    path.write_text(robot.replace("settling_time = 6.0", "setling_time = 6.0"), encoding="utf-8")
+    assert main(["design", "--rho", "3", "--eta", "90", "--robot", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown field `requirements.setling_time`" in err, err
