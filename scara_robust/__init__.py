@@ -58,6 +58,7 @@ Model (:mod:`scara_robust.model`)
     PayloadTerms                    -- an arm's inverse-dynamics derivatives, affine in the payload mass
     effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
     holding_torque                  -- each joint's largest torque holding the reference over the payload range
+    arm_perturbed_samples           -- an arm's samples with Eq. (4)'s perturbation: T_d, the feedforward's residual
     arm_feedforward, ArmFeedforward, FEEDFORWARD_RTOL -- an arm's model feedforward as the exported controller runs it
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install
@@ -156,7 +157,7 @@ Files (:mod:`scara_robust.io`)
     load_model, load_plant, MODEL_FORMS -- your plant's file: physical parameters, an interval model or a polytope
     load_arm, is_arm_file, ARM_KEYS -- a robot file naming a URDF: the arm, its payload, reference and feedforward
     controller_sample_time, CONTROLLER_KEYS -- the sample time a robot or plant file gives its controller, s
-    file_requirements, REQUIREMENT_KEYS -- what a SCARA robot file's [requirements] asks of the loop (tune)
+    file_requirements, REQUIREMENT_KEYS -- what a robot file's [requirements] asks of the loop (tune)
     write_design, load_design, DesignFile -- design files (``synthesize --output``)
     load_pid_controller, PidControllerGains -- a ros2_control pid_controller's YAML (``--design F.yaml``)
     PID_CONTROLLER_GAINS, PID_CONTROLLER_KEYS, PID_CONTROLLER_TYPE -- its per-joint keys, its keys, its type

@@ -344,12 +344,12 @@ def controller_sample_time(path: str | os.PathLike[str]) -> float | None:
 
 
 def file_requirements(path: str | os.PathLike[str]) -> dict[str, float]:
-    """What a SCARA robot file's ``[requirements]`` table asks of the loop (:data:`REQUIREMENT_KEYS`), in SI units.
+    """What a robot file's ``[requirements]`` table asks of the loop (:data:`REQUIREMENT_KEYS`), in SI units.
 
     Parameters
     ----------
     path : path-like
-        A robot file of the SCARA.
+        A robot file: the SCARA's, or one naming a URDF.
 
     Returns
     -------
@@ -472,7 +472,8 @@ def load_arm(path: str | os.PathLike[str]) -> ArmSetup:
     text_path = os.fspath(path)
     where = f"{text_path!r}:"
     data = read_mapping(text_path)
-    name = _top(text_path, data, ("robot", "reference", "controller", *_ARM_RUN_FIELDS))
+    name = _top(text_path, data, ("robot", "reference", "controller", "requirements", *_ARM_RUN_FIELDS))
+    file_requirements(text_path)  # what `tune` reads, checked by every command
     robot = field_table(where, data, "robot", ARM_KEYS)
     for key in ("urdf", "joints", "payload_frame", "payload_mass"):
         if key not in robot:

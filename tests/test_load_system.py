@@ -135,7 +135,7 @@ def test_loading_leaves_the_arguments_alone_and_reads_files_when_asked():
          f"file {ARM!r}"),
         (["app", "--robot", ARM],
          f"`--robot` {ARM!r} names a URDF; `app` runs on the built-in SCARA only (a URDF robot goes with design, "
-         "certify, margin, synthesize, simulate, compare, export, surface, campaign)"),
+         "certify, margin, synthesize, simulate, compare, export, surface, tune, campaign)"),
     ],
     ids=["robot-and-model", "bounds", "scenario", "app"],
 )

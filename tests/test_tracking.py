@@ -320,3 +320,43 @@ def test_every_command_refuses_a_typo_in_the_requirements(tmp_path, capsys):
     assert main(["design", "--rho", "3", "--eta", "90", "--robot", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "unknown field `requirements.setling_time`" in err, err
+
+
+@pytest.mark.robots
+def test_an_arm_s_drift_channels_are_the_feedforward_s_residual():
+    """f̄ = r̈ − M⁻¹(τ_ff − b), M by CRBA and b = RNEA(q, q̇, 0): a second computation beside ABA's."""
+    from scara_robust.model.arm import ARM_DRIFT_GRID
+    setup = sr.load_arm(str(Path(__file__).resolve().parents[1] / "examples" / "robot-arm6.toml"))
+    s = sr.arm_perturbed_samples(setup, disturbance=2.0, grid=(5, 2))
+    arm, n = setup.arm, setup.arm.n_joints
+    times = np.linspace(0.0, setup.reference.period, ARM_DRIFT_GRID[0])[::8]
+    masses = np.linspace(*setup.payload_mass, ARM_DRIFT_GRID[1])
+    r, rd, rdd = setup.reference.sample(times)
+    worst = np.zeros(n)
+    for k in range(times.size):
+        tau = arm.feedforward(setup.feedforward, r[k], rd[k], rdd[k], setup.payload_nominal)
+        for m in masses:
+            bias = arm.inverse_dynamics(r[k], rd[k], np.zeros(n), float(m))
+            worst = np.maximum(worst, np.abs(rdd[k] - np.linalg.solve(arm.mass_matrix(r[k], float(m)), tau - bias)))
+    assert np.all(worst <= s.w_bound[n:] * (1 + 1e-9))  # a sub-grid of the drift's own grid
+    assert np.all(worst >= 0.9 * s.w_bound[n:])  # every eighth time already comes within 10 %
+    assert s.w_bound[:n].tolist() == [2.0] * n and np.array_equal(s.disturbance[:, :, :n], s.B)
+    assert s.A.shape == (10, 3 * n, 3 * n) and s.disturbance.shape == (10, 3 * n, 2 * n)
+
+
+@pytest.mark.slow
+@pytest.mark.robots
+def test_tune_runs_on_the_six_joint_arm():
+    """At test sizes (13 × 3 samples): 3 min on 2 cores; make test-slow."""
+    system = sr.open_system("arm", command="tune",
+                            robot=str(Path(__file__).resolve().parents[1] / "examples" / "robot-arm6.toml"))
+    requirements = sr.Requirements(error=0.05, settling_time=2.0, sample_time=1e-3, disturbance=2.0)
+    report = sr.tune_system(system, requirements, grid=(13, 3), check_grid=(25, 5), kappa_range=(10.0, 1e4))
+    tuned = report.gains[0]
+    assert np.isfinite(tuned.bound.worst)
+    assert max(tuned.simulated.values()) <= tuned.bound.worst
+    assert tuned.simulated_torque <= tuned.certified_torque
+    if report.tuning.certified:
+        assert not tuned.failed
+    else:
+        assert report.tuning.binding and tuned.failed

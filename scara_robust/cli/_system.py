@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 #: Commands that run on a robot file naming a URDF (through its linearized error dynamics).
-ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface",
+ARM_COMMANDS = ("design", "certify", "margin", "synthesize", "simulate", "compare", "export", "surface", "tune",
                 "campaign")
 
 def _check_arm(args: argparse.Namespace, robot: str) -> None:

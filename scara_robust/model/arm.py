@@ -42,11 +42,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentValueError
+from .perturbation import PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
 __all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio",
-           "effort_limited_payload", "EffortPayload", "holding_torque", "PayloadTerms"]
+           "effort_limited_payload", "EffortPayload", "holding_torque", "PayloadTerms", "arm_perturbed_samples"]
 
 Array = NDArray[np.float64]
 
@@ -1151,3 +1152,59 @@ class ArmSetup:
         """The loop's feedforward at time `t` (s), N·m, shape (n,)."""
         r, rd, rdd = self.reference.at(t)
         return self.arm.feedforward(self.feedforward, r, rd, rdd, self.payload_nominal)
+
+
+#: (reference times over one period, payloads) on which an arm's drift is bounded.
+ARM_DRIFT_GRID = (361, 9)
+
+
+def arm_perturbed_samples(setup: ArmSetup, *, disturbance: float | None = None,
+                          grid: tuple[int, int] = (19, 5)) -> PerturbedSamples:
+    """The arm's sampled plants (design form) with the perturbation of Eq. (4) as bounded channels.
+
+    Channels ``T_d,j`` (N·m, one per joint: the disturbance torque, through each sample's
+    input matrix) and ``f̄_j`` (rad/s², into the rows of ``ė``): the drift
+    ``f̄ = r̈ − q̈(r, ṙ, τ_ff, m_p)`` the model feedforward at the nominal payload leaves at
+    ``e = ė = 0`` with no feedback (Pinocchio's ABA), bounded on :data:`ARM_DRIFT_GRID` of
+    the reference's period and the payload range.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+    disturbance : float, optional
+        Bound on every joint's disturbance torque, N·m (>= 0; default the file's
+        ``[disturbance]``, amplitude times each joint's scale; none: 0).
+    grid : (int, int)
+        (reference times, payloads) of the samples.
+
+    Returns
+    -------
+    PerturbedSamples
+        n = 3 × joints states, q = 2 × joints channels.
+    """
+    arm, reference = setup.arm, setup.reference
+    n = arm.n_joints
+    if disturbance is None:
+        wave = setup.disturbance
+        d_bound = np.zeros(n) if wave is None else wave.amplitude * np.abs(np.asarray(wave.signs, dtype=float))
+    else:
+        d_bound = np.full(n, check_real("disturbance", disturbance, nonnegative=True))
+    samples = setup.plant.samples({"t_ref": check_int("grid[0]", grid[0], 1), "m_p": check_int("grid[1]", grid[1], 1)})
+    lo, hi = setup.payload_mass
+    times = np.linspace(0.0, reference.period, ARM_DRIFT_GRID[0])
+    masses = np.linspace(lo, hi, ARM_DRIFT_GRID[1])
+    r, rd, rdd = reference.sample(times)
+    drift = np.zeros(n)
+    for k in range(times.size):
+        tau = arm.feedforward(setup.feedforward, r[k], rd[k], rdd[k], setup.payload_nominal)
+        for m in masses:
+            drift = np.maximum(drift, np.abs(rdd[k] - arm.forward_dynamics(r[k], rd[k], tau, float(m))))
+    A, B = samples.A, samples.B
+    Bw = np.zeros((A.shape[0], 3 * n, 2 * n))
+    Bw[:, :, :n] = B
+    Bw[:, 2 * n:, n:] = np.eye(n)
+    w_bound = np.maximum(np.r_[d_bound, drift], 1e-12)
+    joints = arm.joints
+    return PerturbedSamples(A, B, Bw, w_bound, tuple(f"T_d,{j}" for j in joints) + tuple(f"fbar,{j}" for j in joints),
+                            ("N·m",) * n + ("rad/s²",) * n,
+                            f"{grid[0]} reference times x {grid[1]} payloads, |T_d| <= {np.array2string(d_bound)} N·m")

@@ -26,8 +26,10 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from .._validation import check_real
+from ..controller.state_feedback import SampledStateFeedback
 from ..exceptions import ArgumentValueError, OptionError
 from ..lyapunov.gain import Design
+from ..model.arm import arm_perturbed_samples
 from ..model.initial import SCENARIOS, Scenario
 from ..model.perturbation import PerturbedSamples
 from ..model.robot import ConstantPayload, SinusoidalPayload, paper_payload, payload_range
@@ -246,14 +248,28 @@ class TuneReport:
         return pd.DataFrame(rows)
 
 
-def _perturbed(system: LoadedSystem, grid: tuple[int, int], disturbance: float) -> PerturbedSamples:
-    """The system's perturbed samples (the SCARA's; other kinds are refused with the option that chose them)."""
+def _perturbed(system: LoadedSystem, grid: tuple[int, int], disturbance: float | None) -> PerturbedSamples:
+    """The system's perturbed samples: the SCARA's or an arm's (a plant file is refused, naming the option)."""
+    if system.capabilities.run == "arm":
+        return arm_perturbed_samples(system.arm(), disturbance=disturbance, grid=grid)
     if not isinstance(system, ScaraSystem):
-        raise OptionError("tune needs the SCARA's model of the perturbation (its drift along the reference and "
-                          "the disturbance through M⁻¹); a plant file or an arm is not supported yet")
+        raise OptionError("tune needs a model of the perturbation (the drift along the reference and the disturbance "
+                          "through M⁻¹): the SCARA's or a URDF arm's; a plant file (--model) is not supported yet")
     setup = system.setup
-    return scara_perturbed_samples(setup.params, setup.reference, setup.payload, disturbance=disturbance,
+    return scara_perturbed_samples(setup.params, setup.reference, setup.payload,
+                                   disturbance=PAPER_DISTURBANCE_AMPLITUDE if disturbance is None else disturbance,
                                    times=np.linspace(0.0, 2 * np.pi, grid[0]), n_masses=grid[1])
+
+
+def _starts(system: LoadedSystem, scenarios: Sequence[str]) -> tuple[Array, tuple[str, ...]]:
+    """The initial states ``[∫e, e, ė]`` the bound holds from, and their names: the scenarios, or an arm's file's."""
+    if system.capabilities.run == "arm":
+        setup = system.arm()
+        n = setup.arm.n_joints
+        e0 = np.zeros(n) if setup.e0 is None else np.asarray(setup.e0, dtype=float)
+        edot0 = np.zeros(n) if setup.edot0 is None else np.asarray(setup.edot0, dtype=float)
+        return np.r_[np.zeros(n), e0, edot0][None, :], ("the file's initial error",)
+    return _initial_states(scenarios), tuple(scenarios)
 
 
 def _initial_states(scenarios: Sequence[str]) -> Array:
@@ -313,7 +329,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     disturbance = _disturbance(system, requirements)
     coarse, fine = _perturbed(system, grid, disturbance), _perturbed(system, check_grid, disturbance)
     C = _error_output(coarse.A.shape[1], coarse.B.shape[2])
-    X0 = _initial_states(requirements.scenarios)
+    X0, _ = _starts(system, requirements.scenarios)
     T = requirements.settling_time
     loops = np.concatenate([coarse.A - coarse.B @ K, fine.A - fine.B @ K])
     Bw = np.concatenate([coarse.disturbance, fine.disturbance])
@@ -347,7 +363,8 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         failed.append("delay_margin")
     if requirements.decay is not None and not decay >= requirements.decay:
         failed.append("decay")
-    found = search_tracking_error(system, K, requirements) if simulate and search else None
+    found = (search_tracking_error(system, K, requirements)
+             if simulate and search and system.capabilities.run != "arm" else None)
     if found is not None and not found.worst <= requirements.error:
         failed.append("searched error")
     return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
@@ -383,9 +400,12 @@ def loop_checks(system: LoadedSystem, design: Design,
     return sampled, disk, delay, system.decay_rate(design).rate
 
 
-def _disturbance(system: LoadedSystem, requirements: Requirements) -> float:
+def _disturbance(system: LoadedSystem, requirements: Requirements) -> float | None:
+    """The disturbance bound asked, or the system's own (the SCARA's scenario; None: an arm's file decides)."""
     if requirements.disturbance is not None:
         return requirements.disturbance
+    if system.capabilities.run == "arm":
+        return None
     signals = system.setup.disturbance
     return float(signals.amplitude) if signals is not None else PAPER_DISTURBANCE_AMPLITUDE
 
@@ -393,6 +413,11 @@ def _disturbance(system: LoadedSystem, requirements: Requirements) -> float:
 def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> tuple[dict[str, float], float]:
     """The largest |e| after T of each scenario's run (the PID discretized at Ts where one is asked) and peak torque."""
     controller: Any = design if requirements.sample_time is None else design.discretize(requirements.sample_time)
+    if system.capabilities.run == "arm":  # one run, from the file's initial error, with the file's signals
+        K = design.K if requirements.sample_time is None else SampledStateFeedback(design.K, requirements.sample_time)
+        run = simulate_system(system, K, t_transient=requirements.settling_time)
+        value = float(run.max_abs_error) if run.status in ("tracking", "not-tracking") else math.nan
+        return {"the file's initial error": value}, float(run.peak_input)
     errors, torque = {}, 0.0
     for name in requirements.scenarios:
         run = simulate_system(system, controller, scenario=name, t_transient=requirements.settling_time)
@@ -436,7 +461,7 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
                       w_bound=np.maximum(coarse.w_bound, fine.w_bound))
     n, m = samples.A.shape[1], samples.B.shape[2]
     C = _error_output(n, m)
-    X0 = _initial_states(requirements.scenarios)
+    X0, _ = _starts(system, requirements.scenarios)
 
     checked: dict[bytes, tuple[bool | None, float, float, float]] = {}
 
@@ -521,7 +546,8 @@ def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requiremen
     """
     K = np.asarray(K, dtype=float)
     setup = system.setup
-    amplitude = _disturbance(system, requirements)
+    asked = _disturbance(system, requirements)
+    amplitude = PAPER_DISTURBANCE_AMPLITUDE if asked is None else asked
     omega = _resonance(system, K)
     period_list = [2 * math.pi / omega, math.pi / omega, 4 * math.pi / omega, PAPER_DISTURBANCE_PERIOD][:periods]
     payload = setup.payload or paper_payload(setup.params)
