@@ -59,6 +59,7 @@ Model (:mod:`scara_robust.model`)
     effort_limited_payload, EffortPayload -- the largest payload the joints' effort limits carry along the reference
     holding_torque                  -- each joint's largest torque holding the reference over the payload range
     arm_perturbed_samples           -- an arm's samples with Eq. (4)'s perturbation: T_d, the feedforward's residual
+    integral_drift, IntegralDrift, DRIFT_RATE_STEP -- that residual as a slow torque a PID's integral absorbs
     arm_feedforward, ArmFeedforward, FEEDFORWARD_RTOL -- an arm's model feedforward as the exported controller runs it
     arm_uncertain_plant, FEEDFORWARDS -- its error dynamics along a reference as an UncertainPlant; its feedforwards
     require_pinocchio               -- import Pinocchio or name the extra to install
@@ -110,6 +111,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     tracking_bound_problem, ellipsoid_tracking_bound -- its LMI at one rate; numpy's check of an ellipsoid
     tune_gain, GainTuning           -- the smallest gain bound whose synthesized gain meets an error requirement
     tracking_gain, TrackingGain, tracking_synthesis_problem, ALPHA_SETTLING -- the best gain at one bound; its LMI
+    CHANNEL_ITERATIONS              -- syntheses at one gain bound when the channels depend on the gain
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     synthesize_schedule, ScheduleSynthesis, schedule_riccati -- a gain scheduled on a measured parameter
     synthesize_schedule_rate        -- the scheduled gain certified for the fastest parameter (extra ``lmi``)

@@ -360,3 +360,121 @@ def test_tune_runs_on_the_six_joint_arm():
         assert not tuned.failed
     else:
         assert report.tuning.binding and tuned.failed
+
+
+def _one_joint(K: np.ndarray, a: float, b: float, M: float) -> tuple[np.ndarray, np.ndarray]:
+    """A one-joint loop in the PID state ``[∫e, e, ė]`` with ``ë = a e + b ė − u/M`` (A, B of one sample)."""
+    A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, a, b]])
+    B = np.array([[0.0], [0.0], [-1.0 / M]])
+    return A, B
+
+
+def test_the_integral_form_gives_the_same_error_as_the_drift_it_absorbs():
+    """ẋ = (A − BK)x − B τ_r(t) and ż = (A − BK)z + (K_I⁻¹τ̇_r, 0, 0), z(0) = x(0) + x_s(0): one e(t), time-varying M."""
+    import scipy.integrate
+    K = -np.array([[40.0, 30.0, 8.0]])  # B = −M⁻¹ (e = r − q) and the closed loop A − BK
+    A0, B0 = _one_joint(K, -2.0, -0.5, 1.0)
+    drift = sr.IntegralDrift((1,), np.array([3.0]), np.array([[2.0]]), np.array([5.0]), "test")
+    samples = sr.PerturbedSamples(A0[None], B0[None], np.array([[[0.0, 0.0], [0.0, 0.0], [1.0, 1.0]]]),
+                                  np.array([1.0, 1.0]), ("T_d", "fbar"), ("N·m", "rad/s²"), "one joint", drift)
+    x0 = np.array([0.0, 0.1, -0.2])
+    Bw, w, starts = samples.integral_form(K, x0[None])
+    assert Bw.shape == (1, 3, 2) and np.allclose(Bw[0, :, 1], [-1 / 40.0, 0.0, 0.0]) and w.tolist() == [1.0, 3.0]
+    assert np.allclose(starts, [x0 + [-2.0 / 40.0, 0.0, 0.0]])
+
+    def plant(t):  # the inertia and the linearization vary along the run
+        M = 1.0 + 0.5 * np.sin(0.7 * t)
+        A = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, -2.0 + np.cos(t), -0.5]])
+        return A, np.array([[0.0], [0.0], [-1.0 / M]])
+
+    def tau(t):
+        return 2.0 + np.sin(1.5 * t), 1.5 * np.cos(1.5 * t)
+
+    def fx(t, x):
+        A, B = plant(t)
+        return (A - B @ K) @ x - B[:, 0] * tau(t)[0]
+
+    def fz(t, z):
+        A, B = plant(t)
+        return (A - B @ K) @ z + np.array([tau(t)[1] / K[0, 0], 0.0, 0.0])
+
+    t = np.linspace(0.0, 10.0, 201)
+    x = scipy.integrate.solve_ivp(fx, (0, 10), x0, t_eval=t, rtol=1e-11, atol=1e-13).y
+    z = scipy.integrate.solve_ivp(fz, (0, 10), starts[0], t_eval=t, rtol=1e-11, atol=1e-13).y
+    assert np.max(np.abs(x[1] - z[1])) < 1e-8 and np.max(np.abs(x[1])) > 1e-2
+    assert np.allclose(x[0] + np.array([tau(s)[0] for s in t]) / K[0, 0], z[0], atol=1e-8)
+
+
+def test_the_integral_form_refuses_what_it_cannot_absorb():
+    K = -np.array([[0.0, 30.0, 8.0]])  # no integral action
+    A0, B0 = _one_joint(K, -2.0, -0.5, 1.0)
+    drift = sr.IntegralDrift((0,), np.array([3.0]), np.array([[2.0]]), np.array([5.0]), "test")
+    samples = sr.PerturbedSamples(A0[None], B0[None], np.array([[[0.0], [0.0], [1.0]]]), np.array([1.0]),
+                                  ("fbar",), ("rad/s²",), "one joint", drift)
+    assert samples.integral_form(K, np.zeros((1, 3))) is None
+    assert samples.integral_form(None, np.zeros((1, 3)))[1].size == 0  # no gain yet: the channels without it
+    A1 = A0.copy()
+    A1[2, 0] = 1.0  # a plant whose ∫e enters its dynamics: the shift is no longer exact
+    assert sr.PerturbedSamples(A1[None], B0[None], samples.disturbance, samples.w_bound, samples.channels,
+                               samples.units, "", drift).integral_form(K - [[1.0, 0, 0]], np.zeros((1, 3))) is None
+
+
+def test_the_integral_form_bounds_a_slow_drift_and_holds_on_runs():
+    """A drift of size 5 and rate 0.5: the integral's bound is far below the bounded drift's, and runs stay below it."""
+    import scipy.integrate
+    K = -np.array([[60.0, 40.0, 10.0]])
+    A0, B0 = _one_joint(K, -1.0, -0.2, 1.0)
+    drift = sr.IntegralDrift((0,), np.array([0.5]), np.array([[-5.0], [5.0]]), np.array([5.0]), "test")
+    samples = sr.PerturbedSamples(A0[None], B0[None], np.array([[[0.0], [0.0], [1.0]]]), np.array([5.0]),
+                                  ("fbar",), ("rad/s²",), "one joint", drift)
+    C = np.array([[0.0, 1.0, 0.0]])
+    loop = (A0 - B0 @ K)[None]
+    as_size = sr.tracking_bound(loop, samples.disturbance, samples.w_bound, C, initial_states=np.zeros((1, 3)),
+                                settling_time=3.0)
+    Bw, w, starts = samples.integral_form(K, np.zeros((1, 3)))
+    as_rate = sr.tracking_bound(loop, Bw, w, C, initial_states=starts, settling_time=3.0)
+    assert as_size.certified and as_rate.certified
+    assert as_rate.worst < 0.2 * as_size.worst
+    rng = np.random.default_rng(7)
+    worst = 0.0
+    for _ in range(20):  # |τ_r| <= 5, |τ̇_r| <= 0.5: a ramp between random levels, from a random start
+        start, slope = rng.uniform(-5, 5), rng.choice([-0.5, 0.5])
+        def tau(t, start=start, slope=slope):
+            return float(np.clip(start + slope * t, -5, 5))
+        run = scipy.integrate.solve_ivp(lambda t, x: loop[0] @ x - B0[:, 0] * tau(t), (0, 20), np.zeros(3),
+                                        t_eval=np.linspace(3, 20, 400), max_step=0.01, rtol=1e-9, atol=1e-12)
+        worst = max(worst, float(np.max(np.abs(run.y[1]))))
+    assert 0 < worst <= as_rate.worst
+
+
+@pytest.mark.robots
+def test_an_arm_s_drift_rate_is_pinocchio_s_analytic_derivative():
+    """τ̇_r = (∂τ/∂q at q̈ = r̈) ṙ + ∂τ/∂q̇ r̈ + M r⃛ − ∂G/∂q ṙ + |ṁ| ∂τ_r/∂m by RNEA's derivatives: the bound's rate."""
+    from scara_robust.model.arm import ARM_DRIFT_GRID
+    setup = sr.load_arm(str(Path(__file__).resolve().parents[1] / "examples" / "robot-arm6.toml"))
+    assert setup.feedforward == "gravity"
+    drift = sr.integral_drift(setup, np.linspace(0.0, setup.reference.period, ARM_DRIFT_GRID[0])[::6])
+    arm, ref = setup.arm, setup.reference
+    n, (lo, hi), nominal = arm.n_joints, setup.payload_mass, setup.payload_nominal
+    times = np.linspace(0.0, ref.period, ARM_DRIFT_GRID[0])[::6]
+    r, rd, rdd = ref.sample(times)
+    r3 = -np.asarray(ref.omega) ** 2 * rd  # sinusoids: r⃛ = −ω² ṙ
+    worst = np.zeros(n)
+    for k in range(times.size):
+        moving, still = arm.payload_terms(r[k], rd[k]), arm.payload_terms(r[k], np.zeros(n))
+        dG = still.dq[0] + nominal * still.dq[1]  # ∂G/∂q of the feedforward, at its nominal payload
+        per_kg = moving.mass[1] @ rdd[k] + moving.bias[1]
+        rates = []
+        for m in (lo, hi):
+            X = [t[0] + m * t[1] for t in (moving.dq, moving.dv, moving.mass)]
+            dqa = moving.dqa[0] + m * moving.dqa[1]
+            dtau_dq = X[0] + np.einsum("j,jab->ab", rdd[k], dqa)
+            rates.append(np.abs(dtau_dq @ rd[k] + X[1] @ rdd[k] + X[2] @ r3[k] - dG @ rd[k]))
+        worst = np.maximum(worst, np.maximum(*rates) + setup.payload_rate * np.abs(per_kg))
+    assert np.allclose(drift.rate, worst, rtol=1e-6, atol=1e-9)
+    # τ_r(0) at the ends, by the mass matrix and bias of the same terms
+    r0, rd0, rdd0 = (x[0] for x in ref.sample(np.array([0.0])))
+    t0 = arm.payload_terms(r0, rd0)
+    G0 = arm.gravity_torque(r0, nominal)
+    for row, m in zip(drift.initial, (lo, hi)):
+        assert np.allclose(row, (t0.mass[0] + m * t0.mass[1]) @ rdd0 + t0.bias[0] + m * t0.bias[1] - G0, atol=1e-9)

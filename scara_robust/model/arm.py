@@ -42,12 +42,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentValueError
-from .perturbation import PerturbedSamples
+from .perturbation import IntegralDrift, PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
 __all__ = ["RobotArm", "JointSinusoids", "ArmSetup", "arm_uncertain_plant", "FEEDFORWARDS", "require_pinocchio",
-           "effort_limited_payload", "EffortPayload", "holding_torque", "PayloadTerms", "arm_perturbed_samples"]
+           "effort_limited_payload", "EffortPayload", "holding_torque", "PayloadTerms", "arm_perturbed_samples",
+           "integral_drift", "DRIFT_RATE_STEP"]
 
 Array = NDArray[np.float64]
 
@@ -1207,4 +1208,57 @@ def arm_perturbed_samples(setup: ArmSetup, *, disturbance: float | None = None,
     joints = arm.joints
     return PerturbedSamples(A, B, Bw, w_bound, tuple(f"T_d,{j}" for j in joints) + tuple(f"fbar,{j}" for j in joints),
                             ("N·m",) * n + ("rad/s²",) * n,
-                            f"{grid[0]} reference times x {grid[1]} payloads, |T_d| <= {np.array2string(d_bound)} N·m")
+                            f"{grid[0]} reference times x {grid[1]} payloads, |T_d| <= {np.array2string(d_bound)} N·m",
+                            integral_drift(setup, times))
+
+
+#: Step of the central difference of the drift torque along the reference, as a fraction of its period.
+DRIFT_RATE_STEP = 1e-6
+
+
+def integral_drift(setup: ArmSetup, times: Array) -> IntegralDrift | None:
+    """The drift as the torque ``τ_r = M r̈ + C ṙ + G − τ_ff`` a PID's integral absorbs.
+
+    ``τ_r`` is affine in the payload (RNEA is linear in the inertial parameters), so its
+    rate ``τ̇_r = ∂τ_r/∂t + ṁ_p ∂τ_r/∂m_p`` is bounded by its time derivative (a central
+    difference of :data:`DRIFT_RATE_STEP` periods) at the payload's two ends plus
+    ``|ṁ_p|``'s bound times the per-kilogram term, at `times`.
+
+    Parameters
+    ----------
+    setup : ArmSetup
+    times : ndarray, shape (k,)
+        Reference times of the bound, s.
+
+    Returns
+    -------
+    IntegralDrift or None
+        None when the payload may jump (the file gives no ``payload_rate`` and the range
+        is not a single mass).
+    """
+    arm, reference = setup.arm, setup.reference
+    lo, hi = setup.payload_mass
+    if setup.payload_rate is None and hi > lo:
+        return None
+    rate_bound = 0.0 if hi == lo else float(setup.payload_rate or 0.0)
+    h = DRIFT_RATE_STEP * reference.period
+
+    def residual(t: Array, m: float) -> tuple[Array, Array]:
+        r, rd, rdd = reference.sample(t)
+        tau_id = np.array([arm.inverse_dynamics(r[k], rd[k], rdd[k], m) for k in range(t.size)])
+        tau_ff = np.array([arm.feedforward(setup.feedforward, r[k], rd[k], rdd[k], setup.payload_nominal)
+                           for k in range(t.size)])
+        return tau_id - tau_ff, tau_id
+
+    ends = {}
+    for m in (lo, hi):
+        now, tau_id = residual(times, m)
+        slope = (residual(times + h, m)[0] - residual(times - h, m)[0]) / (2 * h)
+        ends[m] = (now, tau_id, slope)
+    per_kg = (ends[hi][0] - ends[lo][0]) / (hi - lo) if hi > lo else np.zeros_like(ends[lo][0])
+    rate = np.max(np.maximum(np.abs(ends[lo][2]), np.abs(ends[hi][2])) + rate_bound * np.abs(per_kg), axis=0)
+    torque = np.max(np.maximum(np.abs(ends[lo][1]), np.abs(ends[hi][1])), axis=0)
+    initial = np.array([residual(np.array([0.0]), m)[0][0] for m in (lo, hi)])
+    n = arm.n_joints
+    return IntegralDrift(tuple(range(n, 2 * n)), rate, initial, torque,
+                         f"{times.size} reference times x the payload's ends, |ṁ_p| <= {rate_bound:g} kg/s")

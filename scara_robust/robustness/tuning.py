@@ -34,7 +34,8 @@ from ..sdp.backends import resolve_lmi_solver
 from ._cutting import grow_active_set
 from .tracking import verified_ellipsoid
 
-__all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem", "ALPHA_SETTLING"]
+__all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem", "ALPHA_SETTLING",
+           "CHANNEL_ITERATIONS"]
 
 Array = NDArray[np.float64]
 
@@ -44,6 +45,8 @@ ALPHA_SETTLING = np.logspace(0, math.log10(30.0), 7)
 FIRST_ACTIVE = 12
 #: Relative width at which the bisection on κ stops.
 KAPPA_RTOL = 0.05
+#: Syntheses at one κ with gain-dependent channels, each from the last one's gain.
+CHANNEL_ITERATIONS = 3
 
 
 @dataclass(frozen=True)
@@ -261,6 +264,30 @@ def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, 
     return best
 
 
+def _gain_with_channels(A: Array, B: Array, C: Array, T: float, kappa: float, alphas: Array, solver: str,
+                        channels: Callable[[Array | None], tuple[Array, Array, Array] | None],
+                        reference: list[Array | None]) -> TrackingGain:
+    """:func:`tracking_gain` with channels taken from the last gain, kept when its own channels verify it."""
+    nothing = TrackingGain(kappa, math.inf, np.full(C.shape[0], math.inf), None, None, None, math.nan)
+    K_ref = reference[0]
+    for _ in range(CHANNEL_ITERATIONS):
+        given = channels(K_ref)
+        if given is None:
+            return nothing
+        Bw, w, X0 = given
+        found = tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver)
+        if found.K is None or found.P is None or found.mu is None:
+            return nothing
+        own = channels(found.K)
+        if own is not None and own[1].size == found.mu.size:
+            bound, _, _, mu, alpha = verified_ellipsoid(A - B @ found.K, own[0], own[1], C, own[2], T, found.P,
+                                                        found.mu, found.alpha)
+            if np.all(np.isfinite(bound)):
+                return TrackingGain(kappa, float(bound.max()), bound, found.K, found.P, mu, alpha)
+        K_ref = found.K
+    return nothing
+
+
 def _check_problem(plants: tuple[ArrayLike, ArrayLike], disturbance: ArrayLike, w_bound: ArrayLike,
                    output: ArrayLike, initial_states: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array,
                                                                                   Array]:
@@ -294,6 +321,7 @@ def tune_gain(
     settling_time: float = 0.0,
     kappa_range: tuple[float, float] = (1.0, 1e4),
     accept: Callable[[TrackingGain], str] | None = None,
+    channels: Callable[[Array | None], tuple[Array, Array, Array] | None] | None = None,
     solver: str | None = None,
 ) -> GainTuning:
     """The smallest gain bound κ whose synthesized gain keeps every output within `requirement` after T.
@@ -321,6 +349,12 @@ def tune_gain(
         The gain bounds searched (0 < low < high).
     accept : callable ``accept(TrackingGain) -> str``, optional
         ``''`` when the gain meets every other requirement, else what it fails (one phrase).
+    channels : callable ``channels(K) -> (disturbance, w_bound, initial_states)``, optional
+        Channels that depend on the gain (a drift its integral absorbs,
+        :meth:`~scara_robust.PerturbedSamples.integral_form`; ``K = None``: those without
+        it). Each synthesis then takes them from the last gain found, and its answer counts
+        only when numpy verifies it with its own gain's channels (up to
+        :data:`CHANNEL_ITERATIONS` syntheses at a κ).
     solver : {'IPM', 'CLARABEL', 'SCS'}, optional
 
     Returns
@@ -340,6 +374,7 @@ def tune_gain(
     grid = ALPHA_SETTLING / T if T > 0 else float(np.linalg.norm(A, 2, axis=(1, 2)).max()) * np.logspace(-2, 0, 7)
     steps: list[str] = []
     last = {"alpha": math.nan}
+    reference: list[Array | None] = [None]
 
     def at(kappa: float) -> TrackingGain:
         if math.isnan(last["alpha"]):
@@ -347,9 +382,11 @@ def tune_gain(
         else:
             i = int(np.argmin(np.abs(np.log(grid / last["alpha"]))))
             alphas = grid[max(i - 1, 0):i + 2]
-        found = tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver)
+        found = (tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver) if channels is None
+                 else _gain_with_channels(A, B, C, T, kappa, alphas, solver, channels, reference))
         if found.K is not None:
             last["alpha"] = found.alpha
+            reference[0] = found.K
         steps.append(f"κ = {kappa:.4g}: {found.value:.4g}")
         return found
 

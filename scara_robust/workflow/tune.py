@@ -40,6 +40,7 @@ from ..robustness.loop_margins import LoopView, loop_view
 from ..robustness.sampled import check_sample_time
 from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
 from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
+from ..simulation.arm import simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.run import run_scenarios
 from .simulate import simulate_system
@@ -287,13 +288,33 @@ def _error_output(n: int, m: int) -> Array:
     return C
 
 
-def _certified_torque(K: Array, bound: TrackingBound) -> float:
-    """``max_i |k_i x|`` on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m."""
-    if bound.P is None or bound.mu is None:
+def _certified_torque(K: Array, P: Array | None, mu: Array | None, alpha: float, initial_level: float,
+                      samples: PerturbedSamples) -> float:
+    """The largest torque on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m.
+
+    ``max_i |k_i x|`` (the feedback), or with the drift absorbed by the integral
+    (:meth:`~scara_robust.PerturbedSamples.integral_form`) the whole torque
+    ``|τ_id,i| + |k_i z|``.
+    """
+    if P is None or mu is None:
         return math.inf
-    level = max(bound.initial_level, float(np.sum(bound.mu)) / bound.alpha)
-    gains = np.einsum("ij,ij->i", K, np.linalg.solve(bound.P, K.T).T)
-    return float(np.sqrt(np.max(gains) * level))
+    level = max(initial_level, float(np.sum(mu)) / alpha)
+    gains = np.sqrt(np.einsum("ij,ij->i", K, np.linalg.solve(P, K.T).T) * level)
+    if _integral(samples, K, np.zeros((0, samples.A.shape[1]))) is not None:
+        assert samples.integral is not None
+        gains = gains + samples.integral.torque
+    return float(np.max(gains))
+
+
+def _integral(samples: PerturbedSamples, K: Array | None, X0: Array) -> tuple[Array, Array, Array] | None:
+    """The channels and initial states with the drift absorbed by `K`'s integral, where the samples allow it."""
+    return samples.integral_form(K, X0) if samples.integral is not None else None
+
+
+def _channels(samples: PerturbedSamples, K: Array, X0: Array) -> tuple[Array, Array, Array]:
+    """The channels, bounds and initial states `K`'s bound holds with: the integral form where there is one."""
+    found = _integral(samples, K, X0)
+    return found if found is not None else (samples.disturbance, samples.w_bound, X0)
 
 
 def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
@@ -332,22 +353,23 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     X0, _ = _starts(system, requirements.scenarios)
     T = requirements.settling_time
     loops = np.concatenate([coarse.A - coarse.B @ K, fine.A - fine.B @ K])
-    Bw = np.concatenate([coarse.disturbance, fine.disturbance])
+    (Bw_c, w, X0), (Bw_f, w_f, _) = _channels(coarse, K, X0), _channels(fine, K, X0)
+    w = np.maximum(w, w_f)
     if ellipsoid is not None and ellipsoid.P is not None and ellipsoid.mu is not None:
         start = time.perf_counter()
-        b, u, v0, mu, alpha = verified_ellipsoid(loops, Bw, coarse.w_bound, C, X0, T, ellipsoid.P, ellipsoid.mu,
-                                                 ellipsoid.alpha)
+        b, u, v0, mu, alpha = verified_ellipsoid(loops, np.concatenate([Bw_c, Bw_f]), w, C, X0, T, ellipsoid.P,
+                                                 ellipsoid.mu, ellipsoid.alpha)
         ok = bool(np.all(np.isfinite(b)))
         bound = TrackingBound(b, u, T, alpha, ellipsoid.P if ok else None, mu if ok else None,
                               v0, "optimal" if ok else "not verified on the check samples", len(loops),
                               time.perf_counter() - start)
     else:
-        bound = tracking_bound(coarse.A - coarse.B @ K, coarse.disturbance, coarse.w_bound, C, initial_states=X0,
-                               settling_time=T, check=(fine.A - fine.B @ K, fine.disturbance))
+        bound = tracking_bound(coarse.A - coarse.B @ K, Bw_c, w, C, initial_states=X0,
+                               settling_time=T, check=(fine.A - fine.B @ K, Bw_f))
     design = Design.from_gain(system.model, K)
     simulated, torque = _runs(system, design, requirements) if simulate else ({}, math.nan)
     sampled, disk, delay, decay = loop_checks(system, design, requirements) if checks is None else checks
-    certified_torque = _certified_torque(K, bound)
+    certified_torque = _certified_torque(K, bound.P, bound.mu, bound.alpha, bound.initial_level, coarse)
     failed = []
     if not bound.worst <= requirements.error:
         failed.append("error")
@@ -363,8 +385,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         failed.append("delay_margin")
     if requirements.decay is not None and not decay >= requirements.decay:
         failed.append("decay")
-    found = (search_tracking_error(system, K, requirements)
-             if simulate and search and system.capabilities.run != "arm" else None)
+    found = search_tracking_error(system, K, requirements) if simulate and search else None
     if found is not None and not found.worst <= requirements.error:
         failed.append("searched error")
     return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
@@ -474,10 +495,9 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         if found.K is None or found.P is None or found.mu is None:
             return "no gain"
         if requirements.torque_limit is not None:  # the cheap check first: the ellipsoid's torque
-            v0 = float(np.einsum("ki,ij,kj->k", X0, found.P, X0).max()) if len(X0) else 0.0
-            level = max(v0, float(np.sum(found.mu)) / found.alpha)
-            torque = float(np.sqrt(np.einsum("ij,ij->i", found.K, np.linalg.solve(found.P, found.K.T).T).max()
-                                   * level))
+            starts = _channels(samples, found.K, X0)[2]
+            v0 = float(np.einsum("ki,ij,kj->k", starts, found.P, starts).max()) if len(starts) else 0.0
+            torque = _certified_torque(found.K, found.P, found.mu, found.alpha, v0, samples)
             if not torque <= requirements.torque_limit:
                 return "torque_limit"
         failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
@@ -488,7 +508,8 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
                  ("sample_time", "torque_limit", "disk_margin", "delay_margin", "decay"))
     tuning = tune_gain((samples.A, samples.B), samples.disturbance, samples.w_bound, C, requirements.error,
                        initial_states=X0, settling_time=requirements.settling_time, kappa_range=kappa_range,
-                       accept=accept if checks else None)
+                       accept=accept if checks else None,
+                       channels=(lambda K: _integral(samples, K, X0)) if samples.integral is not None else None)
     gains: list[GainEvaluation] = []
     design = None
     if tuning.K is not None:
@@ -520,6 +541,62 @@ def _resonance(system: LoadedSystem, K: Array) -> float:
     return omega
 
 
+def _arm_resonance(samples: PerturbedSamples, K: Array) -> float:
+    """The frequency (rad/s) where an arm's frozen closed loops' largest ``|T_d → e|`` peaks (python-control)."""
+    n = samples.B.shape[2]
+    C = _error_output(3 * n, n)
+    best, omega = -1.0, 1.0
+    for A, B in zip(samples.A, samples.B):
+        gain, w = ct.linfnorm(ct.ss(A - B @ K, B, C, 0))
+        if math.isfinite(gain) and gain > best and w > 0:
+            best, omega = gain, float(w)
+    return omega
+
+
+def _search_arm(system: LoadedSystem, K: Array, requirements: Requirements, periods: int) -> TrackingSearch:
+    """:func:`search_tracking_error` on a URDF arm: :func:`~scara_robust.simulate_arm`'s compiled engine."""
+    setup = system.arm()
+    n = setup.arm.n_joints
+    asked = _disturbance(system, requirements)
+    wave = setup.disturbance
+    amplitude = float(asked) if asked is not None else (float(wave.amplitude) if wave is not None else 0.0)
+    omega = _arm_resonance(arm_perturbed_samples(setup, disturbance=max(amplitude, 1e-12), grid=(7, 2)), K)
+    period_list = [2 * math.pi / omega, math.pi / omega, 4 * math.pi / omega, setup.reference.period][:periods]
+    lo, hi = setup.payload_mass
+    payloads: list[tuple[str, Any]] = [("constant min", ConstantPayload(lo)), ("constant max", ConstantPayload(hi))]
+    if hi > lo and setup.payload_rate:
+        fastest = 2.0 * setup.payload_rate / (hi - lo)  # a sinusoid over the range at the rate bound
+        payloads += [(f"sinusoid at {setup.payload_rate:g} kg/s", SinusoidalPayload((lo + hi) / 2, (hi - lo) / 2,
+                                                                                   fastest, 0.0)),
+                     (f"sinusoid at {setup.payload_rate:g} kg/s, mirrored",
+                      SinusoidalPayload((lo + hi) / 2, (hi - lo) / 2, fastest, math.pi))]
+    alternate = tuple(float((-1) ** j) for j in range(n))
+    T = requirements.settling_time
+    t_final = T + max(setup.reference.period, 2 * max(period_list))
+    worst, where, failed, runs = math.nan, "", 0, 0
+    for pname, profile in payloads:
+        for period in period_list:
+            for signs in ((1.0,) * n, alternate):
+                for phase in (0.0, math.pi):
+                    runs += 1
+                    label = (f"payload {pname}, T_d ±{amplitude:g} N·m period {period:.3g} s "
+                             f"{'same signs' if signs == (1.0,) * n else 'alternating signs'}, "
+                             f"phase {phase:.3g}")
+                    try:
+                        run = simulate_arm(setup, K, profile, disturbance=SquareWave(amplitude, period, phase, signs),
+                                           t_final=t_final, method="compiled", t_transient=T)
+                    except Exception:  # a failed run is counted, not a crash
+                        failed += 1
+                        continue
+                    if not run.success:
+                        failed += 1
+                        continue
+                    value = float(run.max_abs_error)
+                    if not value <= worst:
+                        worst, where = value, label
+    return TrackingSearch(worst, where, runs, failed)
+
+
 def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requirements, *,
                           periods: int = 4) -> TrackingSearch:
     """Look for a larger tracking error than the bound: the nonlinear robot over payload and disturbance profiles.
@@ -532,10 +609,16 @@ def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requiremen
     initial condition of the requirements. The continuous PID (the loop the bound is about)
     on the compiled engine, batched.
 
+    On a URDF arm (:func:`~scara_robust.simulate_arm`'s compiled engine, from the file's
+    initial error): square waves on every joint, all of one sign and alternating, at the
+    resonant period, half and twice it and the reference's period, phases 0 and π;
+    payloads constant at both ends of the range and a sinusoid over it at the rate bound
+    (and its mirror).
+
     Parameters
     ----------
     system : LoadedSystem
-    K : array_like, shape (2, 6)
+    K : array_like, shape (2, 6), or (n, 3n) on an arm
     requirements : Requirements
     periods : int
         How many of the periods listed (1–4, in that order).
@@ -545,6 +628,8 @@ def search_tracking_error(system: LoadedSystem, K: Any, requirements: Requiremen
     TrackingSearch
     """
     K = np.asarray(K, dtype=float)
+    if system.capabilities.run == "arm":
+        return _search_arm(system, K, requirements, periods)
     setup = system.setup
     asked = _disturbance(system, requirements)
     amplitude = PAPER_DISTURBANCE_AMPLITUDE if asked is None else asked
