@@ -95,6 +95,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     robustness_margin, margin_table, Margin, MARGIN_METHODS, MARGIN_TOL -- how much uncertainty a design tolerates
     worst_loop_margins, LoopMargins -- each input's worst disk margin (±dB, ±°) and delay margin (s), frozen plants
     loop_view, LoopView             -- one loop of one frozen plant: its step response and Bode data, its margins
+    frozen_loop_views               -- each loop's view at the frozen plant of its smallest delay margin
     payload_margin, PAYLOAD_METHODS -- the robot's largest certified payload, kg (``margin`` command)
     synthesize, Synthesis, decay_rate, GAIN_BOUND -- a gain with its own certificate (LMI, extra ``lmi``)
     OBJECTIVES                      -- its objectives: decay, worst-case L2 gain to the error e, margin θ

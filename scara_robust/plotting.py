@@ -1080,7 +1080,7 @@ def plot_loop_views(views: Mapping[str, Sequence[LoopView]], *, margins: Mapping
             ax.set_xlabel("frequency [rad/s]")
             ax.grid(True, which="major", color="0.9")
         step_ax.set_xlabel("time [s]")
-    axes[0, 0].set_title("unit reference step (dashed: the other joint)", fontsize=10)
+    axes[0, 0].set_title("unit reference step" + (" (dashed: the other outputs)" if m > 1 else ""), fontsize=10)
     axes[0, 1].set_title("|L(jω)| (dotted: gain crossover)", fontsize=10)
     axes[0, 2].set_title("arg L(jω) (grey: −180°)", fontsize=10)
     fig.legend(handles=handles, loc="outside lower center", fontsize=_LEGEND_SIZE, frameon=False)

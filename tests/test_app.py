@@ -132,7 +132,7 @@ def test_a_new_run_replaces_the_response_only_and_figures_are_drawn(motor):
     assert [a.generation for a in delivered] == [generation, generation] and not any(a.error for a in delivered)
     assert np.array_equal(delivered[-1].value.errors, motor.response(d).errors)
     files, error, _ = motor.figures(d, "margin", (1.0, 5.0)).result(120)
-    assert error == "" and set(files) == {"design-map.png", "response.png"}
+    assert error == "" and set(files) == {"design-map.png", "response.png", "loops.png"}  # each loop, worst plant
     assert all(data.startswith(b"\x89PNG") and len(data) > 10_000 for data in files.values())
 
 

@@ -37,7 +37,7 @@ from ..model.robot import paper_payload
 from ..model.uncertain import UncertainLTVModel
 from ..robustness.actuator import input_limit_certificate, step_initial_errors
 from ..robustness.decay import design_decay_rate
-from ..robustness.loop_margins import worst_loop_margins
+from ..robustness.loop_margins import frozen_loop_views, worst_loop_margins
 from ..robustness.margins import robustness_margin
 from ..robustness.payload import payload_margin
 from ..robustness.registry import analysis_methods, get_method
@@ -838,7 +838,7 @@ def _figures(d: Design | None, robot_signals: Mapping[str, Any] | None, plant_so
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plotting import plot_margin_map, plot_plant_run, plot_response, plot_surface_contour
+    from ..plotting import plot_loop_views, plot_margin_map, plot_plant_run, plot_response, plot_surface_contour
 
     def png(fig: Any) -> bytes:
         buffer = io.BytesIO()
@@ -856,6 +856,13 @@ def _figures(d: Design | None, robot_signals: Mapping[str, Any] | None, plant_so
             files["response.png"] = png(plot_plant_run(result, plant, title=name))
         else:
             files["response.png"] = png(plot_response(result, title=name))
+        physical = _plant_of(plant_source)
+        if physical is not None and physical.form == "pid":  # each loop at its worst frozen plant
+            margins = worst_loop_margins(physical, d, points=physical.grid_points())
+            views = frozen_loop_views(physical, d.K, margins, t_final=t_final)
+            files["loops.png"] = png(plot_loop_views({name: views}, margins={name: margins},
+                                                     title=f"{title}: each loop at its worst frozen plant "
+                                                           "(smallest delay margin)"))
     return files
 
 

@@ -55,7 +55,7 @@ from ..model.plant import as_model, require_plant
 from ..results import AnalysisResult
 from .polytope import MAX_BOX_ELEMENTS
 
-__all__ = ["LoopMargins", "worst_loop_margins", "LoopView", "loop_view"]
+__all__ = ["LoopMargins", "worst_loop_margins", "LoopView", "loop_view", "frozen_loop_views"]
 
 Array = NDArray[np.float64]
 
@@ -727,3 +727,30 @@ def loop_view(A: ArrayLike, B: ArrayLike, K: ArrayLike, loop: int, *, omega: Arr
     step = -e
     step[loop] += 1.0
     return LoopView(loop, t, step, w, L, disk, delay, crossover)
+
+
+def frozen_loop_views(plant: Any, K: ArrayLike, margins: LoopMargins, *, t_final: float = 6.0) -> tuple[LoopView, ...]:
+    """Each loop's :func:`loop_view` at the frozen plant where `margins` found its smallest delay margin.
+
+    Parameters
+    ----------
+    plant : UncertainPlant
+        A plant with physical parameters (its ``plant_matrices`` and ``design_form``).
+    K : array_like, shape (m, n)
+    margins : LoopMargins
+        :func:`worst_loop_margins` of `K` on `plant` (its frozen plants and their values).
+    t_final : float
+        Horizon of the step responses, s.
+
+    Returns
+    -------
+    tuple of LoopView
+        One per input, in order.
+    """
+    K = np.asarray(K, dtype=float)
+    views = []
+    for i in range(K.shape[0]):
+        point = dict(zip(margins.names, margins.values[int(margins.delay_worst[i])]))
+        A, B = plant.design_form(*plant.plant_matrices(point))
+        views.append(loop_view(A, B, K, i, t_final=t_final))
+    return tuple(views)

@@ -36,7 +36,7 @@ from ..model.robot import ConstantPayload, SinusoidalPayload, paper_payload, pay
 from ..model.scara import scara_perturbed_samples
 from ..model.signals import SquareWave
 from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD, PAPER_T_FINAL, PAPER_TRANSIENT
-from ..robustness.loop_margins import LoopView, loop_view
+from ..robustness.loop_margins import LoopView, frozen_loop_views
 from ..robustness.sampled import check_sample_time
 from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
 from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
@@ -687,10 +687,4 @@ def worst_loop_views(system: LoadedSystem, K: Any, *, t_final: float = PAPER_TRA
     """
     K = np.asarray(K, dtype=float)
     physical = system.require_physical("the loop views need a plant with physical parameters")
-    margins = system.loop_margins(K)
-    views = []
-    for i in range(K.shape[0]):
-        point = dict(zip(margins.names, margins.values[int(margins.delay_worst[i])]))
-        A, B = physical.design_form(*physical.plant_matrices(point))
-        views.append(loop_view(A, B, K, i, t_final=t_final))
-    return tuple(views)
+    return frozen_loop_views(physical, K, system.loop_margins(K), t_final=t_final)
