@@ -211,6 +211,7 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     search_tracking_error, TrackingSearch -- the nonlinear robot over payload and disturbance profiles
     worst_loop_views                -- each loop's step response and Bode data at its worst frozen plant
     TUNE_GRID, TUNE_CHECK_GRID      -- the samples of the tuning's LMIs and numpy's checks
+    ARM_TUNE_GRID, ARM_TUNE_CHECK_GRID -- those of a URDF arm
 """
 
 from __future__ import annotations

@@ -202,11 +202,13 @@ def _invariance_violation(A: Array, B: Array, Bw: Array, w: Array, alpha: float,
 
 
 def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, alpha: float, kappa: float,
-               solver: str) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
+               solver: str, hint: list[NDArray[np.int64]] | None = None
+               ) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
     """One synthesis at (α, κ) on an active set of the plants grown by cutting planes.
 
     Returns the bound numpy proves for its gain on every plant, the gain, P and μ
-    (inf, None, None, None where there is none).
+    (inf, None, None, None where there is none). `hint` (a one-element list) holds the
+    plants the last synthesis ended on: this one starts from them and leaves its own.
     """
     p = C.shape[0]
     nothing: tuple[float, Array | None, Array | None, Array | None, Array, float] = (
@@ -223,9 +225,13 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
         return result.status, (0.5 * (Q + Q.T), Y, mu)
 
     first = np.unique(np.linspace(0, len(A) - 1, min(len(A), FIRST_ACTIVE)).round().astype(np.int64))
-    _, answer, _ = grow_active_set(solve, lambda a: _invariance_violation(A, B, Bw, w, alpha, *a), first)
+    if hint:
+        first = np.union1d(first, hint[0][hint[0] < len(A)])
+    _, answer, active = grow_active_set(solve, lambda a: _invariance_violation(A, B, Bw, w, alpha, *a), first)
     if answer is None:
         return nothing
+    if hint is not None:
+        hint[:] = [active]
     Q, Y, mu = answer
     try:
         P = np.linalg.inv(Q)
@@ -239,7 +245,7 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
 
 
 def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, kappa: float,
-                  alphas: Array, solver: str) -> TrackingGain:
+                  alphas: Array, solver: str, hint: list[NDArray[np.int64]] | None = None) -> TrackingGain:
     """:class:`TrackingGain` at κ over the rates `alphas` (1/s): the smallest bound numpy proved.
 
     Parameters
@@ -251,6 +257,10 @@ def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, 
     T, kappa : float
     alphas : ndarray, shape (r,)
     solver : str
+    hint : list, optional
+        A one-element list of plant indices the cutting planes start from (with the evenly
+        spread ones), updated to where each synthesis ends: the plants that bind at one
+        rate or gain bound mostly bind at the next. Any start gives a verified answer.
 
     Returns
     -------
@@ -258,7 +268,7 @@ def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, 
     """
     best = TrackingGain(kappa, math.inf, np.full(C.shape[0], math.inf), None, None, None, math.nan)
     for alpha in alphas:
-        value, K, P, mu, bound, alpha_v = _candidate(A, B, Bw, w, C, X0, T, float(alpha), kappa, solver)
+        value, K, P, mu, bound, alpha_v = _candidate(A, B, Bw, w, C, X0, T, float(alpha), kappa, solver, hint)
         if value < best.value:
             best = TrackingGain(kappa, value, bound, K, P, mu, alpha_v)
     return best
@@ -266,7 +276,7 @@ def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, 
 
 def _gain_with_channels(A: Array, B: Array, C: Array, T: float, kappa: float, alphas: Array, solver: str,
                         channels: Callable[[Array | None], tuple[Array, Array, Array] | None],
-                        reference: list[Array | None]) -> TrackingGain:
+                        reference: list[Array | None], hint: list[NDArray[np.int64]]) -> TrackingGain:
     """:func:`tracking_gain` with channels taken from the last gain, kept when its own channels verify it."""
     nothing = TrackingGain(kappa, math.inf, np.full(C.shape[0], math.inf), None, None, None, math.nan)
     K_ref = reference[0]
@@ -275,7 +285,7 @@ def _gain_with_channels(A: Array, B: Array, C: Array, T: float, kappa: float, al
         if given is None:
             return nothing
         Bw, w, X0 = given
-        found = tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver)
+        found = tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver, hint)
         if found.K is None or found.P is None or found.mu is None:
             return nothing
         own = channels(found.K)
@@ -375,6 +385,7 @@ def tune_gain(
     steps: list[str] = []
     last = {"alpha": math.nan}
     reference: list[Array | None] = [None]
+    hint: list[NDArray[np.int64]] = []
 
     def at(kappa: float) -> TrackingGain:
         if math.isnan(last["alpha"]):
@@ -382,8 +393,8 @@ def tune_gain(
         else:
             i = int(np.argmin(np.abs(np.log(grid / last["alpha"]))))
             alphas = grid[max(i - 1, 0):i + 2]
-        found = (tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver) if channels is None
-                 else _gain_with_channels(A, B, C, T, kappa, alphas, solver, channels, reference))
+        found = (tracking_gain(A, B, Bw, w, C, X0, T, kappa, alphas, solver, hint) if channels is None
+                 else _gain_with_channels(A, B, C, T, kappa, alphas, solver, channels, reference, hint))
         if found.K is not None:
             last["alpha"] = found.alpha
             reference[0] = found.K

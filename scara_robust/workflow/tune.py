@@ -47,7 +47,8 @@ from .simulate import simulate_system
 from .system import LoadedSystem, ScaraSystem
 
 __all__ = ["Requirements", "TuneReport", "GainEvaluation", "TrackingSearch", "tune_system", "evaluate_gain",
-           "search_tracking_error", "loop_checks", "worst_loop_views", "TUNE_GRID", "TUNE_CHECK_GRID"]
+           "search_tracking_error", "loop_checks", "worst_loop_views", "TUNE_GRID", "TUNE_CHECK_GRID",
+           "ARM_TUNE_GRID", "ARM_TUNE_CHECK_GRID"]
 
 Array = NDArray[np.float64]
 
@@ -56,6 +57,17 @@ Array = NDArray[np.float64]
 TUNE_GRID = (73, 9)
 #: A finer grid on which numpy re-verifies every bound (never seen by a solver).
 TUNE_CHECK_GRID = (181, 11)
+#: The grids of a URDF arm (3n states: each synthesis an LMI of 18 states and more, so fewer
+#: samples; the drift's bounds keep their own finer grid, ``model.arm.ARM_DRIFT_GRID``).
+ARM_TUNE_GRID, ARM_TUNE_CHECK_GRID = (13, 3), (37, 5)
+
+
+def _grids(system: LoadedSystem, grid: tuple[int, int] | None,
+           check_grid: tuple[int, int] | None) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The grids asked, else the system's defaults (:data:`TUNE_GRID` or :data:`ARM_TUNE_GRID` and their checks)."""
+    arm = system.capabilities.run == "arm"
+    return (grid or (ARM_TUNE_GRID if arm else TUNE_GRID),
+            check_grid or (ARM_TUNE_CHECK_GRID if arm else TUNE_CHECK_GRID))
 
 
 @dataclass(frozen=True)
@@ -318,7 +330,7 @@ def _channels(samples: PerturbedSamples, K: Array, X0: Array) -> tuple[Array, Ar
 
 
 def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
-                  grid: tuple[int, int] = TUNE_GRID, check_grid: tuple[int, int] = TUNE_CHECK_GRID,
+                  grid: tuple[int, int] | None = None, check_grid: tuple[int, int] | None = None,
                   ellipsoid: TrackingGain | None = None, simulate: bool = True,
                   search: bool = False, checks: tuple[bool | None, float, float, float] | None = None
                   ) -> GainEvaluation:
@@ -330,8 +342,9 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     name : str
     K : array_like, shape (m, n)
     requirements : Requirements
-    grid, check_grid : (int, int)
-        Samples of the bound's LMI and of numpy's second check.
+    grid, check_grid : (int, int), optional
+        Samples of the bound's LMI and of numpy's second check (default :data:`TUNE_GRID` and
+        :data:`TUNE_CHECK_GRID`, on an arm :data:`ARM_TUNE_GRID` and :data:`ARM_TUNE_CHECK_GRID`).
     ellipsoid : TrackingGain, optional
         The tuning's own ellipsoid for this gain: numpy re-checks it on the check samples
         instead of solving the analysis LMI again.
@@ -347,6 +360,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     GainEvaluation
     """
     K = np.asarray(K, dtype=float)
+    grid, check_grid = _grids(system, grid, check_grid)
     disturbance = _disturbance(system, requirements)
     coarse, fine = _perturbed(system, grid, disturbance), _perturbed(system, check_grid, disturbance)
     C = _error_output(coarse.A.shape[1], coarse.B.shape[2])
@@ -448,20 +462,22 @@ def _runs(system: LoadedSystem, design: Design, requirements: Requirements) -> t
 
 
 def tune_system(system: LoadedSystem, requirements: Requirements, *,
-                others: Mapping[str, Any] | None = None, grid: tuple[int, int] = TUNE_GRID,
-                check_grid: tuple[int, int] = TUNE_CHECK_GRID, kappa_range: tuple[float, float] = (1.0, 1e4),
+                others: Mapping[str, Any] | None = None, grid: tuple[int, int] | None = None,
+                check_grid: tuple[int, int] | None = None, kappa_range: tuple[float, float] = (1.0, 1e4),
                 simulate: bool = True, search: bool = True) -> TuneReport:
     """Tune a PID to `requirements` on `system`, then evaluate it and `others` against them.
 
     Parameters
     ----------
     system : LoadedSystem
-        The SCARA (its robot file's parameters, reference and payload).
+        The SCARA (its robot file's parameters, reference and payload) or a URDF arm.
     requirements : Requirements
     others : mapping of str to array_like (m, n), optional
         More gains to evaluate in the same table (the paper's, a design file's).
-    grid, check_grid : (int, int)
-        (reference times, payloads) of the LMI's samples and of numpy's independent check.
+    grid, check_grid : (int, int), optional
+        (reference times, payloads) of the LMI's samples and of numpy's independent check
+        (default :data:`TUNE_GRID` and :data:`TUNE_CHECK_GRID`; on an arm :data:`ARM_TUNE_GRID`
+        and :data:`ARM_TUNE_CHECK_GRID`).
     kappa_range : (float, float)
         The gain bounds ``‖K‖₂ <= κ`` searched, N·m/rad.
     simulate : bool
@@ -474,6 +490,7 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
     TuneReport
     """
     start = time.perf_counter()
+    grid, check_grid = _grids(system, grid, check_grid)
     disturbance = _disturbance(system, requirements)
     # the LMI sees an active set of both grids (cutting planes); numpy verifies every sample of both
     coarse, fine = _perturbed(system, grid, disturbance), _perturbed(system, check_grid, disturbance)
@@ -521,9 +538,12 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
     for name, K in (others or {}).items():
         gains.append(evaluate_gain(system, name, K, requirements, grid=grid, check_grid=check_grid,
                                    simulate=simulate, search=search))
+    absorbed = "" if samples.integral is None else (
+        f"; the drift absorbed by the integral, |dτ_r/dt| <= {np.array2string(samples.integral.rate, precision=3)}"
+        f" N·m/s ({samples.integral.description})")
     return TuneReport(requirements, tuning, design, tuple(gains),
                       f"{coarse.description} and {check_grid[0]} x {check_grid[1]}: the LMIs on the samples that "
-                      "bind (cutting planes), numpy on every one",
+                      f"bind (cutting planes), numpy on every one{absorbed}",
                       time.perf_counter() - start)
 
 
