@@ -346,20 +346,29 @@ def test_an_arm_s_drift_channels_are_the_feedforward_s_residual():
 
 @pytest.mark.slow
 @pytest.mark.robots
-def test_tune_runs_on_the_six_joint_arm():
-    """At test sizes (13 × 3 samples): 3 min on 2 cores; make test-slow."""
+def test_tune_on_the_six_joint_arm_meets_what_it_can_and_names_what_binds():
+    """At test sizes (7 × 2 samples, checks 13 × 3): a few minutes on 2 cores; make test-slow.
+
+    The drift absorbed by the integral; the bound holds on the file's run and on the 64 runs of
+    the profile search (compiled engine); an error too tight names the error bound and the best
+    reachable value.
+    """
     system = sr.open_system("arm", command="tune",
                             robot=str(Path(__file__).resolve().parents[1] / "examples" / "robot-arm6.toml"))
-    requirements = sr.Requirements(error=0.05, settling_time=2.0, sample_time=1e-3, disturbance=2.0)
-    report = sr.tune_system(system, requirements, grid=(13, 3), check_grid=(25, 5), kappa_range=(10.0, 1e4))
+    requirements = sr.Requirements(error=0.1, settling_time=2.0, sample_time=1e-3, disturbance=2.0)
+    report = sr.tune_system(system, requirements, grid=(7, 2), check_grid=(13, 3), kappa_range=(10.0, 1e4))
     tuned = report.gains[0]
-    assert np.isfinite(tuned.bound.worst)
-    assert max(tuned.simulated.values()) <= tuned.bound.worst
+    assert "absorbed by the integral" in report.description
+    assert report.tuning.certified and not tuned.failed, report.tuning.message
+    assert tuned.bound.worst <= 0.1 and tuned.sampled
+    assert 0 < max(tuned.simulated.values()) <= tuned.bound.worst
+    assert tuned.search is not None and tuned.search.runs == 64 and tuned.search.failed == 0
+    assert tuned.search.worst <= tuned.bound.worst
     assert tuned.simulated_torque <= tuned.certified_torque
-    if report.tuning.certified:
-        assert not tuned.failed
-    else:
-        assert report.tuning.binding and tuned.failed
+    tight = sr.tune_system(system, sr.Requirements(error=1e-3, settling_time=2.0, disturbance=2.0), grid=(7, 2),
+                           check_grid=(13, 3), kappa_range=(10.0, 1e4), simulate=False)
+    assert not tight.tuning.certified and tight.tuning.binding.startswith("the error bound")
+    assert 1e-3 < tight.tuning.best_reachable < 0.1
 
 
 def _one_joint(K: np.ndarray, a: float, b: float, M: float) -> tuple[np.ndarray, np.ndarray]:
@@ -421,7 +430,6 @@ def test_the_integral_form_refuses_what_it_cannot_absorb():
 
 def test_the_integral_form_bounds_a_slow_drift_and_holds_on_runs():
     """A drift of size 5 and rate 0.5: the integral's bound is far below the bounded drift's, and runs stay below it."""
-    import scipy.integrate
     K = -np.array([[60.0, 40.0, 10.0]])
     A0, B0 = _one_joint(K, -1.0, -0.2, 1.0)
     drift = sr.IntegralDrift((0,), np.array([0.5]), np.array([[-5.0], [5.0]]), np.array([5.0]), "test")
@@ -437,13 +445,17 @@ def test_the_integral_form_bounds_a_slow_drift_and_holds_on_runs():
     assert as_rate.worst < 0.2 * as_size.worst
     rng = np.random.default_rng(7)
     worst = 0.0
-    for _ in range(20):  # |τ_r| <= 5, |τ̇_r| <= 0.5: a ramp between random levels, from a random start
-        start, slope = rng.uniform(-5, 5), rng.choice([-0.5, 0.5])
-        def tau(t, start=start, slope=slope):
-            return float(np.clip(start + slope * t, -5, 5))
-        run = scipy.integrate.solve_ivp(lambda t, x: loop[0] @ x - B0[:, 0] * tau(t), (0, 20), np.zeros(3),
-                                        t_eval=np.linspace(3, 20, 400), max_step=0.01, rtol=1e-9, atol=1e-12)
-        worst = max(worst, float(np.max(np.abs(run.y[1]))))
+    t = np.linspace(0.0, 30.0, 6001)
+    system = scipy.signal.StateSpace(loop[0], -B0, C, np.zeros((1, 1)))
+    dt = t[1] - t[0]
+    for _ in range(20):  # |τ_r| <= 5, |τ̇_r| <= 0.5: ramps of random sign and length (linear between samples: exact)
+        slopes = np.repeat(rng.choice([-0.5, 0.5], size=30), t.size // 30 + 1)[:t.size - 1]
+        tau = np.empty(t.size)
+        tau[0] = rng.uniform(-5, 5)
+        for k in range(t.size - 1):
+            tau[k + 1] = min(max(tau[k] + slopes[k] * dt, -5.0), 5.0)
+        _, e, _ = scipy.signal.lsim(system, tau, t, interp=True)
+        worst = max(worst, float(np.max(np.abs(e[t >= 3.0]))))
     assert 0 < worst <= as_rate.worst
 
 
