@@ -185,7 +185,10 @@ SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "cer
               # the SCARA's schedule (1.5 to 2 min each): tests/test_scheduled.py synthesizes, certifies and
               # compares schedules at test sizes; the plant file's schedule above runs here in full
               "synthesize --schedule m_p", "compare --design scara-schedule.json",
-              "simulate --design scara-schedule.json")
+              "simulate --design scara-schedule.json",
+              # the arm's campaign in full (about 2 min, mostly compiling the arm's kernels) and its report:
+              # tests/test_campaign_arm.py runs the same command on a reduced spec and checks its table
+              "campaign examples/campaign-arm6.toml", "campaign-report arm6.parquet")
 
 
 def _command_param(page: str, line: str) -> object:
