@@ -346,6 +346,7 @@ def test_an_arm_s_drift_channels_are_the_feedforward_s_residual():
 
 @pytest.mark.slow
 @pytest.mark.robots
+@pytest.mark.mujoco
 def test_tune_on_the_six_joint_arm_meets_what_it_can_and_names_what_binds():
     """At test sizes (7 × 2 samples, checks 13 × 3): a few minutes on 2 cores; make test-slow.
 
@@ -365,6 +366,20 @@ def test_tune_on_the_six_joint_arm_meets_what_it_can_and_names_what_binds():
     assert tuned.search is not None and tuned.search.runs == 64 and tuned.search.failed == 0
     assert tuned.search.worst <= tuned.bound.worst
     assert tuned.simulated_torque <= tuned.certified_torque
+    # MuJoCo, an independent simulator, runs the tuned gain on the payload sinusoid at the rate bound
+    from mujoco_arm import simulate_mujoco
+    setup = system.arm()
+    arm, ref = setup.arm, setup.reference
+    lo, hi = setup.payload_mass
+    payload = sr.SinusoidalPayload((lo + hi) / 2, (hi - lo) / 2, 2 * setup.payload_rate / (hi - lo))
+    mj = simulate_mujoco(arm.urdf, arm.joints, arm.locked, arm.payload_frame, arm.payload_com,
+                         arm.payload_inertia_per_kg, arm.gravity, tuned.K, ref.center, ref.amplitude, ref.omega,
+                         ref.phase, payload, setup.payload_nominal, setup.feedforward, 8.0, 1e-3, method="radau",
+                         rtol=1e-9, armature=arm.armature)
+    run = sr.simulate_arm(setup, tuned.K, payload, t_final=8.0, method="compiled", t_transient=2.0)
+    after = mj["t"] >= 2.0
+    assert 0 < float(np.abs(mj["e"][:, after]).max()) <= tuned.bound.worst
+    assert run.metrics().max_abs_error == pytest.approx(float(np.abs(mj["e"][:, after]).max()), abs=1e-4)
     tight = sr.tune_system(system, sr.Requirements(error=1e-3, settling_time=2.0, disturbance=2.0), grid=(7, 2),
                            check_grid=(13, 3), kappa_range=(10.0, 1e4), simulate=False)
     assert not tight.tuning.certified and tight.tuning.binding.startswith("the error bound")
@@ -490,3 +505,35 @@ def test_an_arm_s_drift_rate_is_pinocchio_s_analytic_derivative():
     G0 = arm.gravity_torque(r0, nominal)
     for row, m in zip(drift.initial, (lo, hi)):
         assert np.allclose(row, (t0.mass[0] + m * t0.mass[1]) @ rdd0 + t0.bias[0] + m * t0.bias[1] - G0, atol=1e-9)
+
+
+def test_the_scara_s_drift_torque_is_its_inverse_dynamics_and_its_rate_a_second_difference():
+    """τ_r = M r̈ + C(r, ṙ) (the Coriolis torque, not the forward dynamics); its rate by a 5-point stencil."""
+    from scara_robust.model.robot import coriolis, mass_matrix
+    params, reference, payload = sr.ScaraParams(), sr.paper_reference(), sr.paper_payload()
+    s = sr.scara_perturbed_samples(times=np.linspace(0.0, 2 * np.pi, 5), n_masses=2)
+    drift = s.integral
+    assert drift is not None and drift.columns == (2, 3)
+    lo, hi = sr.payload_range(payload, np.linspace(0.0, 2 * np.pi, 721))
+    rate = payload.amplitude * payload.omega
+    t_grid = np.linspace(0.0, 2 * np.pi, 3601)
+    m_dot = np.gradient(payload(t_grid), t_grid)
+    assert np.max(np.abs(m_dot)) == pytest.approx(rate, rel=1e-5)
+
+    def tau(t, m):
+        r, rd, rdd = reference.sample(t)
+        mm = np.full(t.shape, m)
+        return np.einsum("kij,kj->ki", mass_matrix(params, r, mm), rdd) + coriolis(params, r, rd, mm)
+
+    h = 1e-3
+    worst, peak = np.zeros(2), np.zeros(2)
+    for m in (lo, hi):
+        slope = (-tau(t_grid + 2 * h, m) + 8 * tau(t_grid + h, m) - 8 * tau(t_grid - h, m) + tau(t_grid - 2 * h, m)) / (
+            12 * h)
+        per_kg = (tau(t_grid, hi) - tau(t_grid, lo)) / (hi - lo)
+        worst = np.maximum(worst, np.max(np.abs(slope) + rate * np.abs(per_kg), axis=0))
+        peak = np.maximum(peak, np.abs(tau(t_grid, m)).max(axis=0))
+    assert np.allclose(drift.rate, worst, rtol=1e-6)
+    assert np.allclose(drift.torque, peak, rtol=1e-12)
+    assert np.allclose(drift.initial, [tau(np.array([0.0]), m)[0] for m in (lo, hi)], atol=1e-12)
+    assert np.all(s.A[:, :, :2] == 0) and np.allclose(s.disturbance[:, 4:, 2:], np.eye(2))

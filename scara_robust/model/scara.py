@@ -21,9 +21,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
-from .perturbation import PerturbedSamples
+from .perturbation import IntegralDrift, PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant, hull_of_stacks
-from .robot import PayloadProfile, ScaraParams, error_dynamics_jacobians, forward_dynamics, paper_payload, payload_range
+from .robot import (
+    ConstantPayload,
+    PayloadProfile,
+    ScaraParams,
+    SinusoidalPayload,
+    error_dynamics_jacobians,
+    forward_dynamics,
+    mass_matrix,
+    paper_payload,
+    payload_range,
+)
 from .signals import Reference, paper_reference
 from .uncertain import UncertainElement, UncertainLTVModel
 
@@ -338,7 +348,9 @@ def scara_perturbed_samples(
     (the error's acceleration at ``e = ė = 0`` with no torque: paper, Eq. (3)) on
     :data:`DRIFT_GRID` (the span of `times`, one period of the reference, times the payload
     range), finer than the samples: on the paper's robot 0.3–0.4 % above the maximum over
-    37 × 5 samples.
+    37 × 5 samples. With a sinusoidal or constant payload, :attr:`PerturbedSamples.integral`
+    also holds the drift as the torque ``M r̈ + C(r, ṙ)`` a PID's integral absorbs, its rate
+    bounded on the same grid (:meth:`PerturbedSamples.integral_form`).
 
     Parameters
     ----------
@@ -385,4 +397,47 @@ def scara_perturbed_samples(
     w_bound = np.maximum(np.r_[bound, bound, f_bound], _TINY_BOUND)
     return PerturbedSamples(samples.A, samples.B, Bw, w_bound, ("T_d1", "T_d2", "fbar_1", "fbar_2"),
                             ("N·m", "N·m", "rad/s²", "rad/s²"),
-                            f"{t.size} reference times x {masses.size} payloads, |T_d| <= {bound:g} N·m")
+                            f"{t.size} reference times x {masses.size} payloads, |T_d| <= {bound:g} N·m",
+                            _scara_integral(params, reference, payload, t_fine, (lo, hi)))
+
+
+#: Step of the central difference of the SCARA's drift torque along the reference, s.
+_RATE_STEP = 1e-6
+
+
+def _payload_rate(payload: PayloadProfile) -> float | None:
+    """``max |ṁ_p|`` of a profile, kg/s: a sinusoid's amplitude times its frequency, 0 for a constant (else None)."""
+    if isinstance(payload, ConstantPayload):
+        return 0.0
+    if isinstance(payload, SinusoidalPayload):
+        return float(payload.amplitude * payload.omega)
+    return None
+
+
+def _scara_integral(params: ScaraParams, reference: Reference, payload: PayloadProfile, times: Array,
+                    masses: tuple[float, float]) -> IntegralDrift | None:
+    """The drift as the torque ``τ_r = M(r̈ − q̈(r, ṙ, 0)) = M r̈ + C ṙ`` a PID's integral absorbs (no feedforward).
+
+    ``M`` and ``C`` are affine in ``m_p`` (a point mass at the tip), so ``|τ̇_r|`` is bounded by
+    the time derivative at the payload's two ends (a central difference) plus the profile's
+    largest ``|ṁ_p|`` times the per-kilogram term, on `times`. None for a profile whose rate
+    is not known (only sinusoids and constants are).
+    """
+    rate = _payload_rate(payload)
+    if rate is None:
+        return None
+    lo, hi = masses
+
+    def residual(t: Array, m: float) -> Array:
+        r, rd, rdd = reference.sample(t)
+        qdd = forward_dynamics(params, r, rd, np.zeros(2), np.full(t.shape, m))
+        return np.asarray(np.einsum("kij,kj->ki", mass_matrix(params, r, np.full(t.shape, m)), rdd - qdd), dtype=float)
+
+    ends = {m: (residual(times, m), (residual(times + _RATE_STEP, m) - residual(times - _RATE_STEP, m))
+                / (2 * _RATE_STEP)) for m in (lo, hi)}
+    per_kg = (ends[hi][0] - ends[lo][0]) / (hi - lo) if hi > lo else np.zeros_like(ends[lo][0])
+    rates = np.max(np.maximum(np.abs(ends[lo][1]), np.abs(ends[hi][1])) + rate * np.abs(per_kg), axis=0)
+    torque = np.max(np.maximum(np.abs(ends[lo][0]), np.abs(ends[hi][0])), axis=0)
+    initial = np.array([residual(np.array([float(times[0])]), m)[0] for m in (lo, hi)])
+    return IntegralDrift((2, 3), rates, initial, torque,
+                         f"{times.size} reference times x the payload's ends, |ṁ_p| <= {rate:.4g} kg/s")

@@ -301,20 +301,19 @@ def _error_output(n: int, m: int) -> Array:
 
 
 def _certified_torque(K: Array, P: Array | None, mu: Array | None, alpha: float, initial_level: float,
-                      samples: PerturbedSamples) -> float:
+                      absorbed: PerturbedSamples | None) -> float:
     """The largest torque on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m.
 
-    ``max_i |k_i x|`` (the feedback), or with the drift absorbed by the integral
-    (:meth:`~scara_robust.PerturbedSamples.integral_form`) the whole torque
-    ``|τ_id,i| + |k_i z|``.
+    ``max_i |k_i x|`` (the feedback), or, with the drift absorbed by the integral in the
+    samples `absorbed` (:meth:`~scara_robust.PerturbedSamples.integral_form`), the whole
+    torque ``|τ_id,i| + |k_i z|``.
     """
     if P is None or mu is None:
         return math.inf
     level = max(initial_level, float(np.sum(mu)) / alpha)
     gains = np.sqrt(np.einsum("ij,ij->i", K, np.linalg.solve(P, K.T).T) * level)
-    if _integral(samples, K, np.zeros((0, samples.A.shape[1]))) is not None:
-        assert samples.integral is not None
-        gains = gains + samples.integral.torque
+    if absorbed is not None and absorbed.integral is not None:
+        gains = gains + absorbed.integral.torque
     return float(np.max(gains))
 
 
@@ -327,6 +326,42 @@ def _channels(samples: PerturbedSamples, K: Array, X0: Array) -> tuple[Array, Ar
     """The channels, bounds and initial states `K`'s bound holds with: the integral form where there is one."""
     found = _integral(samples, K, X0)
     return found if found is not None else (samples.disturbance, samples.w_bound, X0)
+
+
+def _gain_bound(coarse: PerturbedSamples, fine: PerturbedSamples, K: Array, C: Array, X0: Array, T: float,
+                ellipsoid: TrackingGain | None) -> tuple[TrackingBound, bool]:
+    """`K`'s certified bound, and whether the drift is absorbed by its integral in it.
+
+    With the tuning's `ellipsoid`, numpy re-checks it on both grids in the form it was found
+    in (the integral's, where the samples have one). Otherwise the analysis LMI in both
+    forms where both exist (each a valid bound; the smaller is kept: a small integral gain
+    does better with the drift's size, a large one with its rate).
+    """
+    loops = np.concatenate([coarse.A - coarse.B @ K, fine.A - fine.B @ K])
+    forms = [(True, _integral(coarse, K, X0), _integral(fine, K, X0))]
+    if ellipsoid is None or forms[0][1] is None:
+        forms.append((False, (coarse.disturbance, coarse.w_bound, X0), (fine.disturbance, fine.w_bound, X0)))
+    best: tuple[TrackingBound, bool] | None = None
+    for absorbed, at_coarse, at_fine in forms:
+        if at_coarse is None or at_fine is None:
+            continue
+        (Bw_c, w, starts), (Bw_f, w_f, _) = at_coarse, at_fine
+        w = np.maximum(w, w_f)
+        if ellipsoid is not None and ellipsoid.P is not None and ellipsoid.mu is not None:
+            start = time.perf_counter()
+            b, u, v0, mu, alpha = verified_ellipsoid(loops, np.concatenate([Bw_c, Bw_f]), w, C, starts, T,
+                                                     ellipsoid.P, ellipsoid.mu, ellipsoid.alpha)
+            ok = bool(np.all(np.isfinite(b)))
+            bound = TrackingBound(b, u, T, alpha, ellipsoid.P if ok else None, mu if ok else None,
+                                  v0, "optimal" if ok else "not verified on the check samples", len(loops),
+                                  time.perf_counter() - start)
+        else:
+            bound = tracking_bound(coarse.A - coarse.B @ K, Bw_c, w, C, initial_states=starts,
+                                   settling_time=T, check=(fine.A - fine.B @ K, Bw_f))
+        if best is None or bound.worst < best[0].worst:
+            best = (bound, absorbed)
+    assert best is not None
+    return best
 
 
 def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Requirements, *,
@@ -366,24 +401,12 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     C = _error_output(coarse.A.shape[1], coarse.B.shape[2])
     X0, _ = _starts(system, requirements.scenarios)
     T = requirements.settling_time
-    loops = np.concatenate([coarse.A - coarse.B @ K, fine.A - fine.B @ K])
-    (Bw_c, w, X0), (Bw_f, w_f, _) = _channels(coarse, K, X0), _channels(fine, K, X0)
-    w = np.maximum(w, w_f)
-    if ellipsoid is not None and ellipsoid.P is not None and ellipsoid.mu is not None:
-        start = time.perf_counter()
-        b, u, v0, mu, alpha = verified_ellipsoid(loops, np.concatenate([Bw_c, Bw_f]), w, C, X0, T, ellipsoid.P,
-                                                 ellipsoid.mu, ellipsoid.alpha)
-        ok = bool(np.all(np.isfinite(b)))
-        bound = TrackingBound(b, u, T, alpha, ellipsoid.P if ok else None, mu if ok else None,
-                              v0, "optimal" if ok else "not verified on the check samples", len(loops),
-                              time.perf_counter() - start)
-    else:
-        bound = tracking_bound(coarse.A - coarse.B @ K, Bw_c, w, C, initial_states=X0,
-                               settling_time=T, check=(fine.A - fine.B @ K, Bw_f))
+    bound, absorbed = _gain_bound(coarse, fine, K, C, X0, T, ellipsoid)
     design = Design.from_gain(system.model, K)
     simulated, torque = _runs(system, design, requirements) if simulate else ({}, math.nan)
     sampled, disk, delay, decay = loop_checks(system, design, requirements) if checks is None else checks
-    certified_torque = _certified_torque(K, bound.P, bound.mu, bound.alpha, bound.initial_level, coarse)
+    certified_torque = _certified_torque(K, bound.P, bound.mu, bound.alpha, bound.initial_level,
+                                         coarse if absorbed else None)
     failed = []
     if not bound.worst <= requirements.error:
         failed.append("error")
@@ -514,7 +537,8 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
         if requirements.torque_limit is not None:  # the cheap check first: the ellipsoid's torque
             starts = _channels(samples, found.K, X0)[2]
             v0 = float(np.einsum("ki,ij,kj->k", starts, found.P, starts).max()) if len(starts) else 0.0
-            torque = _certified_torque(found.K, found.P, found.mu, found.alpha, v0, samples)
+            torque = _certified_torque(found.K, found.P, found.mu, found.alpha, v0,
+                                       samples if _integral(samples, found.K, X0) is not None else None)
             if not torque <= requirements.torque_limit:
                 return "torque_limit"
         failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
