@@ -1067,7 +1067,8 @@ def plot_loop_views(views: Mapping[str, Sequence[LoopView]], *, margins: Mapping
             disk = v.disk_margin if worst is None else float(worst.disk_margin[i])
             delay = v.delay_margin if worst is None else float(worst.delay_margin[i])
             parts.append(f"{labels[i]} disk margin {_plain(disk)}, delay margin {_plain(delay * 1e3)} ms")
-        handles[-1].set_label(f"{name}: " + "; ".join(parts) + (" (worst over the frozen plants)" if worst else ""))
+        rows = [";  ".join(parts[k:k + 3]) for k in range(0, len(parts), 3)]  # three loops a line: legible
+        handles[-1].set_label(f"{name}: " + ";\n".join(rows) + (" (worst over the frozen plants)" if worst else ""))
     for i in range(m):
         step_ax, mag_ax, phase_ax = axes[i]
         step_ax.axhline(1.0, color="0.6", lw=0.8)
