@@ -48,7 +48,8 @@ def add_parser(sub: Any) -> None:
                    help="the controller's sample time, s: the tuned PID discretized as export does must be "
                         "certified there, and the runs use it")
     p.add_argument("--disturbance", type=finite_float, default=None, metavar="NM",
-                   help="bound on each joint's disturbance torque, N·m (default: the scenario's amplitude, 5)")
+                   help="bound on each joint's disturbance torque, N·m (default: the scenario's amplitude, 5, on "
+                        "the SCARA; an arm's robot file's [disturbance])")
     p.add_argument("--torque-limit", type=finite_float, default=None, metavar="NM",
                    help="largest control torque allowed, N·m: the certified peak must stay below it")
     p.add_argument("--disk-margin", type=finite_float, default=None, metavar="ALPHA",
