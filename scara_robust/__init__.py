@@ -212,6 +212,7 @@ The workflow the front ends share (:mod:`scara_robust.workflow`)
     worst_loop_views                -- each loop's step response and Bode data at its worst frozen plant
     TUNE_GRID, TUNE_CHECK_GRID      -- the samples of the tuning's LMIs and numpy's checks
     ARM_TUNE_GRID, ARM_TUNE_CHECK_GRID -- those of a URDF arm
+    torque_limits                   -- the torque each input must stay within: the requirement's or the URDF's
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from ..paper import PAPER_DESIGN_POINT, PAPER_TRANSIENT
 from ..plotting import plot_loop_views
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..workflow.system import load_input
-from ..workflow.tune import Requirements, TuneReport, tune_system, worst_loop_views
+from ..workflow.tune import Requirements, TuneReport, torque_limits, tune_system, worst_loop_views
 from ._common import CommandLineError, add_setup_options, finite_float, save_figure
 from ._parser import COMMAND_HELP
 from ._system import LoadedSystem
@@ -123,10 +123,13 @@ def _number(value: float) -> str:
     return "inf" if value == math.inf else f"{value:.4g}"
 
 
-def _text(report: TuneReport) -> str:
+def _text(report: TuneReport, effort: np.ndarray | None = None) -> str:
     tuning = report.tuning
+    rows = [text for _, text in report.requirements.rows()]
+    if effort is not None:
+        rows.append(f"|T| <= the effort limits {np.array2string(effort, precision=4)} N·m, joint by joint")
     lines = ["tune: the smallest gain whose certified tracking-error bound meets the requirements",
-             "requirements: " + "; ".join(text for _, text in report.requirements.rows()),
+             "requirements: " + "; ".join(rows),
              f"samples: {report.samples}",
              f"{tuning.verdict}: {tuning.message}"]
     if report.design is not None:
@@ -197,7 +200,8 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     others = {} if system.file is not None else {f"paper (rho, eta) = ({rho:g}, {eta:g})":
                                                  design(paper_model(), rho, eta).K}
     report = tune_system(system, requirements, others=others, kappa_range=(1.0, args.max_gain))
-    text = _json(report) if args.format == "json" else _text(report)
+    effort = torque_limits(system, requirements) if requirements.torque_limit is None else None
+    text = _json(report) if args.format == "json" else _text(report, effort)
     if args.plot is not None:
         views = {g.name: worst_loop_views(system, g.K, t_final=requirements.settling_time) for g in report.gains}
         margins = {g.name: system.loop_margins(g.K) for g in report.gains}

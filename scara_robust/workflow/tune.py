@@ -48,7 +48,7 @@ from .system import LoadedSystem, ScaraSystem
 
 __all__ = ["Requirements", "TuneReport", "GainEvaluation", "TrackingSearch", "tune_system", "evaluate_gain",
            "search_tracking_error", "loop_checks", "worst_loop_views", "TUNE_GRID", "TUNE_CHECK_GRID",
-           "ARM_TUNE_GRID", "ARM_TUNE_CHECK_GRID"]
+           "ARM_TUNE_GRID", "ARM_TUNE_CHECK_GRID", "torque_limits"]
 
 Array = NDArray[np.float64]
 
@@ -161,8 +161,9 @@ class GainEvaluation:
     simulated_torque : float
         The largest ``|T_c|`` over every run, N·m.
     certified_torque : float
-        The largest ``|k_i x|`` on the ellipsoid that holds every trajectory, N·m (inf
-        without one).
+        The largest torque on the ellipsoid that holds every trajectory, N·m (inf without
+        one): checked joint by joint against :func:`torque_limits` (the requirement's, or an
+        arm's effort limits).
     sampled : bool or None
         Certified at the sample time (None: none asked).
     disk_margin, delay_margin : float
@@ -300,21 +301,45 @@ def _error_output(n: int, m: int) -> Array:
     return C
 
 
-def _certified_torque(K: Array, P: Array | None, mu: Array | None, alpha: float, initial_level: float,
-                      absorbed: PerturbedSamples | None) -> float:
-    """The largest torque on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m.
+def _certified_torques(K: Array, P: Array | None, mu: Array | None, alpha: float, initial_level: float,
+                       absorbed: PerturbedSamples | None) -> Array:
+    """Each input's largest torque on ``{xᵀPx <= max(V(0), V∞)}``, which holds every trajectory, N·m, shape (m,).
 
-    ``max_i |k_i x|`` (the feedback), or, with the drift absorbed by the integral in the
-    samples `absorbed` (:meth:`~scara_robust.PerturbedSamples.integral_form`), the whole
-    torque ``|τ_id,i| + |k_i z|``.
+    ``|k_i x|`` (the feedback), or, with the drift absorbed by the integral in the samples
+    `absorbed` (:meth:`~scara_robust.PerturbedSamples.integral_form`), the whole torque
+    ``|τ_id,i| + |k_i z|``.
     """
     if P is None or mu is None:
-        return math.inf
+        return np.full(K.shape[0], math.inf)
     level = max(initial_level, float(np.sum(mu)) / alpha)
     gains = np.sqrt(np.einsum("ij,ij->i", K, np.linalg.solve(P, K.T).T) * level)
     if absorbed is not None and absorbed.integral is not None:
         gains = gains + absorbed.integral.torque
-    return float(np.max(gains))
+    return np.asarray(gains, dtype=float)
+
+
+def torque_limits(system: LoadedSystem, requirements: Requirements) -> Array | None:
+    """The torque each input must stay within, N·m, shape (m,): the requirement's, else an arm's effort limits.
+
+    Parameters
+    ----------
+    system : LoadedSystem
+    requirements : Requirements
+
+    Returns
+    -------
+    ndarray, shape (m,) or (1,), or None
+        ``inf`` where a joint has no limit (shape (1,): the requirement's, for every input);
+        None when nothing limits the torque (the
+        requirements give none, and the system is not an arm whose URDF or robot file gives
+        effort limits).
+    """
+    if requirements.torque_limit is not None:
+        return np.array([float(requirements.torque_limit)])  # one for every input (broadcast)
+    if system.capabilities.run == "arm":
+        limits = system.arm().torque_limit
+        return None if limits is None else np.asarray(limits, dtype=float)
+    return None
 
 
 def _integral(samples: PerturbedSamples, K: Array | None, X0: Array) -> tuple[Array, Array, Array] | None:
@@ -405,8 +430,9 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     design = Design.from_gain(system.model, K)
     simulated, torque = _runs(system, design, requirements) if simulate else ({}, math.nan)
     sampled, disk, delay, decay = loop_checks(system, design, requirements) if checks is None else checks
-    certified_torque = _certified_torque(K, bound.P, bound.mu, bound.alpha, bound.initial_level,
-                                         coarse if absorbed else None)
+    torques = _certified_torques(K, bound.P, bound.mu, bound.alpha, bound.initial_level, coarse if absorbed else None)
+    certified_torque = float(np.max(torques))
+    limits = torque_limits(system, requirements)
     failed = []
     if not bound.worst <= requirements.error:
         failed.append("error")
@@ -414,7 +440,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
         failed.append("simulated error")
     if requirements.sample_time is not None and not sampled:
         failed.append("sample_time")
-    if requirements.torque_limit is not None and not certified_torque <= requirements.torque_limit:
+    if limits is not None and not np.all(torques <= limits):
         failed.append("torque_limit")
     if requirements.disk_margin is not None and not disk >= requirements.disk_margin:
         failed.append("disk_margin")
@@ -534,19 +560,20 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
     def accept(found: TrackingGain) -> str:
         if found.K is None or found.P is None or found.mu is None:
             return "no gain"
-        if requirements.torque_limit is not None:  # the cheap check first: the ellipsoid's torque
+        if limits is not None:  # the cheap check first: the ellipsoid's torque
             starts = _channels(samples, found.K, X0)[2]
             v0 = float(np.einsum("ki,ij,kj->k", starts, found.P, starts).max()) if len(starts) else 0.0
-            torque = _certified_torque(found.K, found.P, found.mu, found.alpha, v0,
-                                       samples if _integral(samples, found.K, X0) is not None else None)
-            if not torque <= requirements.torque_limit:
+            torques = _certified_torques(found.K, found.P, found.mu, found.alpha, v0,
+                                         samples if _integral(samples, found.K, X0) is not None else None)
+            if not np.all(torques <= limits):
                 return "torque_limit"
         failed = evaluate_gain(system, "candidate", found.K, requirements, grid=grid, check_grid=check_grid,
                                ellipsoid=found, simulate=False, checks=checks_of(found.K)).failed
         return ", ".join(f for f in failed if f != "error")
 
-    checks = any(getattr(requirements, k) is not None for k in
-                 ("sample_time", "torque_limit", "disk_margin", "delay_margin", "decay"))
+    limits = torque_limits(system, requirements)
+    checks = limits is not None or any(getattr(requirements, k) is not None for k in
+                                       ("sample_time", "disk_margin", "delay_margin", "decay"))
     tuning = tune_gain((samples.A, samples.B), samples.disturbance, samples.w_bound, C, requirements.error,
                        initial_states=X0, settling_time=requirements.settling_time, kappa_range=kappa_range,
                        accept=accept if checks else None,
