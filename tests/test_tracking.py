@@ -537,3 +537,12 @@ def test_the_scara_s_drift_torque_is_its_inverse_dynamics_and_its_rate_a_second_
     assert np.allclose(drift.torque, peak, rtol=1e-12)
     assert np.allclose(drift.initial, [tau(np.array([0.0]), m)[0] for m in (lo, hi)], atol=1e-12)
     assert np.all(s.A[:, :, :2] == 0) and np.allclose(s.disturbance[:, 4:, 2:], np.eye(2))
+
+
+@pytest.mark.robots
+def test_an_arm_s_torque_is_held_to_its_urdf_s_effort_limits_unless_a_limit_is_asked():
+    arm = sr.open_system("arm", command="tune",
+                         robot=str(Path(__file__).resolve().parents[1] / "examples" / "robot-arm6.toml"))
+    assert sr.torque_limits(arm, sr.Requirements(error=0.1)).tolist() == [150.0] * 3 + [28.0] * 3
+    assert sr.torque_limits(arm, sr.Requirements(error=0.1, torque_limit=60.0)).tolist() == [60.0]
+    assert sr.torque_limits(sr.open_system("scara", command="tune"), sr.Requirements(error=0.1)) is None
