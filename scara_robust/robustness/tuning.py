@@ -430,4 +430,6 @@ def tune_gain(
             high = mid
     if best is None:
         return result(answer, math.inf, "requirement not met", failed)
+    if best.value <= req:  # the bound is not monotone in κ: a smaller gain that passes may meet it too
+        return result(best, best.value, "met", "")
     return result(best, best.value, "requirement not met", failed)
