@@ -151,6 +151,9 @@ def _text(report: TuneReport, effort: np.ndarray | None = None) -> str:
                          f"({g.search.profile})")
         lines.append(f"  peak torque: certified <= {_number(g.certified_torque)} N·m, simulated "
                      f"{_number(g.simulated_torque)} N·m")
+        if g.torque_limits is not None and g.certified_torques is not None and g.torque_limits.size > 1:
+            lines.append(f"  certified peak torque of each joint {np.array2string(g.certified_torques, precision=4)} "
+                         f"N·m against {np.array2string(g.torque_limits, precision=4)} N·m")
         if g.sampled is not None:
             lines.append(f"  sampled-data certificate at Ts = {report.requirements.sample_time:g} s: "
                          + ("certified" if g.sampled else "NOT certified"))
@@ -211,6 +214,7 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     if output is not None:
         tuned = report.gains[0] if report.gains and report.gains[0].name == "tuned" else None
         if tuned is None or tuned.failed or report.design is None:
+            print(text, flush=True)  # the table is the answer: printed, then the file refused in one line
             raise CommandLineError(f"`--output` {output!r} not written: {report.tuning.message}")
         try:
             write_design(output, report.design.K, report.tuning.P, method="tune",

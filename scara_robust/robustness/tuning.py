@@ -110,6 +110,9 @@ class GainTuning(AnalysisResult):
         if self.certified:
             return (f"‖K‖₂ = {float(np.linalg.norm(np.asarray(self.K), 2)):.4g} keeps every output within "
                     f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
+        if math.isinf(self.best_reachable) and np.all(np.isfinite(self.bound)):
+            return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; no gain tried "
+                    f"passes it (the smallest that meets the error bound, {self.bound.max():.4g}, does not)")
         return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; the best certified "
                 f"bound reachable is {self.best_reachable:.4g}")
 

@@ -174,6 +174,10 @@ class GainEvaluation:
         The requirements it does not meet.
     search : TrackingSearch or None
         The search over payload and disturbance profiles for a larger error (None: not run).
+    certified_torques : ndarray, shape (m,), or None
+        Each input's certified peak torque, N·m.
+    torque_limits : ndarray, shape (m,) or (1,), or None
+        What they are checked against (:func:`torque_limits`; None: nothing).
     """
 
     name: str
@@ -188,6 +192,8 @@ class GainEvaluation:
     decay: float
     failed: tuple[str, ...]
     search: TrackingSearch | None = None
+    certified_torques: Array | None = None
+    torque_limits: Array | None = None
 
 
 @dataclass(frozen=True)
@@ -452,7 +458,7 @@ def evaluate_gain(system: LoadedSystem, name: str, K: Any, requirements: Require
     if found is not None and not found.worst <= requirements.error:
         failed.append("searched error")
     return GainEvaluation(name, K, bound, simulated, torque, certified_torque, sampled, disk, delay, decay,
-                          tuple(failed), found)
+                          tuple(failed), found, torques, limits)
 
 
 def loop_checks(system: LoadedSystem, design: Design,
