@@ -224,6 +224,21 @@ def test_the_command_s_text_and_json_give_the_table_s_figures(scara_report):
     assert "meets every requirement" in text and "does NOT meet: error" in text and "Ts = 0.001 s" in text
 
 
+def test_a_design_file_refused_still_prints_the_table(scara_report, monkeypatch, tmp_path, capsys):
+    """A tuned gain that fails a requirement: the table on stdout, one line on stderr, exit 2, no file."""
+    import dataclasses
+
+    from scara_robust.cli import main
+    failing = dataclasses.replace(scara_report.gains[0], failed=("torque_limit",))
+    report = dataclasses.replace(scara_report, gains=(failing, *scara_report.gains[1:]))
+    monkeypatch.setattr("scara_robust.cli._tune.tune_system", lambda *a, **k: report)
+    out = tmp_path / "tuned.json"
+    assert main(["tune", "--ts", "0.001", "--output", str(out)]) == 2
+    printed = capsys.readouterr()
+    assert "does NOT meet: torque_limit" in printed.out and "paper (rho, eta) = (3, 90)" in printed.out
+    assert printed.err.count("\n") == 1 and "not written" in printed.err and not out.exists()
+
+
 @pytest.mark.parametrize(("field", "value", "words"), [
     ("error", -0.1, "`error` must be > 0"),
     ("error", 5.0, "degrees?"),
