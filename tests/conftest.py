@@ -33,6 +33,17 @@ def _installed(module: str) -> bool:
     return importlib.util.find_spec(module) is not None
 
 
+def _distribution(name: str) -> bool:
+    """True when the distribution `name` is installed (example-robot-data has no importable module of its name)."""
+    import importlib.metadata
+
+    try:
+        importlib.metadata.distribution(name)
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return True
+
+
 #: The test files that take longest, started first: `make test` runs files in this order
 #: (``--no-loadscope-reorder``), so each of its two processes takes one of the long files at
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
@@ -81,6 +92,9 @@ def pytest_runtest_setup(item):
             if REQUIRE_BOARD:
                 pytest.fail(f"{err} (SCARA_ROBUST_REQUIRE_BOARD=1 requires it)", pytrace=False)
             pytest.skip(str(err))
+    if item.get_closest_marker("robot_data") is not None and not _distribution("example-robot-data"):
+        pytest.skip("the `robot-data` extra (example-robot-data, about 130 MB) is not installed: "
+                    "pip install '.[robot-data]'")  # never required: make test does not install it
     for extra, module in EXTRAS.items():
         if item.get_closest_marker(extra) is None or _installed(module):
             continue

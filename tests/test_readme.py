@@ -195,6 +195,8 @@ def _command_param(page: str, line: str) -> object:
     words = shlex.split(line)
     slow = (ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
     marks = ([pytest.mark.slow] if slow else []) + ([pytest.mark.board] if "--target" in words else [])
+    if any(w.endswith(("robot-panda.toml", "robot-ur5.toml")) for w in words):  # example-robot-data's URDFs
+        marks.append(pytest.mark.robot_data)
     return pytest.param(line, id=f"{_page_id(page)}: " + " ".join(words[2:5]), marks=marks)
 
 
