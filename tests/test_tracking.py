@@ -235,7 +235,7 @@ def test_a_design_file_refused_still_prints_the_table(scara_report, monkeypatch,
     out = tmp_path / "tuned.json"
     assert main(["tune", "--ts", "0.001", "--output", str(out)]) == 2
     printed = capsys.readouterr()
-    assert "does NOT meet: torque_limit" in printed.out and "paper (rho, eta) = (3, 90)" in printed.out
+    assert "does NOT meet: torque_limit" in printed.out and "\npaper: ||K||_2 = 378" in printed.out
     assert printed.err.count("\n") == 1 and "not written" in printed.err and not out.exists()
 
 
