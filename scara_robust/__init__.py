@@ -113,6 +113,7 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     tune_gain, GainTuning           -- the smallest gain bound whose synthesized gain meets an error requirement
     tracking_gain, TrackingGain, tracking_synthesis_problem, ALPHA_SETTLING -- the best gain at one bound; its LMI
     CHANNEL_ITERATIONS              -- syntheses at one gain bound when the channels depend on the gain
+    input_peaks                     -- each input's largest |k_i x| on an ellipsoid (the torque the synthesis holds)
     rate_bounded_certificate, RateCertificate, verify_rate_bounded -- P(p) = P0 + p·P1 for |ṗ| <= ν (extra ``lmi``)
     synthesize_schedule, ScheduleSynthesis, schedule_riccati -- a gain scheduled on a measured parameter
     synthesize_schedule_rate        -- the scheduled gain certified for the fastest parameter (extra ``lmi``)

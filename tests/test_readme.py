@@ -143,17 +143,24 @@ def test_the_pages_have_code_to_run():
 
 
 def test_every_reduced_call_is_on_a_page():
-    assert all(any(call in code for _, code in PYTHON) for call in REDUCED_PYTHON)
+    assert all(any(call in code for _, code in PYTHON) for call in (*REDUCED_PYTHON, *PYTHON_SLOW))
 
 
 def _page_id(page: str) -> str:
     return Path(page).stem
 
 
+#: Python blocks that run in `make test-slow`: the scheduled guide's table (schedule synthesis, decay and rate
+#: bisections for two gains: about 40 s alone); tests/test_scheduled.py runs the same calls at test sizes.
+PYTHON_SLOW = ("sr.synthesize_schedule(plant, breakpoints, gain_bound=20.0)",)
+
+
 def _python_param(index: int) -> object:
     """A block that runs the C on the emulated board needs the board's tools (the ``board`` marker)."""
     page, code = PYTHON[index]
     marks = [pytest.mark.board] if "run_on_board(" in code else []
+    if any(call in code for call in PYTHON_SLOW):
+        marks.append(pytest.mark.slow)
     return pytest.param(index, id=f"{_page_id(page)}-python-{index}", marks=marks)
 
 

@@ -183,6 +183,85 @@ def test_an_unreachable_requirement_names_what_binds_and_the_best_reachable():
     assert limited.kappa <= 50.0 and limited.best_reachable > 0.01
 
 
+def _two_double_integrators():
+    """Two double integrators in the PID state, uncertain input gains, forces of 1 and 0.2 on them."""
+    A0 = np.zeros((3, 3))
+    A0[0, 1] = A0[1, 2] = 1.0
+    A1 = np.kron(np.eye(2), A0)
+    B = np.zeros((2, 6, 2))
+    B[0, 2, 0], B[0, 5, 1], B[1, 2, 0], B[1, 5, 1] = -1.0, -1.0, -2.0, -1.5
+    Bw = np.zeros((6, 2))
+    Bw[2, 0], Bw[5, 1] = 1.0, 0.2
+    C = np.zeros((2, 6))
+    C[0, 1] = C[1, 4] = 1.0
+    X0 = np.zeros((1, 6))
+    X0[0, 1] = X0[0, 4] = 0.3
+    return np.stack([A1, A1]), B, Bw, np.ones(2), C, X0
+
+
+def _peaks(tuning, X0):
+    v0 = float(np.einsum("ki,ij,kj->k", X0, tuning.P, X0).max())
+    return sr.input_peaks(tuning.K, tuning.P, max(v0, tuning.mu.sum() / tuning.alpha))
+
+
+def test_the_input_lmi_is_the_largest_input_on_the_level_set():
+    """``[[ū²/γ, y], [yᵀ, Q]] ⪰ 0`` exactly when ``max |k x|`` on ``{xᵀQ⁻¹x <= γ}`` is at most ū (sampled)."""
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        M = rng.normal(size=(4, 4))
+        Q, K, gamma = M @ M.T + 0.1 * np.eye(4), rng.normal(size=(2, 4)), float(rng.uniform(1.0, 50.0))
+        peaks = sr.input_peaks(K, np.linalg.inv(Q), gamma)
+        # the boundary, sampled: x = √γ L u with Q = L Lᵀ and |u| = 1; the largest |k_i x| approaches the peak
+        u = rng.normal(size=(4, 200000))
+        x = math.sqrt(gamma) * np.linalg.cholesky(Q) @ (u / np.linalg.norm(u, axis=0))
+        sampled = np.abs(K @ x).max(axis=1)
+        assert np.all(sampled <= peaks * (1 + 1e-12)) and np.all(sampled >= 0.99 * peaks)
+        for i in range(2):
+            for scale, feasible in ((1.0 + 1e-6, True), (1.0 - 1e-6, False)):
+                ub = peaks[i] * scale
+                block = np.block([[np.array([[ub**2 / gamma]]), (K[i] @ Q)[None]], [(K[i] @ Q)[:, None], Q]])
+                assert (np.linalg.eigvalsh(block)[0] >= -1e-12) == feasible
+
+
+def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_needs_is_named():
+    A, B, Bw, w, C, X0 = _two_double_integrators()
+    T = 3.0
+    free = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T)
+    assert free.certified and math.isnan(free.input_scale)
+    p = _peaks(free, X0)
+    loose = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=2 * p)
+    assert loose.certified and loose.kappa == pytest.approx(free.kappa)  # a bound that does not bind changes nothing
+    # input 2 limited to half of what the smallest gain needs: the synthesis that holds it meets the requirement
+    bound = np.array([1e3, 0.5 * p[1]])
+    met = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=bound)
+    assert met.certified and met.input_scale <= 1
+    assert np.all(_peaks(met, X0) <= bound) and np.max(_peaks(met, X0) / bound) == pytest.approx(met.input_scale)
+    check = sr.tracking_bound(A - B @ met.K, Bw, w, C, initial_states=X0, settling_time=T)  # numpy's own P
+    assert check.certified and check.worst <= 0.05
+    t = np.linspace(0.0, 10.0, 4001)
+    rng = np.random.default_rng(1)
+    for k in range(2):  # both plants, forces of random sign at their bound: every input stays within its bound
+        loop = scipy.signal.StateSpace(A[k] - B[k] @ met.K, Bw, -met.K, np.zeros((2, 2)))
+        for _ in range(5):
+            force = np.repeat(rng.choice([-1.0, 1.0], size=(20, 2)), t.size // 20 + 1, axis=0)[:t.size]
+            _, u, x = scipy.signal.lsim(loop, force, t, X0=X0[0])
+            assert np.all(np.abs(u).max(axis=0) <= bound)
+            assert np.abs(x[t >= T][:, [1, 4]]).max() <= met.bound.max()
+    # both inputs limited: not met, what binds is named with the scale a gain would need, and that gain meets the error
+    tight = np.array([0.8 * p[0], 0.5 * p[1]])
+    short = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=tight)
+    assert not short.certified and short.binding == "input_bound" and short.input_scale > 1
+    assert f"within {short.input_scale:.3g} times those limits" in short.message
+    assert np.max(_peaks(short, X0) / tight) == pytest.approx(short.input_scale)
+    check = sr.tracking_bound(A - B @ short.K, Bw, w, C, initial_states=X0, settling_time=T)
+    assert check.certified and check.worst <= 0.05
+    # the same limits halved: the same problem, twice the scale
+    halved = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=tight / 2)
+    assert halved.input_scale == pytest.approx(2 * short.input_scale, rel=1e-6)
+    with pytest.raises(sr.ArgumentValueError, match="input_bound"):
+        sr.tune_gain((A, B), Bw, w, C, 0.05, input_bound=[1.0, 0.0])
+
+
 @pytest.fixture(scope="module")
 def scara_report():
     system = sr.open_system("scara", command="tune")
@@ -237,6 +316,23 @@ def test_a_design_file_refused_still_prints_the_table(scara_report, monkeypatch,
     printed = capsys.readouterr()
     assert "does NOT meet: torque_limit" in printed.out and "\npaper: ||K||_2 = 378" in printed.out
     assert printed.err.count("\n") == 1 and "not written" in printed.err and not out.exists()
+
+
+def test_a_figure_with_no_gain_to_draw_is_refused_in_one_line(scara_report, monkeypatch, tmp_path, capsys):
+    """No gain found (and none given): the table printed, `--plot` refused in one line, exit 2, no file."""
+    import dataclasses
+
+    from scara_robust.cli import main
+    tuning = dataclasses.replace(scara_report.tuning, K=None, P=None, mu=None, status="requirement not met",
+                                 binding="torque_limit", best_reachable=math.inf)
+    report = dataclasses.replace(scara_report, tuning=tuning, gains=(), design=None)
+    monkeypatch.setattr("scara_robust.cli._tune.tune_system", lambda *a, **k: report)
+    figure = tmp_path / "loops.png"
+    assert main(["tune", "--ts", "0.001", "--plot", str(figure)]) == 2
+    printed = capsys.readouterr()
+    assert "torque_limit binds" in printed.out and "Traceback" not in printed.err
+    assert printed.err.count("\n") == 1 and "`--plot`" in printed.err and "not drawn" in printed.err
+    assert not figure.exists()
 
 
 @pytest.mark.parametrize(("field", "value", "words"), [
@@ -397,8 +493,8 @@ def test_tune_on_the_six_joint_arm_meets_what_it_can_and_names_what_binds():
     after = mj["t"] >= 2.0
     assert 0 < float(np.abs(mj["e"][:, after]).max()) <= tuned.bound.worst
     assert run.metrics().max_abs_error == pytest.approx(float(np.abs(mj["e"][:, after]).max()), abs=1e-4)
-    tight = sr.tune_system(system, sr.Requirements(error=1e-3, settling_time=2.0, disturbance=2.0), grid=(7, 2),
-                           check_grid=(13, 3), kappa_range=(10.0, 1e4), simulate=False)
+    tight = sr.tune_system(system, sr.Requirements(error=1e-3, settling_time=2.0, disturbance=2.0, torque_limit=1e6),
+                           grid=(7, 2), check_grid=(13, 3), kappa_range=(10.0, 1e4), simulate=False)
     assert not tight.tuning.certified and tight.tuning.binding.startswith("the error bound")
     assert 1e-3 < tight.tuning.best_reachable < 0.1
 

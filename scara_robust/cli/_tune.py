@@ -172,6 +172,7 @@ def _json(report: TuneReport) -> str:
         "requirements": dict(report.requirements.rows()),
         "verdict": report.tuning.verdict, "message": report.tuning.message, "binding": report.tuning.binding,
         "best_reachable [rad]": clean(report.tuning.best_reachable),
+        "torque_limit_scale_needed": clean(report.tuning.input_scale),
         "gains": [{"name": g.name, "K": g.K.tolist(), "certified_error [rad]": clean(g.bound.worst),
                    "simulated_error [rad]": {k: clean(v) for k, v in g.simulated.items()},
                    "certified_torque [N·m]": clean(g.certified_torque),
@@ -206,6 +207,9 @@ def run(args: argparse.Namespace, system: LoadedSystem) -> str:
     effort = torque_limits(system, requirements) if requirements.torque_limit is None else None
     text = _json(report) if args.format == "json" else _text(report, effort)
     if args.plot is not None:
+        if not report.gains:
+            print(text, flush=True)
+            raise CommandLineError(f"`--plot` {args.plot!r} not drawn: no gain to draw ({report.tuning.message})")
         views = {g.name: worst_loop_views(system, g.K, t_final=requirements.settling_time) for g in report.gains}
         margins = {g.name: system.loop_margins(g.K) for g in report.gains}
         save_figure("--plot", args.plot, plot_loop_views(views, margins=margins, title=f"{system.title()}: each loop "

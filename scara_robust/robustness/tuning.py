@@ -13,6 +13,17 @@ grid; numpy then proves the bound after the settling time from the initial state
 ``P = Q⁻¹`` (:func:`~scara_robust.robustness.tracking.ellipsoid_tracking_bound`). A larger
 κ never gives a worse bound, so the smallest κ that meets the requirement is found by
 bisection: the gain that meets it with the most room for the torque and the sample time.
+
+Input limits ``|u_i| <= ū_i`` enter the synthesis where the gain without them exceeds them:
+``[[ū_i²/γ, y_i], [y_iᵀ, Q]] ⪰ 0`` (``y_i`` the i-th row of Y) keeps ``|k_i x| <= ū_i`` on
+``{xᵀQ⁻¹x <= γ}``, and ``[[γ, x₀ᵀ], [x₀, Q]] ⪰ 0`` holds the initial states in it, so with
+``V∞ <= 1 <= γ`` every trajectory stays where the inputs are within their limits. γ, the
+initial states' level, is the one the synthesis without limits gave them, at least 1 and at
+most ``e^{αT}`` (where it has decayed to the ultimate level by T): a choice, not an optimum
+(the problem is bilinear in γ), so the answer is conservative and numpy checks it like the
+bound. When no gain meets the requirement within the limits, the same LMI with ``β`` capped
+at the requirement and ``minimize s²`` on ``[[s²ū_i²/γ, y_i], [y_iᵀ, Q]] ⪰ 0`` gives the
+smallest common scale of the limits a gain would need: the value reachable for them.
 """
 
 from __future__ import annotations
@@ -35,7 +46,7 @@ from ._cutting import grow_active_set
 from .tracking import verified_ellipsoid
 
 __all__ = ["GainTuning", "TrackingGain", "tune_gain", "tracking_gain", "tracking_synthesis_problem", "ALPHA_SETTLING",
-           "CHANNEL_ITERATIONS"]
+           "CHANNEL_ITERATIONS", "input_peaks"]
 
 Array = NDArray[np.float64]
 
@@ -47,6 +58,10 @@ FIRST_ACTIVE = 12
 KAPPA_RTOL = 0.05
 #: Syntheses at one κ with gain-dependent channels, each from the last one's gain.
 CHANNEL_ITERATIONS = 3
+#: The largest αT of the initial states' level ``γ <= e^{αT}`` where the inputs are held.
+START_DECAY_CAP = 14.0
+#: The room left below the requirement when the smallest input scale is sought (numpy's check inflates μ).
+CAP_MARGIN = 1e-3
 
 
 @dataclass(frozen=True)
@@ -78,6 +93,10 @@ class GainTuning(AnalysisResult):
     search : str
         The bisection's steps, one ``κ: bound`` per step.
     seconds : float
+    input_scale : float
+        Where the gain the bisection found exceeds the input bound: the smallest common scale
+        of the bound within which a synthesized gain (then `K`, with its bound) meets the
+        requirement (<= 1: within it; inf: none found; NaN: not sought).
     """
 
     K: Array | None
@@ -92,6 +111,7 @@ class GainTuning(AnalysisResult):
     binding: str
     search: str
     seconds: float
+    input_scale: float = math.nan
 
     @property
     def certified(self) -> bool:
@@ -110,15 +130,22 @@ class GainTuning(AnalysisResult):
         if self.certified:
             return (f"‖K‖₂ = {float(np.linalg.norm(np.asarray(self.K), 2)):.4g} keeps every output within "
                     f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
+        head = f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds"
+        if not math.isnan(self.input_scale):
+            if math.isinf(self.input_scale):
+                return f"{head}; no gain found that meets it within them"
+            return (f"{head}; a gain meets it within {self.input_scale:.3g} times those limits (its bound "
+                    f"{self.bound.max():.4g})")
         if math.isinf(self.best_reachable) and np.all(np.isfinite(self.bound)):
-            return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; no gain tried "
-                    f"passes it (the smallest that meets the error bound, {self.bound.max():.4g}, does not)")
-        return (f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds; the best certified "
-                f"bound reachable is {self.best_reachable:.4g}")
+            return (f"{head}; no gain tried passes it (the smallest that meets the error bound, "
+                    f"{self.bound.max():.4g}, does not)")
+        return f"{head}; the best certified bound reachable is {self.best_reachable:.4g}"
 
 
 def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C: Array, alpha: float,
-                               kappa: float) -> tuple[LMIProblem, dict[str, Any]]:
+                               kappa: float, input_bound: Array | None = None, starts: Array | None = None,
+                               start_level: float = 1.0, beta_cap: float | None = None
+                               ) -> tuple[LMIProblem, dict[str, Any]]:
     """The synthesis LMI of the module docstring at one α and κ.
 
     Parameters
@@ -129,6 +156,18 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
     w_bound : ndarray, shape (q,)
     C : ndarray, shape (p, n)
     alpha, kappa : float
+    input_bound : ndarray, shape (m,), optional
+        ``ū_i``: with it, ``[[ū_i²/γ, y_i], [y_iᵀ, Q]] ⪰ 0`` for each input with a finite
+        bound (``y_i`` the i-th row of Y), so ``|k_i x| <= ū_i`` on ``{xᵀQ⁻¹x <= γ}``.
+    starts : ndarray, shape (k, n), optional
+        With `input_bound`, the initial states held inside that level set,
+        ``[[γ, x₀ᵀ], [x₀, Q]] ⪰ 0``: with ``γ >= 1 >= V∞`` every trajectory stays in it.
+    start_level : float
+        γ (>= 1).
+    beta_cap : float, optional
+        With `input_bound`: ``β <= beta_cap`` and ``minimize s²`` with the input blocks
+        ``[[s² ū_i²/γ, y_i], [y_iᵀ, Q]] ⪰ 0``: the smallest common scale s of the input
+        bounds an ellipsoid this small holds (the variable ``'scale2'``: s² max_i ū_i²/γ).
 
     Returns
     -------
@@ -161,8 +200,69 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
                            (Y, np.swapaxes(B, 1, 2) @ En, En)], scalars=channels, const=const, name="invariance")
     problem.add_lmi(scalars=[(mk, -one / alpha) for mk in mu], const=one, name="V_inf <= 1")
     problem.add_lmi(terms=[(Q, -0.5 * C[:, :, None], C[:, :, None])], scalars=[(beta, one)], name="outputs")
+    variables = {"Q": Q, "Y": Y, "mu": mu, "beta": beta}
+    if input_bound is not None:
+        scale2 = problem.scalar("scale2") if beta_cap is not None else None
+        _hold_inputs(problem, Q, Y, np.asarray(input_bound, dtype=float),
+                     np.zeros((0, n)) if starts is None else np.atleast_2d(starts), max(start_level, 1.0), scale2)
+        if scale2 is not None and beta_cap is not None:
+            problem.add_lmi(scalars=[(beta, -one)], const=float(beta_cap) * one, name="beta <= cap")
+            problem.minimize({scale2: 1.0})
+            return problem, {**variables, "scale2": scale2}
     problem.minimize({beta: 1.0})
-    return problem, {"Q": Q, "Y": Y, "mu": mu, "beta": beta}
+    return problem, variables
+
+
+def _hold_inputs(problem: LMIProblem, Q: Any, Y: Any, input_bound: Array, starts: Array, level: float,
+                 scale2: Any = None) -> None:
+    """``|k_i x| <= ū_i`` (``s ū_i`` with ``scale2`` = s²) on ``{xᵀQ⁻¹x <= level}``, which holds every start."""
+    m, n = input_bound.shape[0], starts.shape[1]
+    size = 1 + n
+    lower = np.eye(n, size, 1)  # x -> (0, x)
+    rows = np.flatnonzero(np.isfinite(input_bound))
+    if len(rows):
+        U = np.zeros((len(rows), m, size))
+        U[np.arange(len(rows)), rows, 0] = 1.0
+        const = np.zeros((len(rows), size, size))
+        const[:, 0, 0] = input_bound[rows] ** 2 / level
+        if scale2 is None:
+            problem.add_lmi(terms=[(Y, U, lower), (Q, 0.5 * lower, lower)], const=const, name="inputs")
+        else:
+            # s² ū_i²/γ as scale2 · ū_i²/max ū²: the same problem whatever the bounds' size and γ
+            problem.add_lmi(terms=[(Y, U, lower), (Q, 0.5 * lower, lower)],
+                            scalars=[(scale2, const / const[:, 0, 0].max())], name="inputs")
+    if len(starts):
+        const = np.zeros((len(starts), size, size))
+        const[:, 0, 0] = level
+        const[:, 0, 1:], const[:, 1:, 0] = starts, starts
+        problem.add_lmi(terms=[(Q, 0.5 * lower, lower)], const=const, name="starts")
+
+
+def input_peaks(K: Array, P: Array, level: float) -> Array:
+    """Each input's largest ``|k_i x|`` on ``{xᵀPx <= level}``: ``√(level · k_i P⁻¹ k_iᵀ)``, shape (m,).
+
+    Parameters
+    ----------
+    K : ndarray, shape (m, n)
+    P : ndarray, shape (n, n)
+        Positive definite.
+    level : float
+        >= 0.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        In the input's unit (N·m for a torque).
+    """
+    return np.asarray(np.sqrt(np.einsum("ij,ij->i", K, np.linalg.solve(P, K.T).T) * level), dtype=float)
+
+
+def _inputs_hold(K: Array, P: Array, mu: Array, alpha: float, starts: Array, input_bound: Array | None) -> bool:
+    """numpy's check of the input bound: every input within ū on the level set that holds every trajectory."""
+    if input_bound is None:
+        return True
+    v0 = float(np.einsum("ki,ij,kj->k", starts, P, starts).max()) if len(starts) else 0.0
+    return bool(np.all(input_peaks(K, P, max(v0, float(np.sum(mu)) / alpha)) <= input_bound))
 
 
 @dataclass(frozen=True)
@@ -205,46 +305,74 @@ def _invariance_violation(A: Array, B: Array, Bw: Array, w: Array, alpha: float,
 
 
 def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, alpha: float, kappa: float,
-               solver: str, hint: list[NDArray[np.int64]] | None = None
-               ) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
+               solver: str, hint: list[NDArray[np.int64]] | None = None, input_bound: Array | None = None,
+               requirement: float | None = None) -> tuple[float, Array | None, Array | None, Array | None, Array,
+                                                           float]:
     """One synthesis at (α, κ) on an active set of the plants grown by cutting planes.
 
     Returns the bound numpy proves for its gain on every plant, the gain, P and μ
-    (inf, None, None, None where there is none). `hint` (a one-element list) holds the
-    plants the last synthesis ended on: this one starts from them and leaves its own.
+    (inf, None, None, None where there is none). `hint` (a one-element list) holds the plants
+    the last synthesis ended on: this one starts from them and leaves its own.
+
+    With `input_bound` and `requirement`, a second synthesis keeps the bound within the
+    requirement and minimizes a common scale s of the input bounds on the level γ of the
+    initial states in the first (between 1 and ``e^{αT}``, where they have decayed to the
+    ultimate level by T; :func:`tracking_synthesis_problem`): the first value returned is
+    then the s numpy finds (``max_i peak_i / ū_i`` on the level set that holds every
+    trajectory), inf where the bound it proves exceeds `requirement`.
     """
     p = C.shape[0]
     nothing: tuple[float, Array | None, Array | None, Array | None, Array, float] = (
         math.inf, None, None, None, np.full(p, math.inf), math.nan)
 
-    def solve(active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, Array] | None]:
-        problem, var = tracking_synthesis_problem(A[active], B[active], Bw[active], w, C, alpha, kappa)
-        result = solve_lmi(problem, solver)
-        if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
-            return result.status, None
-        Q = np.array(result.value(var["Q"]), dtype=np.float64)
-        Y = np.array(result.value(var["Y"]), dtype=np.float64)
-        mu = np.array([float(result.value(mk)) for mk in var["mu"]], dtype=np.float64)
-        return result.status, (0.5 * (Q + Q.T), Y, mu)
+    def synthesize(level: float | None,
+                   cap: float | None = None) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
+        def solve(active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, Array] | None]:
+            problem, var = tracking_synthesis_problem(A[active], B[active], Bw[active], w, C, alpha, kappa,
+                                                      None if level is None else input_bound, X0, level or 1.0, cap)
+            result = solve_lmi(problem, solver)
+            if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
+                return result.status, None
+            Q = np.array(result.value(var["Q"]), dtype=np.float64)
+            Y = np.array(result.value(var["Y"]), dtype=np.float64)
+            mu = np.array([float(result.value(mk)) for mk in var["mu"]], dtype=np.float64)
+            return result.status, (0.5 * (Q + Q.T), Y, mu)
 
-    first = np.unique(np.linspace(0, len(A) - 1, min(len(A), FIRST_ACTIVE)).round().astype(np.int64))
-    if hint:
-        first = np.union1d(first, hint[0][hint[0] < len(A)])
-    _, answer, active = grow_active_set(solve, lambda a: _invariance_violation(A, B, Bw, w, alpha, *a), first)
-    if answer is None:
+        first = np.unique(np.linspace(0, len(A) - 1, min(len(A), FIRST_ACTIVE)).round().astype(np.int64))
+        if hint:
+            first = np.union1d(first, hint[0][hint[0] < len(A)])
+        _, answer, active = grow_active_set(solve, lambda a: _invariance_violation(A, B, Bw, w, alpha, *a), first)
+        if answer is None:
+            return nothing
+        if hint is not None:
+            hint[:] = [active]
+        Q, Y, mu = answer
+        try:
+            P = np.linalg.inv(Q)
+        except np.linalg.LinAlgError:
+            return nothing
+        K = Y @ P
+        bound, _, _, mu_v, alpha_v = verified_ellipsoid(A - B @ K, Bw, w, C, X0, T, P, mu, alpha)
+        if not np.all(np.isfinite(bound)):
+            return nothing
+        return float(bound.max()), K, P, mu_v, bound, alpha_v
+
+    free = synthesize(None)
+    if input_bound is None or requirement is None:
+        return free
+    _, _, P, _, _, _ = free
+    level = math.exp(min(alpha * T, START_DECAY_CAP))
+    if P is not None and len(X0):
+        level = min(level, max(1.0, float(np.einsum("ki,ij,kj->k", X0, P, X0).max())))
+    decay = math.exp(-alpha * T)
+    cap = (1.0 - CAP_MARGIN) * requirement**2 / max(1.0, decay * level + 1.0 - decay)
+    value, K, P, mu, bound, alpha_v = synthesize(level, cap)
+    if K is None or P is None or mu is None or not value <= requirement:
         return nothing
-    if hint is not None:
-        hint[:] = [active]
-    Q, Y, mu = answer
-    try:
-        P = np.linalg.inv(Q)
-    except np.linalg.LinAlgError:
-        return nothing
-    K = Y @ P
-    bound, _, _, mu_v, alpha_v = verified_ellipsoid(A - B @ K, Bw, w, C, X0, T, P, mu, alpha)
-    if not np.all(np.isfinite(bound)):
-        return nothing
-    return float(bound.max()), K, P, mu_v, bound, alpha_v
+    v0 = float(np.einsum("ki,ij,kj->k", X0, P, X0).max()) if len(X0) else 0.0
+    peaks = input_peaks(K, P, max(v0, float(np.sum(mu)) / alpha_v))
+    finite = np.isfinite(input_bound)
+    return float(np.max(peaks[finite] / input_bound[finite])), K, P, mu, bound, alpha_v
 
 
 def tracking_gain(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, kappa: float,
@@ -301,6 +429,45 @@ def _gain_with_channels(A: Array, B: Array, C: Array, T: float, kappa: float, al
     return nothing
 
 
+def _input_scale(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: float, kappa: float,
+                 alphas: Array, solver: str, input_bound: Array, requirement: float,
+                 channels: Callable[[Array | None], tuple[Array, Array, Array] | None] | None,
+                 K_ref: Array | None) -> tuple[float, TrackingGain | None]:
+    """The smallest common scale s of `input_bound` within which a gain meets `requirement`, and that gain.
+
+    One synthesis per α of `alphas`, in turn, until s <= 1 (:func:`_candidate` with the
+    requirement), with channels from the last gain where they depend on it; numpy verifies
+    the bound and the inputs with the gain's own channels and initial states.
+    """
+    best: tuple[float, TrackingGain | None] = (math.inf, None)
+    hint: list[NDArray[np.int64]] = []
+    for alpha in alphas:
+        reference = K_ref
+        for _ in range(CHANNEL_ITERATIONS if channels is not None else 1):
+            given = (Bw, w, X0) if channels is None else channels(reference)
+            if given is None:
+                break
+            scale, K, P, mu, bound, alpha_v = _candidate(A, B, given[0], given[1], C, given[2], T, float(alpha),
+                                                         kappa, solver, hint, input_bound, requirement)
+            if K is None or P is None or mu is None:
+                break
+            own = given if channels is None else channels(K)
+            if own is not None and own[1].size == mu.size:
+                bound, _, v0, mu, alpha_v = verified_ellipsoid(A - B @ K, own[0], own[1], C, own[2], T, P, mu,
+                                                               alpha_v)
+                if np.all(np.isfinite(bound)) and bound.max() <= requirement:
+                    finite = np.isfinite(input_bound)
+                    peaks = input_peaks(K, P, max(v0, float(np.sum(mu)) / alpha_v))
+                    scale = float(np.max(peaks[finite] / input_bound[finite]))
+                    if scale < best[0]:
+                        best = (scale, TrackingGain(kappa, float(bound.max()), bound, K, P, mu, alpha_v))
+                    break
+            reference = K
+        if best[0] <= 1.0:
+            break
+    return best
+
+
 def _check_problem(plants: tuple[ArrayLike, ArrayLike], disturbance: ArrayLike, w_bound: ArrayLike,
                    output: ArrayLike, initial_states: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array,
                                                                                   Array]:
@@ -323,6 +490,14 @@ def _check_problem(plants: tuple[ArrayLike, ArrayLike], disturbance: ArrayLike, 
     return A, B, np.ascontiguousarray(Bw, dtype=float), w, C, X0
 
 
+def _check_input_bound(input_bound: ArrayLike, m: int) -> Array:
+    bound = check_array("input_bound", input_bound, ndim=1, finite=False)
+    if bound.shape not in ((1,), (m,)) or np.any(np.isnan(bound)) or np.any(bound <= 0):
+        raise ArgumentValueError("input_bound", f"must hold {m} bounds > 0 (or one for every input; inf: none), "
+                                                f"input units, found {bound.tolist()}")
+    return np.asarray(np.broadcast_to(bound, (m,)), dtype=float)
+
+
 def tune_gain(
     plants: tuple[ArrayLike, ArrayLike],
     disturbance: ArrayLike,
@@ -335,6 +510,7 @@ def tune_gain(
     kappa_range: tuple[float, float] = (1.0, 1e4),
     accept: Callable[[TrackingGain], str] | None = None,
     channels: Callable[[Array | None], tuple[Array, Array, Array] | None] | None = None,
+    input_bound: ArrayLike | None = None,
     solver: str | None = None,
 ) -> GainTuning:
     """The smallest gain bound κ whose synthesized gain keeps every output within `requirement` after T.
@@ -368,6 +544,13 @@ def tune_gain(
         it). Each synthesis then takes them from the last gain found, and its answer counts
         only when numpy verifies it with its own gain's channels (up to
         :data:`CHANNEL_ITERATIONS` syntheses at a κ).
+    input_bound : array_like, shape (m,) or (1,), optional
+        ``ū``: each input's ``|k_i x|`` on the level set that holds every trajectory (numpy's
+        check; > 0, inf where an input has none, input units). Where the bisection's gain
+        exceeds it, the synthesis that holds it (:func:`tracking_synthesis_problem` with
+        ``beta_cap``) at the largest κ gives the gain that meets the requirement within the
+        smallest common scale of it (:attr:`GainTuning.input_scale`); above 1,
+        ``'input_bound'`` binds.
     solver : {'IPM', 'CLARABEL', 'SCS'}, optional
 
     Returns
@@ -384,6 +567,7 @@ def tune_gain(
     lo, hi = (check_real("kappa_range", k, positive=True) for k in kappa_range)
     if not lo < hi:
         raise ArgumentValueError("kappa_range", f"must be (low, high) with 0 < low < high, found {kappa_range}")
+    bounds = None if input_bound is None else _check_input_bound(input_bound, B.shape[2])
     grid = ALPHA_SETTLING / T if T > 0 else float(np.linalg.norm(A, 2, axis=(1, 2)).max()) * np.logspace(-2, 0, 7)
     steps: list[str] = []
     last = {"alpha": math.nan}
@@ -406,8 +590,24 @@ def tune_gain(
 
     def result(answer: TrackingGain, best: float, status: str, binding: str) -> GainTuning:
         return GainTuning(answer.K, answer.P, answer.mu, answer.bound, req, answer.alpha, answer.kappa, best, status,
-                          binding, "; ".join(steps), time.perf_counter() - start)
+                          binding, "; ".join(steps), time.perf_counter() - start, scaled[0])
 
+    def scale_of(found: TrackingGain) -> float:
+        """numpy's ``max_i peak_i / ū_i`` of a gain (0 without input bounds, inf without a gain)."""
+        if bounds is None:
+            return 0.0
+        if found.K is None or found.P is None or found.mu is None:
+            return math.inf
+        own = X0 if channels is None else (channels(found.K) or (None, None, X0))[2]
+        v0 = float(np.einsum("ki,ij,kj->k", own, found.P, own).max()) if len(own) else 0.0
+        finite = np.isfinite(bounds)
+        peaks = input_peaks(found.K, found.P, max(v0, float(np.sum(found.mu)) / found.alpha))
+        return float(np.max(peaks[finite] / bounds[finite]))
+
+    def holds(found: TrackingGain) -> bool:
+        return scale_of(found) <= 1.0
+
+    scaled = [math.nan]
     top = at(hi)
     if not top.value <= req:
         return result(top, top.value, "requirement not met", f"the error bound: {top.value:.4g} at κ = {hi:.4g}")
@@ -419,6 +619,20 @@ def tune_gain(
             hi, answer = mid, found
         else:
             lo = mid
+    if bounds is not None and answer.K is not None:
+        if not holds(answer):
+            # the smallest gain that meets the bound exceeds the input bounds: the synthesis that holds them,
+            # at the largest gain bound, its rates from the answer's outwards
+            order = grid[np.argsort(np.abs(np.log(grid / answer.alpha)), kind="stable")]
+            scale, held = _input_scale(A, B, Bw, w, C, X0, T, kappa_range[1], order, solver, bounds, req, channels,
+                                       answer.K)
+            steps.append(f"κ = {kappa_range[1]:.4g}, the input bounds held: x{scale:.4g} of them needed")
+            if held is None or scale > scale_of(answer):  # the bisection's gain needs less: it stays the answer
+                scale, held = scale_of(answer), answer
+            scaled[0] = scale
+            if scale > 1.0:
+                return result(held, math.inf, "requirement not met", "input_bound")
+            answer = held
     failed = accept(answer) if accept is not None else ""
     if not failed:
         return result(answer, answer.value, "met", "")
@@ -427,7 +641,7 @@ def tune_gain(
     while high / low > 1 + KAPPA_RTOL:
         mid = math.sqrt(low * high)
         found = at(mid)
-        if found.K is not None and not accept(found):  # type: ignore[misc]
+        if found.K is not None and not accept(found) and holds(found):  # type: ignore[misc]
             low, best = mid, found
         else:
             high = mid

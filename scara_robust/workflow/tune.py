@@ -39,7 +39,7 @@ from ..paper import PAPER_DISTURBANCE_AMPLITUDE, PAPER_DISTURBANCE_PERIOD, PAPER
 from ..robustness.loop_margins import LoopView, frozen_loop_views
 from ..robustness.sampled import check_sample_time
 from ..robustness.tracking import TrackingBound, tracking_bound, verified_ellipsoid
-from ..robustness.tuning import GainTuning, TrackingGain, tune_gain
+from ..robustness.tuning import GainTuning, TrackingGain, input_peaks, tune_gain
 from ..simulation.arm import simulate_arm
 from ..simulation.metrics import TRACKING_TOLERANCE
 from ..simulation.run import run_scenarios
@@ -317,11 +317,32 @@ def _certified_torques(K: Array, P: Array | None, mu: Array | None, alpha: float
     """
     if P is None or mu is None:
         return np.full(K.shape[0], math.inf)
-    level = max(initial_level, float(np.sum(mu)) / alpha)
-    gains = np.sqrt(np.einsum("ij,ij->i", K, np.linalg.solve(P, K.T).T) * level)
+    gains = input_peaks(K, P, max(initial_level, float(np.sum(mu)) / alpha))
     if absorbed is not None and absorbed.integral is not None:
         gains = gains + absorbed.integral.torque
     return np.asarray(gains, dtype=float)
+
+
+def _feedback_share(samples: PerturbedSamples, limits: Array | None, m: int) -> tuple[Array | None, str]:
+    """What each joint's limit leaves the feedback ``|k_i z|`` (N·m, shape (m,)) and, where the reference alone
+    needs more than a limit, a phrase naming the joint.
+
+    With the drift absorbed by the integral the whole torque is ``τ_id − Kz``
+    (:mod:`~scara_robust.model.perturbation`), so the feedback has ``ū_i − max|τ_id,i|``;
+    otherwise the limit itself (the feedback torque, as :func:`_certified_torques`).
+    """
+    if limits is None:
+        return None, ""
+    share = np.broadcast_to(np.asarray(limits, dtype=float), (m,)).copy()
+    if samples.integral is not None:
+        share = share - samples.integral.torque
+    over = np.flatnonzero(share <= 0)
+    if len(over) == 0:
+        return share, ""
+    j = int(over[0])
+    assert samples.integral is not None
+    return (np.maximum(share, 1e-9), f" (joint {j + 1}: the reference alone needs {samples.integral.torque[j]:.4g} "
+                                     f"N·m)")
 
 
 def torque_limits(system: LoadedSystem, requirements: Requirements) -> Array | None:
@@ -580,10 +601,14 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
     limits = torque_limits(system, requirements)
     checks = limits is not None or any(getattr(requirements, k) is not None for k in
                                        ("sample_time", "disk_margin", "delay_margin", "decay"))
+    held, short = _feedback_share(samples, limits, m)
     tuning = tune_gain((samples.A, samples.B), samples.disturbance, samples.w_bound, C, requirements.error,
                        initial_states=X0, settling_time=requirements.settling_time, kappa_range=kappa_range,
                        accept=accept if checks else None,
-                       channels=(lambda K: _integral(samples, K, X0)) if samples.integral is not None else None)
+                       channels=(lambda K: _integral(samples, K, X0)) if samples.integral is not None else None,
+                       input_bound=held)
+    if tuning.binding == "input_bound":
+        tuning = replace(tuning, binding="torque_limit" + short)
     gains: list[GainEvaluation] = []
     design = None
     if tuning.K is not None:
