@@ -131,7 +131,7 @@ class GainTuning(AnalysisResult):
             return (f"‖K‖₂ = {float(np.linalg.norm(np.asarray(self.K), 2)):.4g} keeps every output within "
                     f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
         head = f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds"
-        if not math.isnan(self.input_scale):
+        if not math.isnan(self.input_scale) and self.input_scale > 1:
             if math.isinf(self.input_scale):
                 return f"{head}; no gain found that meets it within them"
             return (f"{head}; a gain meets it within {self.input_scale:.3g} times those limits (its bound "
@@ -607,6 +607,14 @@ def tune_gain(
     def holds(found: TrackingGain) -> bool:
         return scale_of(found) <= 1.0
 
+    def held_at(kappa: float, near: TrackingGain) -> tuple[float, TrackingGain | None]:
+        """The input bounds held at κ (:func:`_input_scale`), its rates from `near`'s outwards."""
+        assert bounds is not None
+        order = grid[np.argsort(np.abs(np.log(grid / near.alpha)), kind="stable")]
+        scale, held = _input_scale(A, B, Bw, w, C, X0, T, kappa, order, solver, bounds, req, channels, near.K)
+        steps.append(f"κ = {kappa:.4g}, the input bounds held: x{scale:.4g} of them needed")
+        return scale, held
+
     scaled = [math.nan]
     top = at(hi)
     if not top.value <= req:
@@ -623,16 +631,25 @@ def tune_gain(
         if not holds(answer):
             # the smallest gain that meets the bound exceeds the input bounds: the synthesis that holds them,
             # at the largest gain bound, its rates from the answer's outwards
-            order = grid[np.argsort(np.abs(np.log(grid / answer.alpha)), kind="stable")]
-            scale, held = _input_scale(A, B, Bw, w, C, X0, T, kappa_range[1], order, solver, bounds, req, channels,
-                                       answer.K)
-            steps.append(f"κ = {kappa_range[1]:.4g}, the input bounds held: x{scale:.4g} of them needed")
+            scale, held = held_at(kappa_range[1], answer)
             if held is None or scale > scale_of(answer):  # the bisection's gain needs less: it stays the answer
                 scale, held = scale_of(answer), answer
             scaled[0] = scale
             if scale > 1.0:
                 return result(held, math.inf, "requirement not met", "input_bound")
-            answer = held
+            # the smallest gain bound at which the synthesis holds them (the most room for the sample time)
+            low, high = answer.kappa, kappa_range[1]
+            while high / low > 1 + KAPPA_RTOL:
+                mid = math.sqrt(low * high)
+                s_mid, g_mid = held_at(mid, held)
+                if g_mid is not None and s_mid <= 1.0:
+                    high, scale, held = mid, s_mid, g_mid
+                else:
+                    low = mid
+            scaled[0] = scale
+            failed = accept(held) if accept is not None else ""
+            return result(held, held.value if not failed else math.inf, "met" if not failed else
+                          "requirement not met", failed)
     failed = accept(answer) if accept is not None else ""
     if not failed:
         return result(answer, answer.value, "met", "")
