@@ -26,7 +26,7 @@ $(STAMP): pyproject.toml
 # ruff and mypy run inside the suite (tests/test_lint.py), beside the other tests
 test: $(STAMP)
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 SCARA_ROBUST_REQUIRE_EXTRAS=1 \
-		$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder
+		$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile --no-loadscope-reorder --durations=30
 
 # the full-size cross-checks (200-scenario campaigns on both engines: about 10 min on 2 cores)
 test-slow: $(STAMP)

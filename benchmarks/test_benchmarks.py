@@ -350,6 +350,9 @@ def arm6_file_setup():
     return setup, sr.design(setup.plant, 1000, 3).K
 
 
+#: Full-size arm runs and solves (a 20-s LSODA run, the arm's LMI on Clarabel): `make bench` and `make test-slow`;
+#: tests/test_arm_compiled.py and tests/test_sdp.py check the same engines and solvers at test sizes.
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["lsoda", "compiled"], ids=["lsoda", "compiled"])
 def test_arm6_compiled_vs_lsoda_20s(benchmark, arm6_file_setup, method):
     """The 6-joint arm's 20-s run (sinusoidal payload): Pinocchio's ABA on LSODA against the compiled engine (BDF)."""
@@ -374,6 +377,7 @@ def test_arm6_compiled_vs_lsoda_20s(benchmark, arm6_file_setup, method):
     assert _ARM6_ERRORS[t_final]["max_abs_error_difference [rad]"] <= 1e-6
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["IPM", "CLARABEL"], ids=["ipm", "clarabel"])
 def test_arm6_sampled_lmi_solve(benchmark, arm6_file_setup, solver):
     """One solve of the sampled-data LMI at Ts = 1 ms on the 6-joint arm's coarse plants (`export`'s certificate).
@@ -410,6 +414,9 @@ def board_pids():
     return {"scara": sr.design(sr.paper_model(), 3, 90).discretize(1e-3, torque_limit=8.0), "arm6": arm}
 
 
+#: The board's round trips (cross-compile, two emulator runs each) are timed by `make bench` and `make test-slow`;
+#: tests/test_board.py runs the same controllers on the board in `make test`.
+@pytest.mark.slow
 def test_board_arm_pid_with_feedforward_step(benchmark, board_pids):
     """The 6-joint arm's whole controller on the emulated Cortex-M4F: its gravity feedforward by RNEA (double,
     software floating point) and the PID, the URDF's effort limits on the total torque."""
@@ -430,6 +437,7 @@ def test_board_arm_pid_with_feedforward_step(benchmark, board_pids):
         "clock [Hz]": run.clock_hz, "max |difference|": run.max_abs_difference})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robot", ["scara", "arm6"])
 @pytest.mark.parametrize("precision", ["single", "double"])
 def test_board_pid_step(benchmark, board_pids, robot, precision):
