@@ -607,10 +607,10 @@ def tune_gain(
     def holds(found: TrackingGain) -> bool:
         return scale_of(found) <= 1.0
 
-    def held_at(kappa: float, near: TrackingGain) -> tuple[float, TrackingGain | None]:
-        """The input bounds held at κ (:func:`_input_scale`), its rates from `near`'s outwards."""
+    def held_at(kappa: float, near: TrackingGain, rates: int = len(grid)) -> tuple[float, TrackingGain | None]:
+        """The input bounds held at κ (:func:`_input_scale`), on the `rates` rates nearest `near`'s."""
         assert bounds is not None
-        order = grid[np.argsort(np.abs(np.log(grid / near.alpha)), kind="stable")]
+        order = grid[np.argsort(np.abs(np.log(grid / near.alpha)), kind="stable")][:rates]
         scale, held = _input_scale(A, B, Bw, w, C, X0, T, kappa, order, solver, bounds, req, channels, near.K)
         steps.append(f"κ = {kappa:.4g}, the input bounds held: x{scale:.4g} of them needed")
         return scale, held
@@ -641,7 +641,7 @@ def tune_gain(
             low, high = answer.kappa, kappa_range[1]
             while high / low > 1 + KAPPA_RTOL:
                 mid = math.sqrt(low * high)
-                s_mid, g_mid = held_at(mid, held)
+                s_mid, g_mid = held_at(mid, held, 3)
                 if g_mid is not None and s_mid <= 1.0:
                     high, scale, held = mid, s_mid, g_mid
                 else:
