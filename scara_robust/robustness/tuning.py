@@ -132,10 +132,9 @@ class GainTuning(AnalysisResult):
                     f"{self.bound.max():.4g} <= {self.requirement:.4g} (certified, α = {self.alpha:.3g} 1/s)")
         head = f"the error requirement {self.requirement:.4g} is not met: {self.binding} binds"
         if not math.isnan(self.input_scale) and self.input_scale > 1:
-            if math.isinf(self.input_scale):
-                return f"{head}; no gain found that meets it within them"
-            return (f"{head}; a gain meets it within {self.input_scale:.3g} times those limits (its bound "
-                    f"{self.bound.max():.4g})")
+            reach = (f"the best certified bound reachable within them is {self.best_reachable:.4g}"
+                     if math.isfinite(self.best_reachable) else "no gain tried is certified within them")
+            return f"{head}; {reach}; a gain meets it with {self.input_scale:.3g} times the input bounds"
         if math.isinf(self.best_reachable) and np.all(np.isfinite(self.bound)):
             return (f"{head}; no gain tried passes it (the smallest that meets the error bound, "
                     f"{self.bound.max():.4g}, does not)")
@@ -607,6 +606,10 @@ def tune_gain(
     def holds(found: TrackingGain) -> bool:
         return scale_of(found) <= 1.0
 
+    def within(answer: TrackingGain, failed: str) -> GainTuning:
+        return _largest_within(answer, failed, at, lambda g: holds(g) and not (accept(g) if accept else ""),
+                               kappa_range[0], req, result)
+
     def held_at(kappa: float, near: TrackingGain, rates: int = len(grid)) -> tuple[float, TrackingGain | None]:
         """The input bounds held at κ (:func:`_input_scale`), on the `rates` rates nearest `near`'s."""
         assert bounds is not None
@@ -635,8 +638,8 @@ def tune_gain(
             if held is None or scale > scale_of(answer):  # the bisection's gain needs less: it stays the answer
                 scale, held = scale_of(answer), answer
             scaled[0] = scale
-            if scale > 1.0:
-                return result(held, math.inf, "requirement not met", "input_bound")
+            if scale > 1.0:  # the largest gain within them (below), with the scale a gain would need
+                return within(answer, "input_bound")
             # the smallest gain bound at which the synthesis holds them (the most room for the sample time)
             low, high = answer.kappa, kappa_range[1]
             while high / low > 1 + KAPPA_RTOL:
@@ -653,17 +656,23 @@ def tune_gain(
     failed = accept(answer) if accept is not None else ""
     if not failed:
         return result(answer, answer.value, "met", "")
-    # the others fail at the smallest gain that meets the bound: the largest gain they allow
-    low, high, best = kappa_range[0], answer.kappa, None
+    return within(answer, failed)
+
+
+def _largest_within(answer: TrackingGain, failed: str, at: Callable[[float], TrackingGain],
+                    passes: Callable[[TrackingGain], bool], low: float, requirement: float,
+                    result: Callable[[TrackingGain, float, str, str], GainTuning]) -> GainTuning:
+    """The others fail at the smallest gain that meets the bound: the largest gain below it they allow."""
+    high, best = answer.kappa, None
     while high / low > 1 + KAPPA_RTOL:
         mid = math.sqrt(low * high)
         found = at(mid)
-        if found.K is not None and not accept(found) and holds(found):  # type: ignore[misc]
+        if found.K is not None and passes(found):
             low, best = mid, found
         else:
             high = mid
     if best is None:
         return result(answer, math.inf, "requirement not met", failed)
-    if best.value <= req:  # the bound is not monotone in κ: a smaller gain that passes may meet it too
+    if best.value <= requirement:  # the bound is not monotone in κ: a smaller gain that passes may meet it too
         return result(best, best.value, "met", "")
     return result(best, best.value, "requirement not met", failed)

@@ -607,8 +607,8 @@ def tune_system(system: LoadedSystem, requirements: Requirements, *,
                        accept=accept if checks else None,
                        channels=(lambda K: _integral(samples, K, X0)) if samples.integral is not None else None,
                        input_bound=held)
-    if tuning.binding == "input_bound":
-        tuning = replace(tuning, binding="torque_limit" + short)
+    if tuning.binding == "input_bound":  # the input bounds are the limits less the reference's own torque
+        tuning = replace(tuning, binding="torque_limit" + (short or " (the feedback's share of it)"))
     gains: list[GainEvaluation] = []
     design = None
     if tuning.K is not None:
