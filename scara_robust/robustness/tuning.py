@@ -467,6 +467,20 @@ def _input_scale(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T
     return best
 
 
+def _scale_of(found: TrackingGain, bounds: Array | None, X0: Array,
+              channels: Callable[[Array | None], tuple[Array, Array, Array] | None] | None) -> float:
+    """numpy's ``max_i peak_i / ū_i`` of a gain with its own initial states (0 without bounds, inf without a gain)."""
+    if bounds is None:
+        return 0.0
+    if found.K is None or found.P is None or found.mu is None:
+        return math.inf
+    own = X0 if channels is None else (channels(found.K) or (None, None, X0))[2]
+    v0 = float(np.einsum("ki,ij,kj->k", own, found.P, own).max()) if len(own) else 0.0
+    finite = np.isfinite(bounds)
+    peaks = input_peaks(found.K, found.P, max(v0, float(np.sum(found.mu)) / found.alpha))
+    return float(np.max(peaks[finite] / bounds[finite]))
+
+
 def _check_problem(plants: tuple[ArrayLike, ArrayLike], disturbance: ArrayLike, w_bound: ArrayLike,
                    output: ArrayLike, initial_states: ArrayLike | None) -> tuple[Array, Array, Array, Array, Array,
                                                                                   Array]:
@@ -591,20 +605,8 @@ def tune_gain(
         return GainTuning(answer.K, answer.P, answer.mu, answer.bound, req, answer.alpha, answer.kappa, best, status,
                           binding, "; ".join(steps), time.perf_counter() - start, scaled[0])
 
-    def scale_of(found: TrackingGain) -> float:
-        """numpy's ``max_i peak_i / ū_i`` of a gain (0 without input bounds, inf without a gain)."""
-        if bounds is None:
-            return 0.0
-        if found.K is None or found.P is None or found.mu is None:
-            return math.inf
-        own = X0 if channels is None else (channels(found.K) or (None, None, X0))[2]
-        v0 = float(np.einsum("ki,ij,kj->k", own, found.P, own).max()) if len(own) else 0.0
-        finite = np.isfinite(bounds)
-        peaks = input_peaks(found.K, found.P, max(v0, float(np.sum(found.mu)) / found.alpha))
-        return float(np.max(peaks[finite] / bounds[finite]))
-
     def holds(found: TrackingGain) -> bool:
-        return scale_of(found) <= 1.0
+        return _scale_of(found, bounds, X0, channels) <= 1.0
 
     def within(answer: TrackingGain, failed: str) -> GainTuning:
         return _largest_within(answer, failed, at, lambda g: holds(g) and not (accept(g) if accept else ""),
@@ -635,8 +637,9 @@ def tune_gain(
             # the smallest gain that meets the bound exceeds the input bounds: the synthesis that holds them,
             # at the largest gain bound, its rates from the answer's outwards
             scale, held = held_at(kappa_range[1], answer)
-            if held is None or scale > scale_of(answer):  # the bisection's gain needs less: it stays the answer
-                scale, held = scale_of(answer), answer
+            own = _scale_of(answer, bounds, X0, channels)
+            if held is None or scale > own:  # the bisection's gain needs less: it stays the answer
+                scale, held = own, answer
             scaled[0] = scale
             if scale > 1.0:  # the largest gain within them (below), with the scale a gain would need
                 return within(answer, "input_bound")
