@@ -21,6 +21,7 @@ from scara_robust.robustness.polytope import box_closed_loops
 from scara_robust.robustness.sampled_synthesis import sampled_synthesis_problem
 from scara_robust.robustness.scheduled import schedule_lyapunov_problem
 from scara_robust.robustness.synthesis import performance_synthesis_problem, synthesis_problem
+from scara_robust.robustness.tuning import tracking_synthesis_problem
 from scara_robust.sdp import LMIProblem, LMIResult, dense_schur
 from scara_robust.sdp import solve_lmi as solve
 
@@ -139,6 +140,16 @@ def _corpus() -> dict[str, LMIProblem]:
     damped = spring + np.array([[0.0, 0.0], [0.0, -1.7]])  # damping 2 N·s/m: one P for any rate
     problems["rate-bounded L2 gain, any rate"] = rate_bounded_l2_problem(damped, s01, spring_w, spring_z,
                                                                          np.zeros((1, 1)), np.inf, None)[0]
+    # the tracking synthesis that holds input bounds with the error capped (robustness.tuning):
+    # two double integrators in the PID state with uncertain input gains
+    A0 = np.kron(np.eye(2), np.diag([1.0, 1.0], 1))
+    Bt = np.zeros((2, 6, 2))
+    Bt[0, 2, 0], Bt[0, 5, 1], Bt[1, 2, 0], Bt[1, 5, 1] = -1.0, -1.0, -2.0, -1.5
+    Bw_t, Ct, X0 = np.zeros((6, 2)), np.zeros((2, 6)), np.zeros((1, 6))
+    Bw_t[2, 0], Bw_t[5, 1], Ct[0, 1], Ct[1, 4], X0[0, 1], X0[0, 4] = 1.0, 0.2, 1.0, 1.0, 0.3, 0.3
+    problems["tracking synthesis, inputs held, error capped"] = tracking_synthesis_problem(
+        np.stack([A0, A0]), Bt, np.stack([Bw_t, Bw_t]), np.ones(2), Ct, 1.0, 1e3, np.array([50.0, 20.0]), X0, 5.0,
+        0.3**2)[0]
     return problems
 
 
@@ -215,6 +226,39 @@ def test_a_tiny_optimum_is_resolved_absolutely():
     result = solve(pb)
     assert result.status == "optimal"
     assert result.value(t) == pytest.approx(2 * eps, rel=1e-6)
+
+
+@pytest.mark.parametrize("where", ["factorization", "iteration limit"])
+def test_an_iterate_within_tolerance_is_kept_when_rounding_stops_the_solver(where, monkeypatch):
+    """Z or S losing its Cholesky factor to rounding (or the iterations running out) after an
+    iterate within the residual and gap tolerances returns that iterate, judged as a stall is."""
+    import scara_robust.sdp.ipm as ipm
+
+    pb, P, t = common_p_problem(_scara_loops(0.2))
+    optimum = ipm.solve_ipm(pb)
+    assert optimum.status == "optimal"
+    last = optimum.iterations - 1  # the scaling before the optimal iterate: the one before it is nearly there
+    if where == "factorization":
+        real, calls = ipm._nt_scaling, []
+
+        def breaks(Z, S):
+            calls.append(1)
+            if len(calls) > last:
+                raise np.linalg.LinAlgError("Matrix is not positive definite")
+            return real(Z, S)
+
+        monkeypatch.setattr(ipm, "_nt_scaling", breaks)
+        found = ipm.solve_ipm(pb)
+    else:
+        found = ipm.solve_ipm(pb, max_iterations=last)
+    assert found.status in ("optimal", "optimal_inaccurate") and found.iterations <= last
+    assert found.value(t) == pytest.approx(optimum.value(t), rel=1e-6)
+    for block in pb.blocks(found.y):
+        assert np.linalg.eigvalsh(block)[:, 0].min() >= -1e-12
+    # broken at the first iteration, there is no such iterate: the failure is reported
+    monkeypatch.setattr(ipm, "_nt_scaling", lambda Z, S: (_ for _ in ()).throw(np.linalg.LinAlgError("broken")))
+    failed = ipm.solve_ipm(pb)
+    assert failed.status == "solver error: numerical failure (broken)" and failed.y is None
 
 
 def test_a_bad_description_names_the_argument():

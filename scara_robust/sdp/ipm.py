@@ -197,6 +197,7 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
     gamma = 0.9
     status, gap, it = "solver error: iteration limit reached", math.nan, 0
     gaps: list[float] = []
+    best: LMIResult | None = None  # the iterate with the smallest gap among those within INACCURATE
     for it in range(max_iterations + 1):
         lin = problem.blocks(y)
         Rd = [_sym(L - Sf) for L, Sf in zip(lin, S)]
@@ -218,6 +219,9 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         if float(np.linalg.norm(y)) > 1e12:
             return LMIResult("unbounded", None, None, math.nan, gap, it)
         gaps.append(gap)
+        if rel_p < INACCURATE and rel_d < INACCURATE and rel_gap < INACCURATE and (best is None or gap < best.gap):
+            near = rel_gap < ROUNDING_GAP or gap < ABSOLUTE_GAP
+            best = LMIResult("optimal" if near else "optimal_inaccurate", y, Z, obj_y, gap, it)
         if len(gaps) > STALL and gap > 0.9 * gaps[-1 - STALL] and rel_gap < INACCURATE:
             # rounding stops the progress: the iterate is as good as it gets; optimal when its gap
             # is within ROUNDING_GAP of the objectives and its residuals within INACCURATE (the Z
@@ -232,6 +236,10 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
             M = problem.schur(W)
             factor = _factor(M)
         except (np.linalg.LinAlgError, ValueError) as err:
+            # rounding has broken Z or S's factorization: the best iterate before it is the answer,
+            # judged as the stall rule judges one, where there is one within INACCURATE
+            if best is not None:
+                return best
             status = f"solver error: numerical failure ({err})"
             break
 
@@ -264,6 +272,8 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         gamma = 0.9 + 0.09 * min(ap, ad)
         _LOG.debug("%3d gap %.3e rel_p %.1e rel_d %.1e objective %.10e steps %.3f %.3f sigma %.2e",
                    it, gap, rel_p, rel_d, obj_y, ap, ad, sigma)
+    if best is not None:  # the steps vanished or the iterations ran out after an iterate within INACCURATE
+        return best
     lin = problem.blocks(y)
     rp = -b - problem.adjoint(Z)
     rel_p = float(np.linalg.norm(rp)) / (1.0 + float(np.linalg.norm(b)))
