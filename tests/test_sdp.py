@@ -140,17 +140,20 @@ def _corpus() -> dict[str, LMIProblem]:
     damped = spring + np.array([[0.0, 0.0], [0.0, -1.7]])  # damping 2 N·s/m: one P for any rate
     problems["rate-bounded L2 gain, any rate"] = rate_bounded_l2_problem(damped, s01, spring_w, spring_z,
                                                                          np.zeros((1, 1)), np.inf, None)[0]
-    # the tracking synthesis that holds input bounds with the error capped (robustness.tuning):
-    # two double integrators in the PID state with uncertain input gains
+    problems["tracking synthesis, inputs held, error capped"] = _held_problem(None)[0]
+    return problems
+
+
+def _held_problem(unit: float | None):
+    """The tracking synthesis that holds input bounds with the error capped (robustness.tuning), s in `unit`:
+    two double integrators in the PID state with uncertain input gains."""
     A0 = np.kron(np.eye(2), np.diag([1.0, 1.0], 1))
     Bt = np.zeros((2, 6, 2))
     Bt[0, 2, 0], Bt[0, 5, 1], Bt[1, 2, 0], Bt[1, 5, 1] = -1.0, -1.0, -2.0, -1.5
     Bw_t, Ct, X0 = np.zeros((6, 2)), np.zeros((2, 6)), np.zeros((1, 6))
     Bw_t[2, 0], Bw_t[5, 1], Ct[0, 1], Ct[1, 4], X0[0, 1], X0[0, 4] = 1.0, 0.2, 1.0, 1.0, 0.3, 0.3
-    problems["tracking synthesis, inputs held, error capped"] = tracking_synthesis_problem(
-        np.stack([A0, A0]), Bt, np.stack([Bw_t, Bw_t]), np.ones(2), Ct, 1.0, 1e3, np.array([50.0, 20.0]), X0, 5.0,
-        0.3**2)[0]
-    return problems
+    return tracking_synthesis_problem(np.stack([A0, A0]), Bt, np.stack([Bw_t, Bw_t]), np.ones(2), Ct, 1.0, 1e3,
+                                      np.array([50.0, 20.0]), X0, 5.0, 0.3**2, unit)
 
 
 CORPUS = _corpus()
@@ -226,6 +229,23 @@ def test_a_tiny_optimum_is_resolved_absolutely():
     result = solve(pb)
     assert result.status == "optimal"
     assert result.value(t) == pytest.approx(2 * eps, rel=1e-6)
+
+
+def test_the_held_scale_is_the_same_whatever_its_unit():
+    """``'scale2'`` is ``(s / scale_unit)²``: the smallest scale s of the input bounds does not depend on the unit
+    (the default: √(γ / max ū²)), and numpy's input check on the answer gives it back."""
+    scales = []
+    for unit in (None, 0.1, 3.0):
+        pb, var = _held_problem(unit)
+        found = solve(pb)
+        assert found.status == "optimal"
+        s2 = found.value(var["scale2"]) * (5.0 / 50.0**2 if unit is None else unit**2)
+        Q, Y = found.value(var["Q"]), found.value(var["Y"])
+        K, P = Y @ np.linalg.inv(Q), np.linalg.inv(Q)
+        peaks = sr.input_peaks(K, P, 5.0)  # on {xᵀPx <= γ}, γ = 5
+        assert np.max(peaks / np.array([50.0, 20.0])) == pytest.approx(np.sqrt(s2), rel=1e-5)
+        scales.append(np.sqrt(s2))
+    assert scales[1] == pytest.approx(scales[0], rel=1e-6) and scales[2] == pytest.approx(scales[0], rel=1e-6)
 
 
 @pytest.mark.parametrize("where", ["factorization", "iteration limit"])

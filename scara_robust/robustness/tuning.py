@@ -143,8 +143,8 @@ class GainTuning(AnalysisResult):
 
 def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C: Array, alpha: float,
                                kappa: float, input_bound: Array | None = None, starts: Array | None = None,
-                               start_level: float = 1.0, beta_cap: float | None = None
-                               ) -> tuple[LMIProblem, dict[str, Any]]:
+                               start_level: float = 1.0, beta_cap: float | None = None,
+                               scale_unit: float | None = None) -> tuple[LMIProblem, dict[str, Any]]:
     """The synthesis LMI of the module docstring at one α and κ.
 
     Parameters
@@ -166,7 +166,12 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
     beta_cap : float, optional
         With `input_bound`: ``β <= beta_cap`` and ``minimize s²`` with the input blocks
         ``[[s² ū_i²/γ, y_i], [y_iᵀ, Q]] ⪰ 0``: the smallest common scale s of the input
-        bounds an ellipsoid this small holds (the variable ``'scale2'``: s² max_i ū_i²/γ).
+        bounds an ellipsoid this small holds (the variable ``'scale2'``: ``(s / scale_unit)²``).
+    scale_unit : float, optional
+        The unit of s in ``'scale2'`` (> 0): the scale a known gain needs (the one without the
+        bounds), so that the optimum is of order one (an interior-point method converges in
+        fewer iterations than with an optimum of 1e5 there). Default:
+        ``√(γ / max_i ū_i²)``, the same problem whatever the bounds' size and γ.
 
     Returns
     -------
@@ -203,7 +208,8 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
     if input_bound is not None:
         scale2 = problem.scalar("scale2") if beta_cap is not None else None
         _hold_inputs(problem, Q, Y, np.asarray(input_bound, dtype=float),
-                     np.zeros((0, n)) if starts is None else np.atleast_2d(starts), max(start_level, 1.0), scale2)
+                     np.zeros((0, n)) if starts is None else np.atleast_2d(starts), max(start_level, 1.0), scale2,
+                     scale_unit)
         if scale2 is not None and beta_cap is not None:
             problem.add_lmi(scalars=[(beta, -one)], const=float(beta_cap) * one, name="beta <= cap")
             problem.minimize({scale2: 1.0})
@@ -213,8 +219,9 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
 
 
 def _hold_inputs(problem: LMIProblem, Q: Any, Y: Any, input_bound: Array, starts: Array, level: float,
-                 scale2: Any = None) -> None:
-    """``|k_i x| <= ū_i`` (``s ū_i`` with ``scale2`` = s²) on ``{xᵀQ⁻¹x <= level}``, which holds every start."""
+                 scale2: Any = None, scale_unit: float | None = None) -> None:
+    """``|k_i x| <= ū_i`` (``s ū_i`` with ``scale2`` = (s / scale_unit)²) on ``{xᵀQ⁻¹x <= level}``, which holds
+    every start."""
     m, n = input_bound.shape[0], starts.shape[1]
     size = 1 + n
     lower = np.eye(n, size, 1)  # x -> (0, x)
@@ -227,9 +234,9 @@ def _hold_inputs(problem: LMIProblem, Q: Any, Y: Any, input_bound: Array, starts
         if scale2 is None:
             problem.add_lmi(terms=[(Y, U, lower), (Q, 0.5 * lower, lower)], const=const, name="inputs")
         else:
-            # s² ū_i²/γ as scale2 · ū_i²/max ū²: the same problem whatever the bounds' size and γ
+            unit2 = 1.0 / const[:, 0, 0].max() if scale_unit is None else float(scale_unit) ** 2
             problem.add_lmi(terms=[(Y, U, lower), (Q, 0.5 * lower, lower)],
-                            scalars=[(scale2, const / const[:, 0, 0].max())], name="inputs")
+                            scalars=[(scale2, const * unit2)], name="inputs")
     if len(starts):
         const = np.zeros((len(starts), size, size))
         const[:, 0, 0] = level
@@ -324,11 +331,12 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
     nothing: tuple[float, Array | None, Array | None, Array | None, Array, float] = (
         math.inf, None, None, None, np.full(p, math.inf), math.nan)
 
-    def synthesize(level: float | None,
-                   cap: float | None = None) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
+    def synthesize(level: float | None, cap: float | None = None,
+                   unit: float | None = None) -> tuple[float, Array | None, Array | None, Array | None, Array, float]:
         def solve(active: NDArray[np.int64]) -> tuple[str, tuple[Array, Array, Array] | None]:
             problem, var = tracking_synthesis_problem(A[active], B[active], Bw[active], w, C, alpha, kappa,
-                                                      None if level is None else input_bound, X0, level or 1.0, cap)
+                                                      None if level is None else input_bound, X0, level or 1.0, cap,
+                                                      unit)
             result = solve_lmi(problem, solver)
             if result.y is None or result.status not in ("optimal", "optimal_inaccurate"):
                 return result.status, None
@@ -359,18 +367,22 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
     free = synthesize(None)
     if input_bound is None or requirement is None:
         return free
-    _, _, P, _, _, _ = free
+    _, K, P, mu, _, alpha_v = free
     level = math.exp(min(alpha * T, START_DECAY_CAP))
     if P is not None and len(X0):
         level = min(level, max(1.0, float(np.einsum("ki,ij,kj->k", X0, P, X0).max())))
     decay = math.exp(-alpha * T)
     cap = (1.0 - CAP_MARGIN) * requirement**2 / max(1.0, decay * level + 1.0 - decay)
-    value, K, P, mu, bound, alpha_v = synthesize(level, cap)
+    finite = np.isfinite(input_bound)
+    unit = None  # the scale the gain without the bounds needs: the held optimum's order
+    if K is not None and P is not None and mu is not None:
+        unit = float(np.max(input_peaks(K, P, level)[finite] / input_bound[finite]))
+        unit = unit if math.isfinite(unit) and unit > 0 else None
+    value, K, P, mu, bound, alpha_v = synthesize(level, cap, unit)
     if K is None or P is None or mu is None or not value <= requirement:
         return nothing
     v0 = float(np.einsum("ki,ij,kj->k", X0, P, X0).max()) if len(X0) else 0.0
     peaks = input_peaks(K, P, max(v0, float(np.sum(mu)) / alpha_v))
-    finite = np.isfinite(input_bound)
     return float(np.max(peaks[finite] / input_bound[finite])), K, P, mu, bound, alpha_v
 
 
