@@ -58,6 +58,8 @@ FIRST_ACTIVE = 12
 KAPPA_RTOL = 0.05
 #: Syntheses at one κ with gain-dependent channels, each from the last one's gain.
 CHANNEL_ITERATIONS = 3
+#: The factor (at most) by which the held synthesis's error cap shrinks where the gain's own channels exceed it.
+CHANNEL_SHRINK = 0.95
 #: The largest αT of the initial states' level ``γ <= e^{αT}`` where the inputs are held.
 START_DECAY_CAP = 14.0
 #: The room left below the requirement when the smallest input scale is sought (numpy's check inflates μ).
@@ -448,18 +450,21 @@ def _input_scale(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T
 
     One synthesis per α of `alphas`, in turn, until s <= 1 (:func:`_candidate` with the
     requirement), with channels from the last gain where they depend on it; numpy verifies
-    the bound and the inputs with the gain's own channels and initial states.
+    the bound and the inputs with the gain's own channels and initial states. The error is
+    capped at the requirement; where the gain's own channels then exceed it (the cap leaves
+    no room for their change), the next synthesis's cap is smaller by the ratio they
+    exceeded it (by :data:`CHANNEL_SHRINK` where they prove no bound).
     """
     best: tuple[float, TrackingGain | None] = (math.inf, None)
     hint: list[NDArray[np.int64]] = []
     for alpha in alphas:
-        reference = K_ref
+        reference, target = K_ref, requirement
         for _ in range(CHANNEL_ITERATIONS if channels is not None else 1):
             given = (Bw, w, X0) if channels is None else channels(reference)
             if given is None:
                 break
             scale, K, P, mu, bound, alpha_v = _candidate(A, B, given[0], given[1], C, given[2], T, float(alpha),
-                                                         kappa, solver, hint, input_bound, requirement)
+                                                         kappa, solver, hint, input_bound, target)
             if K is None or P is None or mu is None:
                 break
             own = given if channels is None else channels(K)
@@ -473,6 +478,8 @@ def _input_scale(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T
                     if scale < best[0]:
                         best = (scale, TrackingGain(kappa, float(bound.max()), bound, K, P, mu, alpha_v))
                     break
+                proved = np.all(np.isfinite(bound))
+                target *= min(requirement / float(bound.max()), CHANNEL_SHRINK) if proved else CHANNEL_SHRINK
             reference = K
         if best[0] <= 1.0:
             break
