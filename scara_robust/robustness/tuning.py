@@ -322,7 +322,8 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
     (inf, None, None, None where there is none). `hint` (a one-element list) holds the plants
     the last synthesis ended on: this one starts from them and leaves its own.
 
-    With `input_bound` and `requirement`, a second synthesis keeps the bound within the
+    With `input_bound` and `requirement`, where the first found a gain, a second synthesis
+    (in the unit of the first gain's scale: an optimum of order one) keeps the bound within the
     requirement and minimizes a common scale s of the input bounds on the level γ of the
     initial states in the first (between 1 and ``e^{αT}``, where they have decayed to the
     ultimate level by T; :func:`tracking_synthesis_problem`): the first value returned is
@@ -370,17 +371,16 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
     if input_bound is None or requirement is None:
         return free
     _, K, P, mu, _, alpha_v = free
+    if K is None or P is None or mu is None:
+        return nothing  # the held synthesis only adds constraints to the one that found no gain
     level = math.exp(min(alpha * T, START_DECAY_CAP))
-    if P is not None and len(X0):
+    if len(X0):
         level = min(level, max(1.0, float(np.einsum("ki,ij,kj->k", X0, P, X0).max())))
     decay = math.exp(-alpha * T)
     cap = (1.0 - CAP_MARGIN) * requirement**2 / max(1.0, decay * level + 1.0 - decay)
     finite = np.isfinite(input_bound)
-    unit = None  # the scale the gain without the bounds needs: the held optimum's order
-    if K is not None and P is not None and mu is not None:
-        unit = float(np.max(input_peaks(K, P, level)[finite] / input_bound[finite]))
-        unit = unit if math.isfinite(unit) and unit > 0 else None
-    value, K, P, mu, bound, alpha_v = synthesize(level, cap, unit)
+    unit = float(np.max(input_peaks(K, P, level)[finite] / input_bound[finite]))  # the held optimum's order
+    value, K, P, mu, bound, alpha_v = synthesize(level, cap, unit if math.isfinite(unit) and unit > 0 else None)
     if K is None or P is None or mu is None or not value <= requirement:
         return nothing
     v0 = float(np.einsum("ki,ij,kj->k", X0, P, X0).max()) if len(X0) else 0.0
