@@ -171,9 +171,10 @@ def tracking_synthesis_problem(A: Array, B: Array, Bw: Array, w_bound: Array, C:
         bounds an ellipsoid this small holds (the variable ``'scale2'``: ``(s / scale_unit)²``).
     scale_unit : float, optional
         The unit of s in ``'scale2'`` (> 0): the scale a known gain needs (the one without the
-        bounds), so that the optimum is of order one (an interior-point method converges in
-        fewer iterations than with an optimum of 1e5 there). Default:
-        ``√(γ / max_i ū_i²)``, the same problem whatever the bounds' size and γ.
+        bounds), so that the optimum is not far from one (on the Panda's problems 0.02–0.04,
+        where the default unit puts it at 1e5 and the interior-point method runs out of its
+        100 iterations). Default: ``√(γ / max_i ū_i²)``, the same problem whatever the bounds'
+        size and γ.
 
     Returns
     -------
@@ -323,7 +324,7 @@ def _candidate(A: Array, B: Array, Bw: Array, w: Array, C: Array, X0: Array, T: 
     the last synthesis ended on: this one starts from them and leaves its own.
 
     With `input_bound` and `requirement`, where the first found a gain, a second synthesis
-    (in the unit of the first gain's scale: an optimum of order one) keeps the bound within the
+    (s in the unit of the first gain's scale, :func:`tracking_synthesis_problem`) keeps the bound within the
     requirement and minimizes a common scale s of the input bounds on the level γ of the
     initial states in the first (between 1 and ``e^{αT}``, where they have decayed to the
     ultimate level by T; :func:`tracking_synthesis_problem`): the first value returned is
