@@ -264,6 +264,34 @@ def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_ne
         sr.tune_gain((A, B), Bw, w, C, 0.05, input_bound=[1.0, 0.0])
 
 
+def test_the_largest_gain_within_the_limits_is_sought_above_the_gain_bounds_that_find_none():
+    """Below κ = 100 no gain exists, up to 300 the gains pass, above they fail: the search ends between 285 and 300
+    whether it starts from κ = 1 or from 50 (a κ with no gain is below every one that passes)."""
+    from scara_robust.robustness.tuning import KAPPA_RTOL, TrackingGain, _largest_within
+
+    tried = []
+
+    def at(kappa):
+        tried.append(kappa)
+        if kappa < 100:
+            return TrackingGain(kappa, math.inf, np.full(1, math.inf), None, None, None, math.nan)
+        value = 10.0 / kappa  # a larger gain bound: a smaller error bound
+        return TrackingGain(kappa, value, np.full(1, value), np.eye(1) * kappa, np.eye(1), np.ones(1), 1.0)
+
+    def result(answer, best, status, binding):
+        return answer, best, status, binding
+
+    answer = at(835.0)
+    for low in (1.0, 50.0):
+        found, best, status, binding = _largest_within(answer, "torque_limit", at, lambda g: g.kappa <= 300, low, 0.01,
+                                                       result)
+        assert 300 / (1 + KAPPA_RTOL) <= found.kappa <= 300 and best == pytest.approx(10.0 / found.kappa)
+        assert status == "requirement not met" and binding == "torque_limit"
+    # with no gain passing anywhere, nothing is returned as within
+    found, best, status, _ = _largest_within(answer, "torque_limit", at, lambda g: False, 1.0, 0.01, result)
+    assert best == math.inf and found is answer and status == "requirement not met"
+
+
 @pytest.fixture(scope="module")
 def scara_report():
     system = sr.open_system("scara", command="tune")

@@ -685,13 +685,17 @@ def tune_gain(
 def _largest_within(answer: TrackingGain, failed: str, at: Callable[[float], TrackingGain],
                     passes: Callable[[TrackingGain], bool], low: float, requirement: float,
                     result: Callable[[TrackingGain, float, str, str], GainTuning]) -> GainTuning:
-    """The others fail at the smallest gain that meets the bound: the largest gain below it they allow."""
+    """The others fail at the smallest gain that meets the bound: the largest gain below it they allow.
+
+    A gain bound at which no gain is found at all is below every one that passes (a larger κ
+    never does worse), so the search moves up from it as from one that passes.
+    """
     high, best = answer.kappa, None
     while high / low > 1 + KAPPA_RTOL:
         mid = math.sqrt(low * high)
         found = at(mid)
-        if found.K is not None and passes(found):
-            low, best = mid, found
+        if found.K is None or passes(found):
+            low, best = mid, (found if found.K is not None else best)
         else:
             high = mid
     if best is None:
