@@ -252,7 +252,7 @@ def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_ne
     tight = np.array([0.8 * p[0], 0.5 * p[1]])
     short = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=tight)
     assert not short.certified and short.binding == "input_bound" and short.input_scale > 1
-    assert f"with {short.input_scale:.3g} times the input bounds" in short.message
+    assert f"with {short.input_scale:.4g} times the input bounds" in short.message
     assert f"reachable within them is {short.best_reachable:.4g}" in short.message
     assert np.all(_peaks(short, X0) <= tight) and short.best_reachable > 0.05
     check = sr.tracking_bound(A - B @ short.K, Bw, w, C, initial_states=X0, settling_time=T)

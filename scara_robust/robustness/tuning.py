@@ -136,7 +136,7 @@ class GainTuning(AnalysisResult):
         if not math.isnan(self.input_scale) and self.input_scale > 1:
             reach = (f"the best certified bound reachable within them is {self.best_reachable:.4g}"
                      if math.isfinite(self.best_reachable) else "no gain tried is certified within them")
-            return f"{head}; {reach}; a gain meets it with {self.input_scale:.3g} times the input bounds"
+            return f"{head}; {reach}; a gain meets it with {self.input_scale:.4g} times the input bounds"
         if math.isinf(self.best_reachable) and np.all(np.isfinite(self.bound)):
             return (f"{head}; no gain tried passes it (the smallest that meets the error bound, "
                     f"{self.bound.max():.4g}, does not)")
