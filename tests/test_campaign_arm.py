@@ -154,11 +154,11 @@ def test_killed_process_resumes_to_the_same_table(straight, files, tmp_path):
     pd.testing.assert_frame_equal(cp.read_results(out), table)
 
 
-@pytest.mark.parametrize("runs", [6, pytest.param(20, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("runs", [3, pytest.param(20, marks=pytest.mark.slow)])
 def test_compiled_statistics_agree_with_lsoda_on_a_campaign(files, tmp_path, runs):
     """The campaign's statistics on the compiled engine equal those of LSODA on Pinocchio's ABA.
 
-    6 scenarios in ``make test``; the 20 of the campaign's example in ``make test-slow``.
+    3 scenarios in ``make test``; the 20 of the campaign's example in ``make test-slow``.
     """
     spec_file, robot = files
     spec = arm_campaign_spec(cp.load_spec(spec_file), robot)

@@ -198,9 +198,16 @@ SCARA_SLOW = ("certify --rho 3 --eta 90 --robot examples/robot-light.toml", "cer
               "campaign examples/campaign-arm6.toml", "campaign-report arm6.parquet")
 
 
+#: The scheduled guide's schedule of the plant file (synthesized, then certified, simulated, exported, compared
+#: and margined from its file, 15 to 25 s each): tests/test_scheduled.py synthesizes, certifies, compares,
+#: simulates and exports schedules at test sizes; the guide's own block runs in `make test-slow`.
+SCHEDULE_SLOW = ("arm-schedule.json", "fastest-schedule.json")
+
+
 def _command_param(page: str, line: str) -> object:
     words = shlex.split(line)
-    slow = (ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
+    slow = ((ARM_FILE in words and words[3] in ARM_SLOW) or " ".join(words[3:]).startswith(SCARA_SLOW)
+            or any(w in SCHEDULE_SLOW for w in words))
     marks = ([pytest.mark.slow] if slow else []) + ([pytest.mark.board] if "--target" in words else [])
     if any(w.endswith(("robot-panda.toml", "robot-ur5.toml")) for w in words):  # example-robot-data's URDFs
         marks.append(pytest.mark.robot_data)

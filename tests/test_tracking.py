@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -226,14 +227,17 @@ def test_the_input_lmi_is_the_largest_input_on_the_level_set():
 def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_needs_is_named():
     A, B, Bw, w, C, X0 = _two_double_integrators()
     T = 3.0
-    free = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T)
+    # the gain bounds searched: every answer below lies within them (κ = 53 to 170)
+    tune = functools.partial(sr.tune_gain, (A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T,
+                             kappa_range=(10.0, 1e3))
+    free = tune()
     assert free.certified and math.isnan(free.input_scale)
     p = _peaks(free, X0)
-    loose = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=2 * p)
+    loose = tune(input_bound=2 * p)
     assert loose.certified and loose.kappa == pytest.approx(free.kappa)  # a bound that does not bind changes nothing
     # input 2 limited to half of what the smallest gain needs: the synthesis that holds it meets the requirement
     bound = np.array([1e3, 0.5 * p[1]])
-    met = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=bound)
+    met = tune(input_bound=bound)
     assert met.certified and met.input_scale <= 1
     assert np.all(_peaks(met, X0) <= bound) and np.max(_peaks(met, X0) / bound) == pytest.approx(met.input_scale)
     check = sr.tracking_bound(A - B @ met.K, Bw, w, C, initial_states=X0, settling_time=T)  # numpy's own P
@@ -250,7 +254,7 @@ def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_ne
     # both inputs limited: not met; what binds is named with the scale a gain would need, and the gain returned is
     # the largest within them, with the best bound reachable
     tight = np.array([0.8 * p[0], 0.5 * p[1]])
-    short = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=tight)
+    short = tune(input_bound=tight)
     assert not short.certified and short.binding == "input_bound" and short.input_scale > 1
     assert f"with {short.input_scale:.4g} times the input bounds" in short.message
     assert f"reachable within them is {short.best_reachable:.4g}" in short.message
@@ -258,7 +262,7 @@ def test_an_input_bound_is_met_by_the_synthesis_that_holds_it_or_the_scale_it_ne
     check = sr.tracking_bound(A - B @ short.K, Bw, w, C, initial_states=X0, settling_time=T)
     assert check.certified and 0.05 < check.worst <= short.best_reachable * (1 + 1e-6)
     # the same limits halved: the same problem, twice the scale
-    halved = sr.tune_gain((A, B), Bw, w, C, 0.05, initial_states=X0, settling_time=T, input_bound=tight / 2)
+    halved = tune(input_bound=tight / 2)
     assert halved.input_scale == pytest.approx(2 * short.input_scale, rel=1e-6)
     with pytest.raises(sr.ArgumentValueError, match="input_bound"):
         sr.tune_gain((A, B), Bw, w, C, 0.05, input_bound=[1.0, 0.0])
