@@ -48,13 +48,15 @@ def _distribution(name: str) -> bool:
 #: (``--no-loadscope-reorder``), so each of its two processes takes one of the long files at
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
 #: Measured per file (a 2-core machine, seconds of one process): the guides' commands 150, the site's build
-#: 105, tuning 215 (its compiled-engine search after the first minute, once numba's cache is warm),
-#: schedules 155, then 40 to 70 each.
-LONGEST_FILES = ("test_readme.py", "test_site.py", "test_tracking.py", "test_scheduled.py", "test_lint.py",
-                 "test_board.py", "test_app.py", "test_controller_ts.py", "test_ros2.py", "test_campaign_arm.py",
-                 "test_one_answer.py", "test_joint_limits.py", "test_app_schedule.py", "test_deploy.py",
-                 "test_simulation.py", "test_jitter.py", "test_compiled.py", "test_campaign.py", "test_synthesis.py",
-                 "test_arm.py", "test_notebooks.py", "test_robust_certificates.py", "test_plant_type.py")
+#: 140, tuning 215, schedules 155, then 40 to 70 each. The files that run the compiled engine (tuning's
+#: search, the schedules' arm runs) start after the first three minutes, once the background compile has
+#: written numba's cache: started first, a process compiles the kernels itself (100 s more, measured).
+LONGEST_FILES = ("test_readme.py", "test_site.py", "test_lint.py", "test_board.py", "test_app.py",
+                 "test_controller_ts.py", "test_ros2.py", "test_tracking.py", "test_scheduled.py",
+                 "test_campaign_arm.py", "test_one_answer.py", "test_joint_limits.py", "test_app_schedule.py",
+                 "test_deploy.py", "test_simulation.py", "test_jitter.py", "test_compiled.py", "test_campaign.py",
+                 "test_synthesis.py", "test_arm.py", "test_notebooks.py", "test_robust_certificates.py",
+                 "test_plant_type.py")
 
 
 def pytest_configure(config):
