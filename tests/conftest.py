@@ -48,9 +48,9 @@ def _distribution(name: str) -> bool:
 #: (``--no-loadscope-reorder``), so each of its two processes takes one of the long files at
 #: the start and the short ones fill in, instead of a long file starting last and running alone.
 #: Measured per file (a 2-core machine, seconds of one process): the guides' commands 150, the site's build
-#: 140, tuning 215, schedules 155, then 40 to 70 each. The files that run the compiled engine (tuning's
-#: search, the schedules' arm runs) start after the first three minutes, once the background compile has
-#: written numba's cache: started first, a process compiles the kernels itself (100 s more, measured).
+#: 140, tuning 215, schedules 155, then 40 to 70 each. Tuning's search runs the SCARA's compiled engine,
+#: so it starts after the first minutes, once the background compile has written numba's cache. The arm's
+#: kernels are not in that warm-up: the first test that runs them compiles them (about 2 min, measured).
 LONGEST_FILES = ("test_readme.py", "test_site.py", "test_lint.py", "test_board.py", "test_app.py",
                  "test_controller_ts.py", "test_ros2.py", "test_tracking.py", "test_scheduled.py",
                  "test_campaign_arm.py", "test_one_answer.py", "test_joint_limits.py", "test_app_schedule.py",
