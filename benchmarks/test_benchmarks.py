@@ -400,6 +400,31 @@ def test_arm6_sampled_lmi_solve(benchmark, arm6_file_setup, solver):
 
 
 @pytest.fixture(scope="module")
+def scara_tracking_lmi():
+    """The tracking synthesis LMI of `tune` on the SCARA: 30 sampled plants, α = 1/s, κ = 1000 N·m/rad."""
+    samples = sr.scara_perturbed_samples(times=np.linspace(0.0, 2 * np.pi, 10), n_masses=3)
+    C = np.zeros((2, 6))
+    C[:, 2:4] = np.eye(2)
+    problem, _ = sr.tracking_synthesis_problem(samples.A, samples.B, samples.disturbance, samples.w_bound, C, 1.0,
+                                               1e3)
+    return problem
+
+
+@pytest.mark.parametrize("maps", ["stacked", "terms"])
+def test_small_lmi_solve(benchmark, scara_tracking_lmi, maps, monkeypatch):
+    """One interior-point solve of a small LMI with the linear map stacked per block size (the default below
+    ``DENSE_ENTRIES``) against the same solver applying it term by term, in the same run."""
+    import scara_robust.sdp.ipm as ipm
+
+    benchmark.group = "LMI solver: SCARA tracking synthesis (6 states, 30 plants), one solve"
+    if maps == "terms":
+        monkeypatch.setattr(ipm, "DENSE_ENTRIES", 0)
+    result = benchmark(ipm.solve_ipm, scara_tracking_lmi)
+    benchmark.extra_info.update(iterations=result.iterations, objective=result.objective, maps=maps)
+    assert result.status == "optimal"
+
+
+@pytest.fixture(scope="module")
 def board_pids():
     """The SCARA's PID at (3, 90) with an 8 N·m limit and the 6-joint arm's at (1000, 3), both at Ts = 1 ms."""
     import os

@@ -72,6 +72,72 @@ def test_adjoint_is_the_transpose_of_the_linear_map():
     assert lhs == pytest.approx(float(y @ pb.adjoint(Z)), rel=1e-12)
 
 
+def test_the_stacked_map_is_the_problem_s_map_grouped_by_block_size():
+    """The dense maps of the families stacked by block size give the same blocks, adjoint and
+    Schur complement as the terms, per family once split back."""
+    from scara_robust.sdp._stacked import StackedProblem
+
+    rng = np.random.default_rng(4)
+    pb = _every_kind(rng)
+    pb.add_lmi(terms=[(pb.variables[0], 0.5 * np.eye(4), np.eye(4))], scalars=[(pb.variables[-1], -np.eye(4))])
+    stacked = StackedProblem(pb)
+    assert sorted(g.size for g in stacked.families) == [1, 4, 6]  # the two families of size 4 in one group
+    y = rng.normal(size=pb.n_free)
+    for grouped, own in ((stacked.split(stacked.blocks(y)), pb.blocks(y)),
+                         (stacked.split(stacked.blocks(y, constant=False)), pb.blocks(y, constant=False))):
+        for a, b in zip(grouped, own):
+            assert a.shape == b.shape and np.abs(a - b).max() <= 1e-12 * max(1.0, np.abs(b).max())
+    W = _random_w(pb, rng)
+    grouped_w = [np.concatenate([W[i] for i, _, _ in g.members]) for g in stacked.families]
+    assert [w.shape for w in stacked.split(grouped_w)] == [w.shape for w in W]
+    assert np.abs(stacked.adjoint(grouped_w) - pb.adjoint(W)).max() <= 1e-12 * np.abs(pb.adjoint(W)).max()
+    D = dense_schur(pb, W)
+    assert np.abs(stacked.schur(grouped_w) - D).max() <= 1e-12 * np.abs(D).max()
+
+
+@pytest.mark.parametrize("kind", ["optimal", "infeasible"])
+def test_the_solver_gives_the_same_answer_stacked_or_term_by_term(kind, monkeypatch):
+    """Below :data:`DENSE_ENTRIES` the solver runs on the stacked maps; its answer and its dual
+    blocks (per family, a Farkas certificate where infeasible) are those of the terms' maps."""
+    import scara_robust.sdp.ipm as ipm
+
+    if kind == "optimal":
+        pb, _, _ = common_p_problem(_scara_loops(0.2))
+    else:
+        pb, _ = tracking_synthesis_problem(np.array([[[1.0]]]), np.zeros((1, 1, 1)), np.ones((1, 1, 1)),
+                                           np.ones(1), np.eye(1), 1.0, 1.0)
+    assert 0 < ipm.StackedProblem.entries(pb) <= ipm.DENSE_ENTRIES
+    stacked = ipm.solve_ipm(pb)
+    monkeypatch.setattr(ipm, "DENSE_ENTRIES", 0)
+    terms = ipm.solve_ipm(pb)
+    assert stacked.status == terms.status == kind
+    assert [z.shape for z in stacked.duals] == [z.shape for z in terms.duals] == [f.const.shape for f in pb.families]
+    if kind == "optimal":
+        assert stacked.objective == pytest.approx(terms.objective, rel=1e-8)
+    else:
+        for duals in (stacked.duals, terms.duals):  # F*(Z) ≈ 0 and ⟨C, Z⟩ = −1: numpy's Farkas check
+            assert np.linalg.norm(pb.adjoint(duals)) <= 1e-7
+            assert sum(float(np.vdot(f.const, z)) for f, z in zip(pb.families, duals)) == pytest.approx(-1.0)
+
+
+def test_an_unbounded_problem_is_reported_unbounded():
+    """A ray (the objective growing on iterates whose blocks hold) is 'unbounded' with no y; a bounded
+    problem is not, whatever the size of y on the way (the rule is on the objective, not on y)."""
+    pb = LMIProblem()
+    t = pb.scalar("t")
+    pb.add_lmi(scalars=[(t, np.ones((1, 1)))])                                     # t >= 0
+    pb.maximize({t: 1.0})
+    ray = solve(pb, "IPM")
+    assert ray.status == "unbounded" and ray.y is None
+    pb = LMIProblem()
+    P, t = pb.symmetric("P", 2), pb.scalar("t")
+    pb.add_lmi(terms=[(P, 0.5 * np.eye(2), np.eye(2))], scalars=[(t, -np.eye(2))])  # P >= tI, P free above
+    pb.maximize({t: 1.0})
+    assert solve(pb, "IPM").status == "unbounded"
+    pb.add_lmi(terms=[(P, -0.5 * np.eye(2), np.eye(2))], const=np.eye(2))             # P <= I: t* = 1
+    assert solve(pb, "IPM").value(t) == pytest.approx(1.0, rel=1e-7)
+
+
 def _scara_loops(scale: float) -> np.ndarray:
     model = sr.paper_model()
     d = sr.design(model, 3, 90)

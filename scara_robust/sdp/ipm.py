@@ -16,6 +16,10 @@ Tütüncü, SIAM J. Optim. 8 (1998)). Each iteration:
    ``M Δy = F*(R_c − W R_d W) − r_p``, ``ΔS = F(Δy) + R_d``, ``ΔZ = R_c − W ΔS W``;
 4. steps to a fraction of the distance to the cone's boundary, separately in Z and (y, S).
 
+A small problem (at most :data:`~scara_robust.sdp._stacked.DENSE_ENTRIES` entries of its dense
+map) is solved on its blocks stacked by size, its map one dense matrix per size
+(:mod:`scara_robust.sdp._stacked`): the same iterates, with fewer Python-level calls.
+
 It stops on **absolute** and relative tests (:data:`TOLERANCE`): the residuals of both
 problems relative to their data and the gap ``Σ⟨Z_b, S_b⟩`` either relative to the objectives
 or below an absolute tolerance, so an optimal value of 1e-8 is resolved, not rounded to the
@@ -31,7 +35,7 @@ import functools
 import logging
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -39,6 +43,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..exceptions import ArgumentValueError
+from ._stacked import DENSE_ENTRIES, StackedProblem
 from .problem import LMIProblem, LMIVariable
 
 __all__ = ["LMIResult", "solve_ipm"]
@@ -67,6 +72,10 @@ STALL = 5
 #: A relative gap within which an iterate where rounding stops the progress is optimal (the
 #: objective to seven digits; Clarabel calls 5e-5 "almost solved").
 ROUNDING_GAP = 1e-7
+#: An objective above which an iterate whose blocks hold to :data:`FEASIBILITY` relative to it is a ray of an
+#: unbounded problem (the problems come scaled to entries of order one). Not the size of y: on the way to the
+#: optimum of a bounded problem (a 21-state arm's tracking synthesis) y passes 1e12 while the objective is -6e6.
+UNBOUNDED = 1e12
 #: Residuals within which an answer stopped early is ``'optimal_inaccurate'``.
 INACCURATE = 1e-6
 
@@ -120,15 +129,21 @@ def _inner(a: Sequence[Array], b: Sequence[Array]) -> float:
     return float(sum(np.vdot(x, y) for x, y in zip(a, b)))
 
 
-def _step(v: Sequence[Array], scaled: Sequence[Array]) -> float:
-    """Largest α <= ∞ with diag(v) + α D ⪰ 0 over every block, D a scaled direction (v > 0)."""
-    alpha = math.inf
-    for vf, D in zip(v, scaled):
+def _steps(v: Sequence[Array], dZ: Sequence[Array], dS: Sequence[Array]) -> tuple[float, float]:
+    """Largest αz, αs <= ∞ with diag(v) + α D ⪰ 0 over every block, D the scaled ΔZ and ΔS (v > 0).
+
+    Both directions of a family in one call of ``eigvalsh`` (the blocks stacked).
+    """
+    alphas = [math.inf, math.inf]
+    for vf, Z, S in zip(v, dZ, dS):
         root = 1.0 / np.sqrt(vf)
-        low = float(np.linalg.eigvalsh(_sym(D * root[:, :, None] * root[:, None, :]))[:, 0].min())
-        if low < 0:
-            alpha = min(alpha, -1.0 / low)
-    return alpha
+        scale = root[:, :, None] * root[:, None, :]
+        low = np.linalg.eigvalsh(_sym(np.concatenate([Z * scale, S * scale])))[:, 0]
+        for k, part in enumerate((low[:len(vf)], low[len(vf):])):
+            worst = float(part.min())
+            if worst < 0:
+                alphas[k] = min(alphas[k], -1.0 / worst)
+    return alphas[0], alphas[1]
 
 
 def _nt_scaling(Z: Sequence[Array], S: Sequence[Array]) -> tuple[list[Array], list[Array], list[Array]]:
@@ -177,18 +192,22 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
     6-joint arm's sampled-data LMI: 1.7 s on one thread, 4.0 s on two).
     """
     with _blas().limit(limits=1, user_api="blas"):
-        return _solve(problem, accept, tolerance, max_iterations)
+        if StackedProblem.entries(problem) > DENSE_ENTRIES:
+            return _solve(problem, accept, tolerance, max_iterations)
+        stacked = StackedProblem(problem)
+        result = _solve(stacked, accept, tolerance, max_iterations)
+        return result if result.duals is None else replace(result, duals=stacked.split(result.duals))
 
 
-def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, tolerance: float,
+def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool] | None, tolerance: float,
            max_iterations: int) -> LMIResult:
     fams = problem.families
     b = problem.b()
     C = [f.const for f in fams]
     dims = sum(f.count * f.size for f in fams)
+    norm_C = math.sqrt(_inner(C, C))
     diag = np.sqrt(np.maximum(np.diag(problem.schur([np.broadcast_to(np.eye(f.size), f.const.shape) for f in fams])),
                               0.0))
-    norm_C = math.sqrt(_inner(C, C))
     zeta = max(1.0, float(np.max((1.0 + np.abs(b)) / (1.0 + diag))) * math.sqrt(max(f.size for f in fams)))
     xi = max(1.0, float(diag.max()), norm_C / math.sqrt(dims))
     Z = [np.broadcast_to(zeta * np.eye(f.size), f.const.shape).copy() for f in fams]
@@ -216,7 +235,8 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
             farkas = float(np.linalg.norm(problem.adjoint(Z))) / -obj_z
             if farkas < tolerance:
                 return LMIResult("infeasible", None, [Zf / -obj_z for Zf in Z], math.nan, gap, it)
-        if float(np.linalg.norm(y)) > 1e12:
+        if obj_y > UNBOUNDED and math.sqrt(_inner(Rd, Rd)) <= FEASIBILITY * obj_y:
+            # a ray: the objective grows without bound on iterates whose blocks hold relative to it
             return LMIResult("unbounded", None, None, math.nan, gap, it)
         gaps.append(gap)
         if rel_p < INACCURATE and rel_d < INACCURATE and rel_gap < INACCURATE and (best is None or gap < best.gap):
@@ -249,8 +269,7 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
         # second-order term come from G⁻¹ΔZG⁻ᵀ and GᵀΔSG
         dZt = [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)]
         dSt = [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]
-        ap = min(1.0, _step(v, dZt))
-        ad = min(1.0, _step(v, dSt))
+        ap, ad = (min(1.0, a) for a in _steps(v, dZt, dSt))
         mu_aff = _inner([Zf + ap * d for Zf, d in zip(Z, dZ)], [Sf + ad * d for Sf, d in zip(S, dS)]) / dims
         sigma = min(1.0, (max(mu_aff, 0.0) / mu) ** max(1.0, 3.0 * min(ap, ad) ** 2)) if mu > 0 else 0.0
         Rc = []
@@ -261,8 +280,8 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
             H = 2.0 * R / (vf[:, :, None] + vf[:, None, :])
             Rc.append(_sym(g @ H @ np.swapaxes(g, 1, 2)))
         dy, dS, dZ = system.direction(Rc)
-        ap = min(1.0, gamma * _step(v, [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)]))
-        ad = min(1.0, gamma * _step(v, [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]))
+        ap, ad = (min(1.0, gamma * a) for a in _steps(v, [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)],
+                                                       [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]))
         if max(ap, ad) < 1e-10:
             status = "solver error: the steps vanished"
             break
@@ -287,7 +306,7 @@ def _solve(problem: LMIProblem, accept: Callable[[Array], bool] | None, toleranc
 class _Newton:
     """The Newton system of one iteration: ``M Δy = F*(R_c − W R_d W) − r_p``, then ΔS and ΔZ."""
 
-    problem: LMIProblem
+    problem: LMIProblem | StackedProblem
     W: list[Array]
     Rd: list[Array]
     rp: Array
