@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -583,7 +584,16 @@ def test_the_integral_form_refuses_what_it_cannot_absorb():
     samples = sr.PerturbedSamples(A0[None], B0[None], np.array([[[0.0], [0.0], [1.0]]]), np.array([1.0]),
                                   ("fbar",), ("rad/s²",), "one joint", drift)
     assert samples.integral_form(K, np.zeros((1, 3))) is None
-    assert samples.integral_form(None, np.zeros((1, 3)))[1].size == 0  # no gain yet: the channels without it
+    # no gain yet: the channels without the drift; with none left (or only a zero disturbance, at the floor of
+    # 1e-12), the drift by its size, so that a first synthesis has a perturbation to size its ellipsoid by
+    Bw, w, _ = samples.integral_form(None, np.zeros((1, 3)))
+    assert w.tolist() == [1.0] and np.array_equal(Bw, samples.disturbance)
+    second = sr.IntegralDrift((1,), drift.rate, drift.initial, drift.torque, "test")
+    two = sr.PerturbedSamples(A0[None], B0[None], np.array([[[0.0, 0.0], [0.0, 0.0], [1.0, 1.0]]]),
+                              np.array([1e-12, 5.0]), ("T_d", "fbar"), ("N·m", "rad/s²"), "one joint", second)
+    assert two.integral_form(None, np.zeros((1, 3)))[1].tolist() == [1e-12, 5.0]
+    with_disturbance = replace(two, w_bound=np.array([0.5, 5.0]))
+    assert with_disturbance.integral_form(None, np.zeros((1, 3)))[1].tolist() == [0.5]
     A1 = A0.copy()
     A1[2, 0] = 1.0  # a plant whose ∫e enters its dynamics: the shift is no longer exact
     assert sr.PerturbedSamples(A1[None], B0[None], samples.disturbance, samples.w_bound, samples.channels,

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..exceptions import ArgumentValueError
-from .perturbation import IntegralDrift, PerturbedSamples
+from .perturbation import NEGLIGIBLE_BOUND, IntegralDrift, PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant
 from .signals import SquareWave
 
@@ -1204,7 +1204,7 @@ def arm_perturbed_samples(setup: ArmSetup, *, disturbance: float | None = None,
     Bw = np.zeros((A.shape[0], 3 * n, 2 * n))
     Bw[:, :, :n] = B
     Bw[:, 2 * n:, n:] = np.eye(n)
-    w_bound = np.maximum(np.r_[d_bound, drift], 1e-12)
+    w_bound = np.maximum(np.r_[d_bound, drift], NEGLIGIBLE_BOUND)
     joints = arm.joints
     return PerturbedSamples(A, B, Bw, w_bound, tuple(f"T_d,{j}" for j in joints) + tuple(f"fbar,{j}" for j in joints),
                             ("N·m",) * n + ("rad/s²",) * n,

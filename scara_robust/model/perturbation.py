@@ -33,6 +33,10 @@ __all__ = ["PerturbedSamples", "IntegralDrift"]
 
 Array = NDArray[np.float64]
 
+#: The bound a channel with none (a zero disturbance) is given, so that every bound is > 0 as the LMIs
+#: take them; a channel at or below it perturbs nothing.
+NEGLIGIBLE_BOUND = 1e-12
+
 
 @dataclass(frozen=True)
 class IntegralDrift:
@@ -111,7 +115,11 @@ class PerturbedSamples:
         -------
         (disturbance (V, n_x, q), w_bound (q,), initial_states (k', n_x)) or None
             The drift's channels replaced by ``(K_I⁻¹, 0, 0)`` with bounds :attr:`IntegralDrift.rate`
-            and the initial states by ``x(0) + x_s(0)`` at each payload end; None without
+            and the initial states by ``x(0) + x_s(0)`` at each payload end (``K = None``: the
+            other channels alone, or, where every other bound is at most 1e-12, the floor a zero
+            bound is given (no disturbance), all the channels with the drift bounded by its size: a synthesis
+            with no perturbation at all shrinks its ellipsoid to a point and gives no gain to
+            start from); None without
             :attr:`integral`, when ``A``'s columns of ``∫e`` are not zero or when ``K_I`` is
             singular.
         """
@@ -125,6 +133,8 @@ class PerturbedSamples:
         Bw, w = self.disturbance[:, :, keep], self.w_bound[keep]
         X0 = np.atleast_2d(np.asarray(initial_states, dtype=float))
         if K is None:
+            if not np.any(w > NEGLIGIBLE_BOUND):  # nothing left without the drift: the drift by its size
+                return np.ascontiguousarray(self.disturbance), self.w_bound, X0
             return np.ascontiguousarray(Bw), w, X0
         KI = np.asarray(K, dtype=float)[:, :m]
         if np.linalg.cond(KI) > 1e12:

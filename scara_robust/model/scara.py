@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_array, check_choice, check_int, check_real
 from ..paper import PAPER_A_STAR, PAPER_B_STAR, PAPER_TABLE1, PAPER_TABLE2
-from .perturbation import IntegralDrift, PerturbedSamples
+from .perturbation import NEGLIGIBLE_BOUND, IntegralDrift, PerturbedSamples
 from .plant import Parameter, Signal, UncertainPlant, hull_of_stacks
 from .robot import (
     ConstantPayload,
@@ -327,8 +327,6 @@ def derived_model(
 
 #: (times over the samples' span, payloads) on which the drift's bound is taken.
 DRIFT_GRID = (3601, 21)
-#: The bound given to a channel that is zero on every sample (the LMI needs w̄ > 0).
-_TINY_BOUND = 1e-12
 
 
 def scara_perturbed_samples(
@@ -394,7 +392,7 @@ def scara_perturbed_samples(
     Bw = np.zeros((k, 6, 4))
     Bw[:, :, :2] = samples.B
     Bw[:, 4, 2] = Bw[:, 5, 3] = 1.0
-    w_bound = np.maximum(np.r_[bound, bound, f_bound], _TINY_BOUND)
+    w_bound = np.maximum(np.r_[bound, bound, f_bound], NEGLIGIBLE_BOUND)
     return PerturbedSamples(samples.A, samples.B, Bw, w_bound, ("T_d1", "T_d2", "fbar_1", "fbar_2"),
                             ("N·m", "N·m", "rad/s²", "rad/s²"),
                             f"{t.size} reference times x {masses.size} payloads, |T_d| <= {bound:g} N·m",
