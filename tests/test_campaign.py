@@ -125,6 +125,17 @@ def test_interrupted_and_resumed_equals_straight(straight, tmp_path):
     pd.testing.assert_frame_equal(cp.read_results(out), table)
 
 
+@pytest.mark.parametrize("digest", ["8869e4053699", "123456789012", "00000000001e"])
+def test_a_digest_that_reads_as_a_number_stays_the_spec_s_text(straight, tmp_path, digest):
+    """The spec column is the digest's 12 hexadecimal digits, whatever a number parser makes of them."""
+    _, table = straight
+    out = tmp_path / "r.csv"
+    table.assign(spec=digest).to_csv(out, index=False)
+    read = cp.read_results(out)
+    assert read["spec"].tolist() == [digest] * len(table)
+    pd.testing.assert_frame_equal(read.drop(columns="spec"), table.drop(columns="spec"))
+
+
 def test_killed_process_resumes_to_the_same_table(straight, tmp_path, tiny_spec):
     spec, table = straight
     out = tmp_path / "killed.csv"

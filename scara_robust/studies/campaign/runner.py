@@ -204,9 +204,11 @@ def read_results(path: str | os.PathLike[str]) -> pd.DataFrame:
         If the extension is not ``.csv`` or ``.parquet`` or the file is not a campaign table.
     """
     fmt = table_format("path", path)
-    frame = pd.read_csv(path, keep_default_na=False, na_values=["", "NaN", "nan"]) if fmt == "csv" else (
-        pd.read_parquet(path)
-    )
+    if fmt == "csv":
+        # the spec's digest is text: hexadecimal digits such as '8869e4053699' would read as a float (inf)
+        frame = pd.read_csv(path, keep_default_na=False, na_values=["", "NaN", "nan"], dtype={"spec": str})
+    else:
+        frame = pd.read_parquet(path)
     missing = {"scenario", "controller", "status", "success", "seed", "spec"} - set(frame.columns)
     if missing:
         found = f"{os.fspath(path)!r} is not a campaign table: missing columns {sorted(missing)}"
