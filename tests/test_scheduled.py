@@ -155,6 +155,37 @@ def test_a_search_starts_each_certificate_from_the_last_active_conditions(arm):
     assert check["max_eig"] < 0 and check["min_P_eig"] > 0
 
 
+def test_a_search_takes_a_known_certificate_as_its_first_test(arm, monkeypatch):
+    """certify computes the certificate at the plant's bounds first: the decay search's first test (α = 0) is it."""
+    import scara_robust.robustness.scheduled as scheduled
+
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    known = sr.schedule_certificate(arm, gain)
+    assert known.certified and known.decay == 0.0 and known.rate == 1.0 and known.measurement_error == 0.05
+    calls = []
+    counted = scheduled.schedule_certificate
+
+    def counting(*args, **kwargs):
+        calls.append(kwargs.get("decay", 0.0))
+        return counted(*args, **kwargs)
+
+    monkeypatch.setattr(scheduled, "schedule_certificate", counting)
+    alone = sr.schedule_decay(arm, gain, tol=0.1)
+    n_alone = len(calls)
+    calls.clear()
+    reused = sr.schedule_decay(arm, gain, tol=0.1, known=known)
+    assert reused[0] == alone[0] > 0 and len(calls) == n_alone - 1 and 0.0 not in calls
+    assert reused[1] is not None and reused[1].certified and reused[1].decay == reused[0]
+    # a certificate at another decay is not the first test; one that failed answers it
+    other = sr.schedule_certificate(arm, gain, decay=0.1)
+    calls.clear()
+    assert sr.schedule_decay(arm, gain, tol=0.1, known=other)[0] == sr.schedule_decay(arm, gain, tol=0.1)[0]
+    assert calls[0] == 0.0  # its first test was made, at α = 0
+    failed = dataclasses.replace(known, status="not verified")
+    calls.clear()
+    assert sr.schedule_decay(arm, gain, tol=0.1, known=failed) == (0.0, None) and not calls
+
+
 def test_measurement_error_is_covered_at_its_corners(arm):
     gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
     cert = sr.schedule_certificate(arm, gain, measurement_error=0.4, decay=0.2)

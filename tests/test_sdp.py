@@ -225,6 +225,27 @@ def _held_problem(unit: float | None):
 CORPUS = _corpus()
 
 
+@pytest.mark.parametrize("rate", [0.5, 0.0, np.inf])
+def test_the_scheduled_lmi_s_blocks_are_its_conditions(rate):
+    """Each block of schedule_lyapunov_problem at any y is −(AᵀP + PA + 2dP ± (ν/h)(P_{j+1} − P_j)) − tI,
+    P = (1 − s)P_j + sP_{j+1}, computed here from the matrices (its terms merged per variable)."""
+    rng = np.random.default_rng(4)
+    q = np.linspace(-1.0, 1.0, 9)
+    A = rng.normal(size=(q.size, 3, 3))
+    b = np.array([-1.0, 0.0, 1.0])
+    segment, weight = (q > 0).astype(np.int64), np.where(q > 0, q, q + 1.0)
+    sign = np.where(np.arange(q.size) % 2, 1.0, -1.0)
+    pb, P, t = schedule_lyapunov_problem(A, segment, weight, sign, b, rate, 0.3)
+    y = rng.normal(size=pb.n_free)
+    Pv = [P[0 if np.isinf(rate) else j].value(y) for j in range(b.size)]
+    blocks = np.concatenate([blk for blk in pb.blocks(y) if blk.shape[1] == 3])[-q.size:]
+    for i, (j, s, sg) in enumerate(zip(segment, weight, sign)):
+        Pi = (1.0 - s) * Pv[j] + s * Pv[j + 1]
+        slope = 0.0 if np.isinf(rate) else sg * rate / np.diff(b)[j] * (Pv[j + 1] - Pv[j])
+        want = -(A[i].T @ Pi + Pi @ A[i] + 0.6 * Pi + slope) - t.value(y) * np.eye(3)
+        np.testing.assert_allclose(blocks[i], want, rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.parametrize("name", list(CORPUS))
 def test_optimal_value_equals_clarabels(name):
     pytest.importorskip("cvxpy")

@@ -185,7 +185,8 @@ def run_schedule_riccati(args: argparse.Namespace, system: LoadedSystem) -> str:
         name = scheduled_parameter(plant, args.schedule)
         gain = schedule_riccati(plant, name, _breakpoints(args.breakpoints, plant, name), args.rho, args.eta)
         cert = schedule_certificate(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
-        decay, _ = schedule_decay(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error)
+        decay, _ = schedule_decay(plant, gain, rate=args.schedule_rate, measurement_error=args.measurement_error,
+                                  known=cert)
     except ArgumentError as err:
         raise _option_error(err) from err
     if cert.status == NOT_INSTALLED:
@@ -292,7 +293,7 @@ def _schedule_answers(args: argparse.Namespace, system: LoadedSystem, *, with_ce
             if with_certificate else None
         rate, _ = max_schedule_rate(plant, gain, measurement_error=error_bound)
         delta, _ = max_measurement_error(plant, gain, rate=rate_bound)
-        decay, _ = schedule_decay(plant, gain, rate=rate_bound, measurement_error=error_bound)
+        decay, _ = schedule_decay(plant, gain, rate=rate_bound, measurement_error=error_bound, known=cert)
     except ArgumentError as err:
         raise CommandLineError(f"`--design` {args.design!r}: {err}") from err
     if cert is not None and cert.status == NOT_INSTALLED:

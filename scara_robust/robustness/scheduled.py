@@ -429,10 +429,13 @@ def schedule_lyapunov_problem(A_s: Array, segment: NDArray[np.int64], weight: Ar
         if common:
             terms = [(Q[0], -np.broadcast_to(eye, V[at].shape), V[at])]
         else:
+            # the slope's terms ±(ν/h)(P_{j+1} − P_j) merged into the flow's: with U = cI, UᵀXV + VᵀXU
+            # is the term (X, I, cV), and two terms of one X with U = I are one (two Kronecker terms
+            # per condition instead of four: a quarter of the Schur complement's term pairs)
             k = (rate / h[j]) * sign[at] if rate > 0 else np.zeros_like(sign[at])
-            terms = [(Q[j], -(1.0 - weight[at]) * eye, V[at]), (Q[j + 1], -weight[at] * eye, V[at]),
-                     (Q[j + 1], -0.5 * k * eye, np.broadcast_to(eye, V[at].shape)),
-                     (Q[j], 0.5 * k * eye, np.broadcast_to(eye, V[at].shape))]
+            I = np.broadcast_to(eye, V[at].shape)
+            terms = [(Q[j], I, -(1.0 - weight[at]) * V[at] + 0.5 * k * eye),
+                     (Q[j + 1], I, -weight[at] * V[at] - 0.5 * k * eye)]
         problem.add_lmi(terms=terms, scalars=[(t, -eye)], name=f"segment {j}")
     problem.maximize({t: 1.0})
     return problem, Q, t
@@ -647,6 +650,22 @@ def schedule_sampled_certificate(plant: UncertainPlant, gain: ScheduledGain, Ts:
 RATE_PROBES = 8
 
 
+def _first_decay_test(plant: UncertainPlant, gain: ScheduledGain, known: ScheduleCertificate, *,
+              rate: float | None, measurement_error: float | None) -> bool:
+    """Whether `known` is the certificate of `gain` at these bounds (read as in schedule_certificate) and α = 0.
+
+    The decay search's first test is then already answered, certified or not (`known`
+    computed with the search's ``points``, ``refine`` and ``solver``).
+    """
+    if known.decay != 0.0:
+        return False
+    name = scheduled_parameter(plant, gain.parameter)
+    if known.parameter != name:
+        return False
+    nu, delta = plant.parameter(name).motion_bounds(rate, measurement_error)
+    return known.rate == nu and known.measurement_error == delta
+
+
 def _largest_rate(ok: Callable[[float], bool], width: float, cap: float, tol: float,
                   **bisection: Any) -> float | None:
     """The largest rate ν <= `cap` with ``ok(ν)`` (``inf`` first), or None when none is found.
@@ -762,6 +781,7 @@ def max_measurement_error(plant: UncertainPlant, gain: ScheduledGain, *, rate: f
 
 def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | None = None,
                    measurement_error: float | None = None, tol: float = 0.01,
+                   known: ScheduleCertificate | None = None,
                    **options: Any) -> tuple[float, ScheduleCertificate | None]:
     """The largest decay rate α (1/s) certified for the scheduled loop, by bisection.
 
@@ -771,6 +791,9 @@ def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | 
     rate, measurement_error : as :func:`schedule_certificate`
     tol : float
         Relative width of the final bracket.
+    known : ScheduleCertificate, optional
+        This gain's certificate already computed at this rate and measurement error with
+        α = 0 (``certify``'s at the plant's bounds): it is the first test's answer, α = 0.
     **options
         ``points``, ``refine``, ``solver``.
 
@@ -790,7 +813,10 @@ def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | 
         found[alpha] = cert
         return cert.certified
 
-    if not ok(0.0):
+    if known is not None and _first_decay_test(plant, gain, known, rate=rate, measurement_error=measurement_error):
+        found[0.0] = known
+        memory["active"] = known.active_conditions
+    if not (found[0.0].certified if 0.0 in found else ok(0.0)):
         return 0.0, None
     # the frozen loops' slowest decay bounds α from above
     grid = _grid(plant, gain.parameter, gain.breakpoints, 2, _others(plant, gain.parameter, False))
@@ -928,14 +954,16 @@ def _solve_synthesis_ipm(grid: _Grid, b: Array, rate: float, decay: float, bound
         w = weight[at]
         Xa, Xb = X[0 if common else j], X[0 if common else j + 1]
         ident = np.broadcast_to(eye, U[at].shape)
-        base = [(Xa, (1.0 - w) * U[at], ident), (Xb, w * U[at], ident),
-                (Y[j], (1.0 - w) * np.swapaxes(B_s[at], 1, 2), ident),
-                (Y[j + 1], w * np.swapaxes(B_s[at], 1, 2), ident)]
+        gains = [(Y[j], (1.0 - w) * np.swapaxes(B_s[at], 1, 2), ident),
+                 (Y[j + 1], w * np.swapaxes(B_s[at], 1, 2), ident)]
         signs = (1.0, -1.0) if not common and rate > 0 else (0.0,)
         for sign in signs:
+            # terms of one X with V = I are one term, their U's summed (UᵀXV + VᵀXU is linear in U):
+            # the flow's and the slope's ±(ν/h)(X_{j+1} − X_j), and one X for any rate
             k = sign * rate / scale / h[j]
-            slope = [] if sign == 0.0 else [(Xb, 0.5 * k * ident, ident), (Xa, -0.5 * k * ident, ident)]
-            problem.add_lmi(terms=base + slope, scalars=[(t, -eye)], name=f"segment {j}, rate {sign:+g}")
+            flows = [(Xa, U[at], ident)] if common else [(Xa, (1.0 - w) * U[at] - 0.5 * k * eye, ident),
+                                                         (Xb, w * U[at] + 0.5 * k * eye, ident)]
+            problem.add_lmi(terms=flows + gains, scalars=[(t, -eye)], name=f"segment {j}, rate {sign:+g}")
     problem.maximize({t: 1.0})
     result = solve_lmi_interior(problem, t, floor=FEASIBILITY_TOL)
     if result.y is None:
