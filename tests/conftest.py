@@ -2,6 +2,7 @@ import importlib.util
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import matplotlib
 
@@ -68,9 +69,29 @@ def pytest_configure(config):
     """
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None) or not _installed("numba"):
         return
-    config._numba_warmup = subprocess.Popen(
-        [sys.executable, "-c", "from scara_robust.simulation.compiled import compile_seconds; compile_seconds()"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    config._numba_warmup = subprocess.Popen([sys.executable, "-c", _WARMUP], cwd=Path(__file__).parent.parent,
+                                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+#: The warm-up: the SCARA's kernels, then (with Pinocchio) an arm's, continuous and held, which
+#: the arm's test files would otherwise each compile (72 s on one core), at once on both workers.
+_WARMUP = """
+from scara_robust.simulation.compiled import compile_seconds
+compile_seconds()
+try:
+    import pinocchio  # noqa: F401
+except ImportError:
+    raise SystemExit(0)
+import numpy as np
+import scara_robust as sr
+setup = sr.load_arm("examples/robot-arm6.toml")
+K = sr.design(setup.plant, 1000, 3).K
+table = sr.ScheduledGain("m_p", "kg", [0.0, 3.0], np.stack([K, K]))
+ramp = sr.parameter_profile(setup.plant, "m_p", "ramp", t_final=0.2)
+sr.simulate_arm(setup, table, ramp, t_final=0.2, measurement_bias=0.05, method="compiled")
+sr.simulate_arm(setup, K, ramp, t_final=0.2, method="compiled")
+sr.simulate_arm(setup, K, ramp, t_final=0.2, method="compiled", Ts=1e-3)
+"""
 
 
 def pytest_unconfigure(config):
