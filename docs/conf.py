@@ -70,6 +70,9 @@ html_theme_options = {
     "footer_end": [],
 }
 html_show_sourcelink = False
+# a page per public name: no section navigation in their sidebar (the theme renders it for every
+# page, some 40 % of the build); each keeps its breadcrumbs and its section's index page lists its names
+html_sidebars = {"api/generated/*": []}
 html_context = {"default_mode": "light"}  # the theme logs an error on a first visit without it
 
 
@@ -77,13 +80,22 @@ html_context = {"default_mode": "light"}  # the theme logs an error on a first v
 # A public constant is documented by its `#:` comment in the module that defines it; the
 # package namespace re-exports it without the comment, so autodoc would show its type's doc.
 def _constant_docs() -> dict[str, list[str]]:
+    import importlib.util
+    import inspect
     import pkgutil
 
     from sphinx.pycode import ModuleAnalyzer
 
+    constants = [name for name in scara_robust.__all__
+                 if not (callable(getattr(scara_robust, name)) or inspect.ismodule(getattr(scara_robust, name)))]
+    # only the modules that assign one of them at the top level are parsed (parsing all takes seconds)
+    assigns = re.compile(r"^(?:" + "|".join(map(re.escape, constants)) + r")\s*[:=]", re.MULTILINE)
     docs: dict[str, list[str]] = {}
     for info in pkgutil.walk_packages(scara_robust.__path__, prefix="scara_robust."):
         if info.name.endswith("__main__"):
+            continue
+        origin = importlib.util.find_spec(info.name).origin  # type: ignore[union-attr]
+        if origin is None or not assigns.search(Path(origin).read_text(encoding="utf-8")):
             continue
         for (owner, name), lines in ModuleAnalyzer.for_module(info.name).find_attr_docs().items():
             if owner == "" and name in scara_robust.__all__:

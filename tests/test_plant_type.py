@@ -381,3 +381,39 @@ def test_spectral_abscissae_on_threads_equal_numpys_bit_for_bit(monkeypatch):
     monkeypatch.setattr(_spectra, "_workers", lambda: 1)
     assert np.array_equal(_spectra.spectral_abscissae(stack), expected)
     assert np.array_equal(_spectra.spectral_abscissae(stack[:5]), expected[:5])  # below the threads' threshold
+
+
+def test_a_stability_scan_answers_as_the_eigenvalues_do_and_factors_where_it_can():
+    """StabilityScan: on a sequence of nearby stacks, the answer of max Re λ < 0 and its P's residual."""
+    from scara_robust.robustness import _spectra
+
+    rng = np.random.default_rng(5)
+    n = 12
+    base = rng.standard_normal((300, n, n)) / math.sqrt(n)
+    shift = np.linalg.eigvals(base).real.max(axis=-1)  # each matrix's abscissa moved to -1 at s = 0
+    direction = 0.4 * rng.standard_normal((300, n, n)) / math.sqrt(n)
+    scan = _spectra.StabilityScan()
+    answers = []
+    for s in np.linspace(0.0, 3.0, 61):  # nearby stacks; some become unstable along the way
+        stack = base - (shift + 1.0)[:, None, None] * np.eye(n) + s * direction
+        expected = bool(np.linalg.eigvals(stack).real.max() < 0)
+        assert scan.all_stable(stack) is expected
+        answers.append(expected)
+    assert True in answers and False in answers  # both answers were asked
+    assert scan.by_lyapunov > scan.by_eigenvalues  # most were decided by a kept P
+    # the candidates solve AᵀP + PA = −V⁻ᵀV⁻¹ and are positive definite
+    A = base[:20] - (shift[:20] + 1.0)[:, None, None] * np.eye(n)
+    P = _spectra._lyapunov_candidates(A)
+    lam, V = np.linalg.eig(A)
+    Vinv = np.linalg.inv(V)
+    rhs = -(np.swapaxes(Vinv, 1, 2).conj() @ Vinv).real
+    residual = np.swapaxes(A, 1, 2) @ P + P @ A - rhs
+    assert np.abs(residual).max() <= 1e-10 * np.abs(rhs).max()
+    assert np.linalg.eigvalsh(P)[:, 0].min() > 0
+    # a kept P does not pass a non-finite matrix: its eigenvalues are asked, and numpy refuses it
+    bad = A.copy()
+    bad[3, 0, 0] = np.nan
+    scan = _spectra.StabilityScan()
+    assert scan.all_stable(A)
+    with pytest.raises(np.linalg.LinAlgError):
+        scan.all_stable(bad)

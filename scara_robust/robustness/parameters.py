@@ -29,6 +29,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -42,7 +43,7 @@ from ..lyapunov.theorem1 import certify
 from ..model.plant import Parameter, UncertainPlant, require_plant
 from ..results import AnalysisResult, VerdictFromCertified
 from ..sdp.backends import resolve_lmi_solver
-from ._spectra import spectral_abscissae
+from ._spectra import StabilityScan, spectral_abscissae
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .pdl import RateMargin, max_certified_rate
 from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
@@ -125,12 +126,14 @@ def _lmi_physical(plant: UncertainPlant, design: Design | None, K: Array) -> Cal
 
 
 def _frozen(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
+    scan = StabilityScan()  # the scan's nearby scales: most loops proven stable by the last scale's P
+
     def ok(s: float) -> bool:
         try:
             loops = plant.samples(theta=s).closed_loops(K)
         except ArgumentError as err:
             raise _Undefined(str(err)) from err
-        return bool(spectral_abscissae(loops).max() < 0)
+        return scan.all_stable(loops)
 
     return ok
 
@@ -156,6 +159,23 @@ for _method in (
 #: registry holds them: :func:`~scara_robust.analysis_methods` ``('parameter')``).
 PARAMETER_METHODS: dict[str, str] = {name: get_method("parameter", name).bound
                                      for name in analysis_methods("parameter")}
+
+
+#: The built-in lower bounds whose certificate holds on the frozen row's samples: none holds where one is unstable.
+_BELOW_FROZEN = frozenset({"physical", "lmi-physical"})
+
+
+class _Capped:
+    """A lower bound's test that answers False without testing at or above `cap` (the frozen bound)."""
+
+    def __init__(self, ok: Callable[[float], bool], cap: float) -> None:
+        self.ok, self.cap, self.answered = ok, cap, 0
+
+    def __call__(self, s: float) -> bool:
+        if s >= self.cap:
+            self.answered += 1
+            return False
+        return self.ok(s)
 
 
 def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[float, float, str]:
@@ -249,17 +269,25 @@ def parameter_margin(
     varying = plant.varying
     if not varying:
         raise ArgumentValueError("plant", "has no parameter with a range: there is nothing to scale")
-    rows = []
-    for entry in chosen:
+    # the frozen row first: a P verified on the samples at a scale where one of them is unstable
+    # cannot exist, so the sample-based lower searches take a failure there without a solve
+    order = sorted(range(len(chosen)), key=lambda i: chosen[i].name != "frozen")
+    rows: list[tuple[Any, ...]] = [()] * len(chosen)
+    cap = math.inf
+    for i in order:
+        entry = chosen[i]
         method, kind = entry.name, entry.bound
         start = time.perf_counter()
         if "lmi" in entry.needs and not cvxpy_available():
-            rows.append((method, kind, math.nan, "", *([math.nan] * 2 * len(varying)), 0.0, NOT_INSTALLED))
+            rows[i] = (method, kind, math.nan, "", *([math.nan] * 2 * len(varying)), 0.0, NOT_INSTALLED)
             continue
         ok = entry.run(plant, found, K)
+        capped = _Capped(ok, cap if method in _BELOW_FROZEN else math.inf)
         # an upper bound tests eigenvalues only: cheap, so bisected to 1e-9 on a finer scan
         upper = kind == "upper"
-        lo, hi, note = _search(ok, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
+        lo, hi, note = _search(capped, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
+        if method == "frozen" and not note:
+            cap = hi
         # a lower bound that fails at the nominal point certifies no range, not the nominal point alone
         scale = (math.nan if hi == 0.0 else lo) if kind == "lower" else hi
         end = ""
@@ -271,6 +299,9 @@ def parameter_margin(
             message = "no unstable frozen plant"
         else:
             message = "certified up to lo, not at hi" if hi > 0.0 else "no range certified"
+        if capped.answered:
+            message = (f"{message} (not solved at {capped.answered} scale(s) at or above the frozen bound "
+                       f"{cap:.6g}, where a sample is unstable)")
         if note:
             message = f"{message}; {note}"
         stops = _at_limits(varying, scale)
@@ -279,8 +310,7 @@ def parameter_margin(
         ranges = []
         for p in varying:
             ranges += list(_range_at(p, scale))
-        rows.append((method, kind, scale, f"[{lo:.6g}, {hi:.6g}]", *ranges, end, time.perf_counter() - start,
-                     message))
+        rows[i] = (method, kind, scale, f"[{lo:.6g}, {hi:.6g}]", *ranges, end, time.perf_counter() - start, message)
     columns = ["method", "kind", "scale", "bracket"]
     for p in varying:
         columns += [f"{p.name} low [{p.unit}]", f"{p.name} high [{p.unit}]"]

@@ -24,7 +24,7 @@ from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
 from ..sdp.backends import resolve_lmi_solver
-from ._spectra import spectral_abscissae
+from ._spectra import StabilityScan
 from .context import PayloadContext
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .margins import MARGIN_TOL
@@ -66,8 +66,10 @@ def _lmi(context: PayloadContext) -> Callable[[float], bool]:
 
 
 def _frozen(context: PayloadContext) -> Callable[[float], bool]:
+    scan = StabilityScan()  # the bisection's nearby masses: most loops proven stable by the last mass's P
+
     def ok(mass: float) -> bool:
-        return bool(spectral_abscissae(context.closed_loops(mass, context.n_times, context.n_masses)).max() < 0)
+        return scan.all_stable(context.closed_loops(mass, context.n_times, context.n_masses))
 
     return ok
 
