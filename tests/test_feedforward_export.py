@@ -155,3 +155,50 @@ def test_a_schedule_of_an_arm_with_a_feedforward_is_not_exported_without_it(tmp_
     err = capsys.readouterr().err
     assert "a schedule's export does not carry a model feedforward yet" in err and err.count("\n") == 1
     assert not list(tmp_path.iterdir())
+
+
+def test_the_trace_s_instruction_count_is_the_line_by_line_count(monkeypatch):
+    """The board's instruction count read from QEMU's log in chunks with numpy equals the count line by line."""
+    import io
+    import re as _re
+
+    from scara_robust.export import board
+
+    rng = np.random.default_rng(3)
+    entry, main = 0x4A8, (0x100, 0x180)
+    lines = []
+    for _ in range(40):  # main's loop, a call to the step, its instructions, back to main
+        lines += [f"Trace 0: 0x7f00 [00000000/{rng.integers(0x100, 0x180) & ~1:08x}/00000000/ff200000] main\n"
+                  for _ in range(int(rng.integers(1, 4)))]
+        lines.append(f"Trace 0: 0x7f00 [00000000/{entry:08x}/00000000/ff200000] k_step\n")
+        for _ in range(int(rng.integers(0, 300))):
+            pc = int(rng.choice([rng.integers(0x200, 0x900), 0x300])) & ~1
+            lines.append(f"Trace 0: 0x7f00 [00000000/{pc:08x}/00000000/ff200000] f\n")
+            if rng.random() < 0.05:
+                lines.append("----------------\nIN: other output\n")  # not an instruction: not counted
+    lines.append(f"Trace 0: 0x7f00 [00000000/{main[0]:08x}/00000000/ff200000] main\n")
+    text = "".join(lines)
+
+    def by_line():  # the definition: from the entry to the next instruction in main
+        counts, inside, n = [], False, 0
+        for line in text.splitlines():
+            hit = _re.match(r"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/", line)
+            if hit is None:
+                continue
+            pc = int(hit.group(1), 16)
+            if inside and main[0] <= pc < main[1]:
+                counts.append(n)
+                inside = False
+            elif inside:
+                n += 1
+            elif pc == entry:
+                inside, n = True, 1
+        return counts
+
+    expected = by_line()
+    assert len(expected) == 40 and max(expected) > 100
+    for chunk in (1 << 24, 1000, 97):  # the whole log at once, and chunks that cut lines and steps
+        monkeypatch.setattr(board, "_TRACE_CHUNK", chunk)
+        assert board._count_steps(io.BytesIO(text.encode()), entry, main) == expected
+    # pcs of unequal widths are read one by one, to the same values
+    assert board._pcs([b"4a8", b"10000"]).tolist() == [0x4A8, 0x10000]

@@ -42,3 +42,20 @@ def test_the_command_line_shows_progress_at_a_terminal_only(capsys, monkeypatch)
         [line.rsplit(None, 1)[0] for line in quiet.out.splitlines() if line.strip()]
     assert "payload:" in loud.err and "test/s" in loud.err  # the payload search, step by step
     assert sr.__name__  # the package imports as before
+
+
+def test_a_bisection_s_first_test_is_the_one_asked_where_it_lies_inside():
+    from scara_robust.robustness.search import bisect
+
+    tested = []
+
+    def ok(x):
+        tested.append(x)
+        return x <= 9.97
+
+    assert bisect(ok, 0.0, 10.0, 0.01, first=9.95) == (9.95, 10.0) and tested == [9.95]  # one test
+    tested.clear()
+    lo, hi = bisect(ok, 0.0, 10.0, 0.01, first=9.99)  # fails: the bisection goes on below it
+    assert tested[0] == 9.99 and hi - lo <= 0.01 * hi and lo <= 9.97 < hi
+    tested.clear()
+    assert bisect(ok, 0.0, 10.0, 0.01, first=12.0) == bisect(ok, 0.0, 10.0, 0.01)  # outside: plain halving

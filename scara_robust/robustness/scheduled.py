@@ -821,7 +821,9 @@ def schedule_decay(plant: UncertainPlant, gain: ScheduledGain, *, rate: float | 
     # the frozen loops' slowest decay bounds α from above
     grid = _grid(plant, gain.parameter, gain.breakpoints, 2, _others(plant, gain.parameter, False))
     top = float(-np.linalg.eigvals(grid.A - grid.B @ gain.gain(grid.p)).real.max())
-    lo, _ = bisect(ok, 0.0, max(top, 1e-12), tol)
+    # a common P(p) often holds close to the frozen bound: tested there first (one certificate instead
+    # of the bisection's seven when it holds, one more when it does not)
+    lo, _ = bisect(ok, 0.0, max(top, 1e-12), tol, first=max(top, 1e-12) * (1.0 - tol / 2))
     return lo, found.get(lo)
 
 

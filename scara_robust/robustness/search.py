@@ -61,6 +61,7 @@ def bisect(
     fails: tuple[type[Exception], ...] = (),
     stop: Callable[[float, float, float], bool] | None = None,
     desc: str = "bisection",
+    first: float | None = None,
 ) -> tuple[float, float]:
     """Shrink ``[lo, hi]``, with ``ok(lo)`` true and ``ok(hi)`` false, to a relative width `rtol`.
 
@@ -81,6 +82,10 @@ def bisect(
         means nothing, e.g. a rate under 1e-12 of the largest searched).
     desc : str
         What is searched, for the progress a front end shows (on stderr, at a terminal).
+    first : float, optional
+        The first x tested, instead of the midpoint, when it lies inside the bracket: just
+        below an upper bound the answer is expected near (``hi·(1 − rtol/2)``: one test
+        ends the search when it holds, one test more than the bisection when it fails).
 
     Returns
     -------
@@ -102,6 +107,8 @@ def bisect(
     try:
         while hi - lo > rtol * hi:
             mid = split(lo, hi, rtol)
+            if first is not None and lo < first < hi:
+                mid, first = first, None
             if stop is not None and stop(lo, hi, mid):
                 break
             try:
