@@ -186,6 +186,58 @@ def test_a_search_takes_a_known_certificate_as_its_first_test(arm, monkeypatch):
     assert sr.schedule_decay(arm, gain, tol=0.1, known=failed) == (0.0, None) and not calls
 
 
+def test_a_certificate_s_p_holds_up_to_the_decay_its_check_gives_in_closed_form(arm):
+    """The decay search answers tests below a P's reach without an LMI: that reach is the check's exact limit."""
+    from scara_robust.robustness import scheduled
+    from scara_robust.robustness.search import bisect
+
+    gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
+    cert = sr.schedule_certificate(arm, gain, decay=0.1)
+    assert cert.certified
+    fine = scheduled._conditions(scheduled._grid(arm, "m", gain.breakpoints, 9, scheduled._others(arm, "m", True)),
+                                 gain, cert.measurement_error, True)
+    reach = scheduled._decay_reach(fine, gain, cert)
+    extended = reach(math.inf)
+    assert extended is not None and extended.certified and extended.decay > cert.decay
+    size = max(np.linalg.norm(Pj, 2) for Pj in cert.P)
+
+    def margin(alpha):  # the certificate's own check, at another decay
+        return scheduled._max_eigs(scheduled._lhs(fine, cert.P, gain.breakpoints, cert.rate, alpha), size).max()
+
+    assert margin(extended.decay) < 0 < margin(extended.decay * (1 + 1e-4))  # the limit, to its 1e-6 back-off
+    assert extended.margin == margin(extended.decay)
+    # the search's answer is the plain bisection's, on fewer LMIs, and an independent finer check holds there
+    calls = []
+    counted = scheduled.schedule_certificate
+
+    def counting(*args, **kwargs):
+        calls.append(kwargs.get("decay", 0.0))
+        return counted(*args, **kwargs)
+
+    top = max(float(-np.linalg.eigvals(g.A - g.B @ gain.gain(g.p)).real.max()) for g in [scheduled._grid(
+        arm, "m", gain.breakpoints, 2, scheduled._others(arm, "m", False))])
+    plain_calls = []
+
+    def plain(alpha):
+        plain_calls.append(alpha)
+        return sr.schedule_certificate(arm, gain, decay=alpha).certified
+
+    expected, _ = bisect(plain, 0.0, top, 0.05)
+    scheduled.schedule_certificate = counting
+    try:
+        decay, found = sr.schedule_decay(arm, gain, tol=0.05)
+    finally:
+        scheduled.schedule_certificate = counted
+    assert decay == expected and found is not None and found.certified and found.decay == decay
+    # its probe below the frozen bound failed here (one LMI more); a P's reach answered a test (one less)
+    assert len(calls) <= len(plain_calls) + 1 and set(plain_calls) - set(calls)
+    # an independent check on the certificate's own grid (9 points a segment, the other parameters' samples)
+    others = {p.name: p.samples for p in arm.varying if p.name != "m"}
+    check = schedule_condition_margin(arm, "m", gain.breakpoints, gain.gains, found.P, rate=1.0, delta=0.05,
+                                      decay=decay, refine=2, other_points=others)
+    assert check["max_eig"] < 0
+
+
 def test_measurement_error_is_covered_at_its_corners(arm):
     gain = sr.schedule_riccati(arm, "m", np.linspace(0, 2, 3), 1.0, 10.0)
     cert = sr.schedule_certificate(arm, gain, measurement_error=0.4, decay=0.2)

@@ -178,13 +178,26 @@ class _Capped:
         return self.ok(s)
 
 
-def _search(ok: Callable[[float], bool], tol: float, ratio: float) -> tuple[float, float, str]:
-    """Largest s with ok(s): (lo, hi, note); hi = inf when none failed up to the cap."""
+def _search(ok: Callable[[float], bool], tol: float, ratio: float, cap: float = math.inf) -> tuple[float, float, str]:
+    """Largest s with ok(s): (lo, hi, note); hi = inf when none failed up to the cap.
+
+    With a finite `cap` (a scale where ok is known to fail) the first test after the nominal
+    point is just below it, ``cap·(1 − tol/2)``: when it holds, the search ends there.
+    """
     try:
         if not ok(0.0):
             return 0.0, 0.0, "not even at the nominal point"
     except _Undefined as err:
         return 0.0, 0.0, f"undefined at the nominal point: {err}"
+    if math.isfinite(cap) and cap > 0.0:
+        near = cap * (1.0 - tol / 2)
+        try:
+            good = ok(near)
+        except _Undefined:
+            good = False
+        if good:
+            lo, hi = bisect(ok, near, cap, tol, fails=(_Undefined,), desc="parameter range")
+            return lo, hi, ""
     lo, s = 0.0, 1.0
     while s <= _SCALE_MAX:
         try:
@@ -285,7 +298,7 @@ def parameter_margin(
         capped = _Capped(ok, cap if method in _BELOW_FROZEN else math.inf)
         # an upper bound tests eigenvalues only: cheap, so bisected to 1e-9 on a finer scan
         upper = kind == "upper"
-        lo, hi, note = _search(capped, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0)
+        lo, hi, note = _search(capped, _FROZEN_RTOL if upper else tol, _FROZEN_RATIO if upper else 2.0, capped.cap)
         if method == "frozen" and not note:
             cap = hi
         # a lower bound that fails at the nominal point certifies no range, not the nominal point alone
@@ -299,9 +312,8 @@ def parameter_margin(
             message = "no unstable frozen plant"
         else:
             message = "certified up to lo, not at hi" if hi > 0.0 else "no range certified"
-        if capped.answered:
-            message = (f"{message} (not solved at {capped.answered} scale(s) at or above the frozen bound "
-                       f"{cap:.6g}, where a sample is unstable)")
+        if capped.answered or (kind == "lower" and hi >= capped.cap):
+            message = f"{message} (hi is at or above the frozen bound {capped.cap:.6g}, where a sample is unstable)"
         if note:
             message = f"{message}; {note}"
         stops = _at_limits(varying, scale)
