@@ -302,7 +302,7 @@ def scara_report():
     system = sr.open_system("scara", command="tune")
     requirements = sr.Requirements(error=0.05, settling_time=6.0, sample_time=1e-3)
     return sr.tune_system(system, requirements, others={"paper": sr.design(sr.paper_model(), 3, 90).K},
-                          grid=(19, 3), check_grid=(37, 5), kappa_range=(300.0, 1e4))
+                          grid=(10, 3), check_grid=(19, 3), kappa_range=(300.0, 1e4))
 
 
 def test_the_tuned_scara_gain_meets_the_requirements_and_tracks(scara_report):
