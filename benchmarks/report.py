@@ -100,6 +100,12 @@ def main(argv: list[str]) -> int:
                      f"states, one solve to the optimum, the package's solver vs cvxpy + Clarabel (numpy's check "
                      f"included; decay rates {info['rate']:.4g} and {ref['rate']:.4g} 1/s) | {mean[own]:.3g} | "
                      f"{mean[clarabel]:.3g} | {mean[clarabel] / mean[own]:.0f}x |")
+    scan, eig = mean.get("test_arm6_frozen_scan[scan]"), mean.get("test_arm6_frozen_scan[eigenvalues]")
+    if scan and eig:
+        info = extra["test_arm6_frozen_scan[scan]"]
+        lines.append(f"| 6-joint arm, the frozen payload search's first {info['scales']} scales of {info['loops']} "
+                     f"closed loops: kept Lyapunov matrices vs every eigenvalue (the same answers) | {scan:.3g} | "
+                     f"{eig:.3g} | {eig / scan:.1f}x |")
     click, riccati = mean.get("test_app_click_to_gain"), mean.get("test_app_click_to_gain_reference")
     if click and riccati:
         lines.append(f"| design page: a click's K and Theorem 1 (vs the Riccati design alone) | {click:.4g} | "

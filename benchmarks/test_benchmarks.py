@@ -400,6 +400,35 @@ def test_arm6_sampled_lmi_solve(benchmark, arm6_file_setup, solver):
 
 
 @pytest.fixture(scope="module")
+def arm6_frozen_scales(arm6_file_setup):
+    """The 6-joint arm's closed loops at the first 60 scales of its frozen payload search (1, 1.02, 1.02², ...)."""
+    setup, K = arm6_file_setup
+    return [setup.plant.samples(theta=1.02**k).closed_loops(K) for k in range(60)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["scan", "eigenvalues"])
+def test_arm6_frozen_scan(benchmark, arm6_frozen_scales, method):
+    """The frozen search's stability tests on the arm: a kept Lyapunov matrix per loop against every eigenvalue."""
+    from scara_robust.robustness._spectra import StabilityScan, spectral_abscissae
+
+    benchmark.group = "arm: 6 joints, frozen payload search's scales, 1 267 loops each"
+
+    stacks = arm6_frozen_scales if not benchmark.disabled else arm6_frozen_scales[:5]
+
+    def scan():
+        tester = StabilityScan()
+        return [tester.all_stable(loops) for loops in stacks]
+
+    def eigenvalues():
+        return [bool(spectral_abscissae(loops).max() < 0) for loops in stacks]
+
+    answers = benchmark.pedantic(scan if method == "scan" else eigenvalues, rounds=3)
+    assert answers == eigenvalues()
+    benchmark.extra_info.update(scales=len(stacks), loops=int(stacks[0].shape[0]))
+
+
+@pytest.fixture(scope="module")
 def scara_tracking_lmi():
     """The tracking synthesis LMI of `tune` on the SCARA: 30 sampled plants, α = 1/s, κ = 1000 N·m/rad."""
     samples = sr.scara_perturbed_samples(times=np.linspace(0.0, 2 * np.pi, 10), n_masses=3)
