@@ -417,3 +417,45 @@ def test_a_stability_scan_answers_as_the_eigenvalues_do_and_factors_where_it_can
     assert scan.all_stable(A)
     with pytest.raises(np.linalg.LinAlgError):
         scan.all_stable(bad)
+
+
+def test_a_non_strict_scan_and_the_chunked_factorization_answer_as_their_definitions():
+    """StabilityScan(strict=False) is ``max Re λ <= 0``; the chunked Cholesky is one dpotrf per matrix."""
+    from scipy.linalg.lapack import dpotrf
+
+    from scara_robust.robustness import _spectra
+
+    # an integrator's exactly-zero eigenvalue: not Hurwitz, and not unstable either
+    marginal = np.array([[[0.0, 1.0], [0.0, -1.0]], [[-1.0, 0.0], [0.0, -2.0]]])
+    assert not _spectra.StabilityScan().all_stable(marginal)
+    assert _spectra.StabilityScan(strict=False).all_stable(marginal)
+    assert not _spectra.StabilityScan(strict=False).all_stable(marginal + 1e-9 * np.eye(2))
+    # a stack in which a few matrices, in two chunks, are not positive definite
+    rng = np.random.default_rng(8)
+    X = rng.standard_normal((300, 6, 6))
+    stack = X @ np.swapaxes(X, 1, 2) + 0.1 * np.eye(6)
+    shift = np.zeros(300)
+    shift[[5, 70, 71, 299]] = 50.0  # beyond their smallest eigenvalues
+    stack[140, 0, 0] = np.nan
+    expected = [bool(np.isfinite(m).all()) and dpotrf(m - c * np.eye(6), lower=1, clean=0)[1] == 0
+                for m, c in zip(stack, shift)]
+    got = _spectra._positive_definite(stack, shift)
+    assert got.tolist() == expected and not got[[5, 70, 71, 140, 299]].any() and got.sum() == 295
+    assert _spectra._positive_definite(stack[:64], np.zeros(64)).all()  # the whole stack at once
+
+
+def test_a_reference_is_sampled_once_per_distinct_time_with_the_values_of_each_time():
+    """Reference.sample on a grid that repeats its times: the values of one call per time, in order."""
+    calls = []
+
+    def position(t):
+        calls.append(t)
+        return np.array([np.sin(t), t**2])
+
+    ref = sr.Reference(position, lambda t: np.array([np.cos(t), 2 * t]), lambda t: np.array([-np.sin(t), 2.0]))
+    times = np.repeat(np.linspace(0.0, 3.0, 7), 4)[::-1].copy()
+    r, rd, rdd = ref.sample(times)
+    assert len(calls) == 7  # each distinct time once
+    np.testing.assert_array_equal(r, np.array([position(t) for t in times]))
+    np.testing.assert_array_equal(rd[:, 1], 2 * times)
+    np.testing.assert_array_equal(rdd[:, 0], -np.sin(times))

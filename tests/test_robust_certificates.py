@@ -2,6 +2,7 @@
 
 import itertools
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -199,6 +200,55 @@ def test_falsifier_finds_the_unstable_switching():
     assert log_norm / result.horizon == pytest.approx(result.growth_rate, rel=1e-9)
 
 
+def _falsify_one_try_at_a_time(A_v, P, *, dwell=0.01, horizon=5.0, n_tries=30, seed=0):
+    """The falsifier's definition, try after try: each step's vertex by its rule, the state renormalized."""
+    n_v, n = A_v.shape[0], A_v.shape[1]
+    rules = ["norm", "lyapunov", "random"] if P is not None else ["norm", "random"]
+    steps = int(round(horizon / dwell))
+    Phi = scipy.linalg.expm(A_v * dwell)
+    rng = np.random.default_rng(seed)
+    runs = []
+    for trial in range(n_tries):
+        rule = rules[trial % len(rules)]
+        x = rng.normal(size=n)
+        x0 = x / np.linalg.norm(x)
+        x, log_norm, log_half, sequence = x0.copy(), 0.0, 0.0, []
+        for k in range(steps):
+            if rule == "random":
+                v = int(rng.integers(n_v))
+            else:
+                weight = np.eye(n) if rule == "norm" else P
+                v = int(np.argmax([(Phi[u] @ x) @ weight @ (Phi[u] @ x) for u in range(n_v)]))
+            sequence.append(v)
+            x = Phi[v] @ x
+            log_norm += math.log(np.linalg.norm(x))
+            x /= np.linalg.norm(x)
+            if k + 1 == steps // 2:
+                log_half = log_norm
+        runs.append((log_norm, log_norm - log_half, rule, sequence, x0))
+    return max(runs, key=lambda run: run[0])  # the first of the largest, as a loop keeping the best finds it
+
+
+@pytest.mark.parametrize("case", ["paper-corners", "switched", "random-no-P"])
+def test_the_falsifier_s_tries_side_by_side_are_the_tries_one_at_a_time(case, paper, paper_design):
+    """Every try run side by side draws, chooses and grows as the same try run alone."""
+    if case == "paper-corners":
+        A_v, P, kwargs = box_closed_loops(paper.subset("A"), paper_design.K) * 0.02, paper_design.P, {"n_tries": 7}
+    elif case == "switched":
+        A_v, P, kwargs = SWITCHED, np.diag([1.0, 3.0]), {"n_tries": 5, "horizon": 2.0}
+    else:
+        rng = np.random.default_rng(11)
+        A_v, P, kwargs = rng.normal(size=(9, 4, 4)) - 0.8 * np.eye(4), None, {"n_tries": 6, "seed": 3}
+    result = sr.falsify(A_v, P, **kwargs)
+    log_norm, late, rule, sequence, x0 = _falsify_one_try_at_a_time(A_v, P, **kwargs)
+    assert result.rule == rule
+    assert result.sequence.tolist() == sequence
+    np.testing.assert_array_equal(result.x0, x0)
+    assert result.growth_rate == pytest.approx(log_norm / result.horizon, rel=1e-9, abs=1e-12)
+    assert result.late_rate == pytest.approx(late / (result.horizon - (kwargs.get("horizon", 5.0) / 2)),
+                                             rel=1e-9, abs=1e-12)
+
+
 def test_falsifier_finds_nothing_on_a_certified_set(paper, paper_design):
     assert sr.certify(paper, paper_design, "A").certified
     vertices = box_closed_loops(paper.subset("A"), paper_design.K)
@@ -238,8 +288,11 @@ def test_certify_json_rows(capsys):
     code = cli.main(["certify", "--rho", "3", "--eta", "90", "--format", "json", "--tries", "3"])
     rows = json.loads(capsys.readouterr().out)
     assert code == 0
+    # the sampled certificate at the controller's Ts leads, then the certificates, the design's decay
+    # rate and each input's loop margins
+    assert rows[0]["method"] == "max-ts" and rows[0]["certified"] is True
+    rows = rows[1:]
     n = len(sr.CERTIFICATE_METHODS)
-    # the certificates, then the design's decay rate and each input's loop margins
     assert [r["method"] for r in rows[:n]] == list(sr.CERTIFICATE_METHODS)
     assert [r["method"] for r in rows[n:]] == ["decay-rate", "loop-margins", "loop-margins"]
     for r in rows[:n]:
@@ -263,7 +316,8 @@ def test_certify_json_rows(capsys):
 @pytest.mark.slow  # the README's `certify --bounds derived` runs the same command in make test
 def test_certify_text(capsys):
     assert cli.main(["certify", "--rho", "3", "--eta", "90", "--bounds", "derived", "--tries", "2"]) == 0
-    out = capsys.readouterr().out
+    first, out = capsys.readouterr().out.split("\n", 1)  # the sampled certificate leads, then the table
+    assert first.startswith("continuous-time certificates below; sampled as export discretizes the controller")
     assert out.startswith("certificates of K(rho=3, eta=90), bounds: derived")
     assert all(method in out for method in sr.CERTIFICATE_METHODS)
 

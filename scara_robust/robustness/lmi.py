@@ -530,6 +530,8 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
     floor = decay_floor(A_v[:n_main])
 
     def violation(P: Array) -> Array:
+        if stop == "verified" and holds(P):
+            return np.full(n_loops, -np.inf)  # no loop violated: their values are not needed
         PA = P @ A_s
         worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
         # numpy's own test: the decay rate of every loop above the floor
@@ -538,10 +540,23 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
             verified[:n_main] = worst[:n_main] + 1.0 - OPTIMUM_RTOL
         return np.asarray(verified)
 
+    def holds(P: Array) -> bool:
+        """``violation(P) < 0`` on every loop, by one stacked Cholesky factorization instead of eigenvalues."""
+        PA = P @ A_s
+        shifted = -(PA + np.swapaxes(PA, -1, -2)) - 2 * floor * np.linalg.eigvalsh(P)[-1] / scale * np.eye(P.shape[0])
+        if not np.isfinite(shifted).all():
+            return False
+        try:
+            np.linalg.cholesky(shifted)
+        except np.linalg.LinAlgError:
+            return False
+        return True
+
     def solve(idx: NDArray[np.int64]) -> tuple[str, Array | None]:
         if solver == "IPM":
-            # a bisection's question is answered by the first P numpy verifies on every loop
-            accept = (lambda P: bool((violation(P) <= 0).all())) if stop == "verified" else None
+            # a bisection's question is answered by the first P numpy verifies on every loop (a candidate
+            # the factorization accepts is checked by `violation` again, as every answer is)
+            accept = holds if stop == "verified" else None
             return _solve_common_p_ipm(A_s[idx], accept)
         return _solve_common_p(A_s[idx], solver, form)
 
@@ -721,3 +736,4 @@ def lmi_search(*, solver: str | None = None, stop: str = "verified") -> Callable
         return result
 
     return test
+

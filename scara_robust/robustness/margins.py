@@ -52,6 +52,7 @@ from ..model.plant import as_model
 from ..model.polytopic import PolytopicModel
 from ..model.uncertain import ANCHORS, ELEMENT_SETS, UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified, verdict_of
+from ._spectra import StabilityScan
 from .falsifier import falsify
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .registry import AnalysisMethod, analysis_methods, checked_result, get_method, register_method
@@ -155,11 +156,16 @@ def _frozen(model: Model, design: Design, lo: float, anchor: str = "lower") -> t
     if math.isinf(proven):
         return math.inf, (math.inf, math.inf), "the design's P certifies every θ, so no frozen vertex is unstable"
     start = max(lo, proven, 1e-6)
+    # the vertices keep their order across θ: a vertex's Lyapunov matrix at one θ mostly proves it at the next
+    scan = StabilityScan(strict=False)
+
+    def unstable(t: float) -> bool:
+        return not scan.all_stable(_closed_loops(model, design, t, anchor))
+
     theta, prev = start, lo
     while theta <= _THETA_MAX:
-        if _unstable(model, design, theta, anchor):
-            lo_, hi_ = bisect(lambda t: not _unstable(model, design, t, anchor), prev, theta, FROZEN_RTOL,
-                              midpoint="near-zero")
+        if unstable(theta):
+            lo_, hi_ = bisect(lambda t: not unstable(t), prev, theta, FROZEN_RTOL, midpoint="near-zero")
             return hi_, (lo_, hi_), (
                 f"a frozen vertex is unstable at θ = hi; scanned from θ = {start:.4g} in steps of "
                 f"x{FROZEN_SCAN_RATIO:g}, so a window of instability narrower than "
