@@ -11,6 +11,7 @@ matrix still goes through the same LAPACK call, so the values are those of one
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from functools import cache
 
@@ -54,12 +55,16 @@ def spectral_abscissae(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
         Each matrix's spectral abscissa, 1/s, equal to
         ``numpy.linalg.eigvals(matrices).real.max(axis=-1)``.
     """
-    stack = np.asarray(matrices, dtype=float)
+    return _by_parts(_abscissae, np.asarray(matrices, dtype=float))
+
+
+def _by_parts(fn: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+              stack: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``fn(stack)``, matrix by matrix, with the stack split between the cores (each matrix the same calls)."""
     workers = _workers()
     if workers == 1 or stack.shape[0] < _PARALLEL_FROM:
-        return _abscissae(stack)
-    parts = np.array_split(stack, workers)
-    return np.concatenate(list(_pool(workers).map(_abscissae, parts)))
+        return fn(stack)
+    return np.concatenate(list(_pool(workers).map(fn, np.array_split(stack, workers))))
 
 
 #: A Lyapunov inequality holds when ``λ_min(−(AᵀP + PA))`` exceeds this times ``‖A‖_F ‖P‖_F``
@@ -76,6 +81,10 @@ def _lyapunov_candidates(stack: NDArray[np.float64]) -> NDArray[np.float64]:
     ill-conditioned V the P is poor; it is only a candidate, which
     :meth:`StabilityScan.all_stable` checks before it uses it.
     """
+    return _by_parts(_candidates, stack)
+
+
+def _candidates(stack: NDArray[np.float64]) -> NDArray[np.float64]:
     lam, V = np.linalg.eig(stack)
     Vinv = np.linalg.inv(V)
     D = -0.5 / lam.real

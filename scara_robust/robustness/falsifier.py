@@ -209,12 +209,16 @@ def falsify(
     huge = ~(np.abs(Phi).max(axis=(1, 2)) <= FALSIFIER_OVERFLOW)
     if huge.any():
         return _overflow(A_v, np.flatnonzero(huge), int(n_tries), steps * dwell, dwell)
-    # every vertex's step as one product, xᵀ Φ_rowsᵀ: rows v·n .. v·n + n − 1 of Φ_rows are Φ_v
-    Phi_rows_t = np.ascontiguousarray(Phi.reshape(n_v * n, n).T)
-    # V(Φ_v x) = Σ_i w_i (u_iᵀ Φ_v x)² with P = U diag(w) Uᵀ: the 'lyapunov' rule's values, one product too
-    w, U = np.linalg.eigh(P_sym)
-    U_rows_t = np.ascontiguousarray((U.T[None] @ Phi).reshape(n_v * n, n).T)
-    products = {"norm": (Phi_rows_t, np.ones(n)), "lyapunov": (U_rows_t, w), "random": (None, None)}
+    # each rule's value of vertex v is a quadratic form of x, xᵀ G_v x with G_v = Φ_vᵀ W Φ_v (W = I for
+    # 'norm', P for 'lyapunov'): on the products x_i x_j (i <= j) one matrix product gives every vertex's
+    pairs = np.triu_indices(n)
+    twice = np.where(pairs[0] == pairs[1], 1.0, 2.0)
+
+    def forms(W: Array) -> Array:
+        G = np.swapaxes(Phi, 1, 2) @ W @ Phi  # (V, n, n)
+        return np.ascontiguousarray((G[:, pairs[0], pairs[1]] * twice).T)  # (n(n+1)/2, V)
+
+    products = {"norm": forms(np.eye(n)), "lyapunov": forms(P_sym), "random": None}
     # the draws in the order of one try after the other (a start, then a random try's vertices), so the
     # tries are those of a loop over them; they then run side by side, grouped by rule
     rng = np.random.default_rng(seed)
@@ -231,9 +235,9 @@ def falsify(
     groups, first = [], 0
     for rule in rules:
         count = rule_of.count(rule)
-        groups.append((slice(first, first + count), *products[rule]))
+        groups.append((slice(first, first + count), products[rule]))
         first += count
-    log_norm, log_half = _follow(groups, Phi, starts, sequences, half)
+    log_norm, log_half = _follow(groups, pairs, Phi, starts, sequences, half)
     log_norm, log_half, sequences, starts = log_norm[place], log_half[place], sequences[place], starts[place]
     best: tuple[float, float, str, NDArrayInt, Array] | None = None
     for trial in range(int(n_tries)):
@@ -257,21 +261,22 @@ def falsify(
     )
 
 
-def _follow(groups: list[tuple[slice, Array | None, Array | None]], Phi: Array, starts: Array,
-            sequences: NDArrayInt, half: int) -> tuple[Array, Array]:
+def _follow(groups: list[tuple[slice, Array | None]], pairs: tuple[NDArrayInt, NDArrayInt], Phi: Array,
+            starts: Array, sequences: NDArrayInt, half: int) -> tuple[Array, Array]:
     """Run every try side by side: their log-norms at the end and half-way; the vertices are written in place.
 
     Each step, every try's vertex is chosen as that try alone would choose it (the largest
-    ``Σ_i w_i (R_v x)_i²`` over the vertices, R_v the rows of its rule's product for vertex v,
-    or the drawn one) and its state advanced by ``Φ_v``; a try whose state reaches 0 or
-    overflows stops there, with a log-norm of −inf or +inf.
+    ``xᵀ G_v x`` over the vertices, or the drawn one) and its state advanced by ``Φ_v``; a try
+    whose state reaches 0 or overflows stops there, with a log-norm of −inf or +inf.
 
     Parameters
     ----------
-    groups : list of (slice, ndarray or None, ndarray or None)
-        Per rule, its tries (a slice of the rows of `starts`), its values as one product
-        ``X @ rows_t`` with `rows_t` of shape (n, V·n), and its weights, shape (n,); None, None
-        for ``'random'``, whose vertices are drawn already.
+    groups : list of (slice, ndarray or None)
+        Per rule, its tries (a slice of the rows of `starts`) and its quadratic forms as the
+        coefficients of the products ``x_i x_j`` (i <= j), shape (n(n+1)/2, V); None for
+        ``'random'``, whose vertices are drawn already.
+    pairs : tuple of ndarray of int
+        The (i, j) of those products, ``numpy.triu_indices(n)``.
     Phi : ndarray, shape (V, n, n)
         One dwell's transition matrices.
     starts : ndarray, shape (T, n)
@@ -284,7 +289,6 @@ def _follow(groups: list[tuple[slice, Array | None, Array | None]], Phi: Array, 
     -------
     log_norm, log_half : ndarray, shape (T,)
     """
-    n_v, n = Phi.shape[0], Phi.shape[1]
     n_tries, steps = sequences.shape
     X = starts.copy()  # (T, n): the tries' states, rows
     logs = np.zeros(n_tries)
@@ -292,21 +296,23 @@ def _follow(groups: list[tuple[slice, Array | None, Array | None]], Phi: Array, 
     alive = np.ones(n_tries, dtype=bool)
     for k in range(steps):
         v = sequences[:, k]
-        for tries, rows_t, weights in groups:
-            if rows_t is not None and weights is not None:
-                values = (X[tries] @ rows_t).reshape(-1, n_v, n)
-                v[tries] = np.argmax((values * values) @ weights, axis=1)
+        for tries, forms in groups:
+            if forms is not None:
+                Xg = X[tries]
+                v[tries] = np.argmax((Xg[:, pairs[0]] * Xg[:, pairs[1]]) @ forms, axis=1)
         X = (Phi[v] @ X[:, :, None])[:, :, 0]
-        size = np.linalg.norm(X, axis=1)
-        ended = alive & ((size == 0.0) | ~np.isfinite(size))
-        if ended.any():
+        size = np.sqrt(np.einsum("ij,ij->i", X, X))
+        if not (size.min() > 0.0 and size.max() < math.inf):  # a try has stopped (or stops here)
+            ended = alive & ((size == 0.0) | ~np.isfinite(size))
             logs[ended] = np.where(size[ended] == 0.0, -math.inf, math.inf)
             alive &= ~ended
             if not alive.any():
                 break
             size[~alive] = 1.0
             X[~alive] = 0.0
-        logs[alive] += np.log(size[alive])
+            logs[alive] += np.log(size[alive])
+        else:
+            logs += np.log(size)
         X /= size[:, None]
         if k + 1 == half:  # a try that has stopped keeps 0, as it would alone
             halves[alive] = logs[alive]
