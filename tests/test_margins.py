@@ -113,6 +113,26 @@ def test_payload_margin_brackets(paper_design):
     assert rows["payload-design-P"] < 2.07 < rows["payload-lmi"]
 
 
+@pytest.mark.lmi
+def test_the_payload_s_frozen_row_is_its_scans_where_a_verified_p_answers_it(paper_design, monkeypatch):
+    """The frozen row skips its scan at a mass a lower row verified on the same samples; its row is the same."""
+    from scara_robust.robustness import _spectra
+
+    scans = []
+    all_stable = _spectra.StabilityScan.all_stable
+    monkeypatch.setattr(_spectra.StabilityScan, "all_stable",
+                        lambda self, matrices: scans.append(1) or all_stable(self, matrices))
+    grid = {"n_times": 37, "n_masses": 4, "lmi_times": 13, "lmi_masses": 3, "tol": 1e-2}
+    alone = sr.payload_margin(paper_design, methods=["payload-frozen"], **grid).iloc[0]
+    n_alone = len(scans)
+    by = sr.payload_margin(paper_design, **grid).set_index("method")
+    assert by.loc["payload-frozen", "bracket [kg]"] == alone["bracket [kg]"]
+    assert by.loc["payload-frozen", "mass [kg]"] == alone["mass [kg]"]
+    # the doubling masses the lower rows certified (1e-9, 1, 2, 4, ...) were not scanned again
+    certified = [m for m in [1e-9] + [2.0**k for k in range(12)] if m <= by.loc["payload-lmi", "mass [kg]"]]
+    assert len(certified) >= 5 and n_alone - (len(scans) - n_alone) == len(certified)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [({"tol": 0.0}, sr.ArgumentValueError, "`tol` must be > 0"),
