@@ -439,9 +439,9 @@ def test_a_non_strict_scan_and_the_chunked_factorization_answer_as_their_definit
     stack[140, 0, 0] = np.nan
     expected = [bool(np.isfinite(m).all()) and dpotrf(m - c * np.eye(6), lower=1, clean=0)[1] == 0
                 for m, c in zip(stack, shift)]
-    got = _spectra._positive_definite(stack, shift)
+    got = _spectra.positive_definite(stack, shift)
     assert got.tolist() == expected and not got[[5, 70, 71, 140, 299]].any() and got.sum() == 295
-    assert _spectra._positive_definite(stack[:64], np.zeros(64)).all()  # the whole stack at once
+    assert _spectra.positive_definite(stack[:64], np.zeros(64)).all()  # the whole stack at once
 
 
 def test_a_reference_is_sampled_once_per_distinct_time_with_the_values_of_each_time():

@@ -356,3 +356,20 @@ def test_falsifier_reports_huge_growth_by_its_order_of_magnitude(paper, paper_de
     assert float(result.message.split("10^")[1].split()[0]) == pytest.approx(
         result.growth_rate * result.horizon / np.log(10), abs=0.5
     )
+
+
+def test_the_fixed_p_verdict_is_the_polytope_certificate_s(paper, paper_design):
+    """fixed_p_certifies: the certificate's `certified` (a Cholesky first), its argument checks too."""
+    from scara_robust.robustness.polytope import fixed_p_certifies, polytope_certificate
+
+    corners = box_closed_loops(paper, paper_design.K)
+    answers = []
+    for theta in np.linspace(0.3, 0.7, 41):  # across the design P's exact margin (0.558)
+        loops = box_closed_loops(paper.scaled(theta), paper_design.K)
+        answers.append(fixed_p_certifies(loops, paper_design.P))
+        assert answers[-1] is polytope_certificate(loops, paper_design.P).certified
+    assert True in answers and False in answers
+    with pytest.raises(ValueError, match="`P` must be positive definite"):
+        fixed_p_certifies(corners, -paper_design.P)
+    with pytest.raises(ValueError, match="`P`"):
+        fixed_p_certifies(corners, np.eye(3))

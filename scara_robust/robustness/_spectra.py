@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dpotrf
 
-__all__ = ["spectral_abscissae", "StabilityScan"]
+__all__ = ["lyapunov_decreases", "positive_definite", "spectral_abscissae", "StabilityScan"]
 
 #: Below this many matrices one thread does it all (the threads' start costs more).
 _PARALLEL_FROM = 256
@@ -105,7 +105,7 @@ def _factors(stack: NDArray[np.float64]) -> bool:
     return True
 
 
-def _positive_definite(stack: NDArray[np.float64], shift: NDArray[np.float64]) -> NDArray[np.bool_]:
+def positive_definite(stack: NDArray[np.float64], shift: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Per matrix, ``M − shift I ≻ 0`` by LAPACK's Cholesky factorization (its lower triangle).
 
     numpy's stacked Cholesky raises at a failure without saying which matrix failed, so it is
@@ -135,7 +135,33 @@ def _lyapunov_holds(stack: NDArray[np.float64], P: NDArray[np.float64]) -> NDArr
     """Per matrix: ``AᵀP + PA ≺ 0`` with :data:`_LYAPUNOV_MARGIN` (then A is Hurwitz, P ≻ 0 being given)."""
     Q = -(np.swapaxes(stack, 1, 2) @ P + P @ stack)
     shift = _LYAPUNOV_MARGIN * np.linalg.norm(stack, axis=(1, 2)) * np.linalg.norm(P, axis=(1, 2))
-    return _positive_definite(Q, shift)
+    return positive_definite(Q, shift)
+
+
+def lyapunov_decreases(stack: NDArray[np.float64], P: NDArray[np.float64]) -> bool:
+    """``max λmax(PA + AᵀP) < 0`` over the stack, as numpy's eigenvalues answer it, with a Cholesky first.
+
+    Where every ``−(PA + AᵀP)`` factors with a shift of :data:`_LYAPUNOV_MARGIN` times its
+    norm, each ``λmax(PA + AᵀP)`` is negative beyond the eigenvalues' rounding, so the
+    answer is True without them; otherwise the eigenvalues decide. It is the verdict of
+    :func:`~scara_robust.robustness.polytope.polytope_certificate` (``certified``).
+
+    Parameters
+    ----------
+    stack : ndarray, shape (N, n, n)
+        Closed loops A, 1/s.
+    P : ndarray, shape (n, n)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    bool
+    """
+    PA = P @ stack
+    S = PA + np.swapaxes(PA, -1, -2)
+    if positive_definite(-S, _LYAPUNOV_MARGIN * np.linalg.norm(S, axis=(1, 2))).all():
+        return True
+    return bool(np.linalg.eigvalsh(S)[:, -1].max() < 0)
 
 
 class StabilityScan:
@@ -197,6 +223,6 @@ class StabilityScan:
         hurwitz = unknown[abscissae < 0]  # a zero real part (not strict) has no Lyapunov matrix
         if hurwitz.size:
             P = _lyapunov_candidates(stack[hurwitz])
-            kept = _positive_definite(P, _LYAPUNOV_MARGIN * np.linalg.norm(P, axis=(1, 2)))
+            kept = positive_definite(P, _LYAPUNOV_MARGIN * np.linalg.norm(P, axis=(1, 2)))
             self._P[hurwitz[kept]] = P[kept]
         return True

@@ -46,7 +46,7 @@ from ..sdp.backends import resolve_lmi_solver
 from ._spectra import StabilityScan, spectral_abscissae
 from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .pdl import RateMargin, max_certified_rate
-from .polytope import MAX_BOX_ELEMENTS, polytope_certificate
+from .polytope import MAX_BOX_ELEMENTS, fixed_p_certifies
 from .registry import AnalysisMethod, analysis_methods, get_method, register_method
 from .search import bisect
 
@@ -90,7 +90,7 @@ def _vertex(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[
     def ok(s: float) -> bool:
         assert design is not None
         hull = _hull(plant, s)
-        return bool(polytope_certificate(hull.vertex_closed_loops(K), design.P).certified)  # type: ignore[attr-defined]
+        return fixed_p_certifies(hull.vertex_closed_loops(K), design.P)  # type: ignore[attr-defined]
 
     return ok
 
@@ -108,8 +108,7 @@ def _lmi(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[fl
 def _physical(plant: UncertainPlant, design: Design | None, K: Array) -> Callable[[float], bool]:
     def ok(s: float) -> bool:
         assert design is not None
-        loops = plant.samples(theta=s).closed_loops(K)
-        return bool(polytope_certificate(loops, design.P).certified)
+        return fixed_p_certifies(plant.samples(theta=s).closed_loops(K), design.P)
 
     return ok
 

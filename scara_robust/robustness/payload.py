@@ -30,7 +30,7 @@ from .lmi import NOT_INSTALLED, cvxpy_available, lmi_search
 from .margins import MARGIN_TOL
 from .parameters import parameter_switching_growth
 from .pdl import RateMargin, max_certified_rate
-from .polytope import PolytopeCertificate, polytope_certificate
+from .polytope import PolytopeCertificate, fixed_p_certifies, polytope_certificate
 from .registry import AnalysisMethod, analysis_methods, get_method, register_method
 from .search import bisect
 
@@ -47,8 +47,7 @@ Array = NDArray[np.float64]
 
 def _design_p(context: PayloadContext) -> Callable[[float], bool]:
     def ok(mass: float) -> bool:
-        loops = context.closed_loops(mass, context.n_times, context.n_masses)
-        return polytope_certificate(loops, context.design.P).certified
+        return fixed_p_certifies(context.closed_loops(mass, context.n_times, context.n_masses), context.design.P)
 
     return ok
 

@@ -27,7 +27,7 @@ from ..lyapunov.gain import Design, design_or_none
 from ..model.plant import ModelLike, as_box, as_model
 from ..model.uncertain import ELEMENT_SETS, UncertainLTVModel
 from ..results import AnalysisResult, VerdictFromCertified
-from ._spectra import spectral_abscissae
+from ._spectra import lyapunov_decreases, spectral_abscissae
 
 __all__ = ["PolytopeCertificate", "polytope_certificate", "vertex_certificate"]
 
@@ -195,6 +195,30 @@ def polytope_certificate(
         n_unstable=int((real_part > 0).sum()),
         set_name=set_name,
     )
+
+
+def fixed_p_certifies(closed_loops: ArrayLike, P: ArrayLike) -> bool:
+    """``polytope_certificate(closed_loops, P).certified``, with the same checks of its arguments.
+
+    A search needs the verdict alone: numpy's Cholesky factorization answers it where it
+    proves every vertex's inequality with a margin (:func:`~scara_robust.robustness._spectra.
+    lyapunov_decreases`), and the eigenvalues where it does not.
+
+    Parameters
+    ----------
+    closed_loops : array_like, shape (V, n, n)
+    P : array_like, shape (n, n)
+
+    Returns
+    -------
+    bool
+    """
+    A_v = check_closed_loops("closed_loops", closed_loops)
+    n = A_v.shape[1]
+    P_sym = check_symmetric("P", check_array("P", P, shape=(n, n)))
+    if np.linalg.eigvalsh(P_sym)[0] <= 0:
+        raise ValueError("`P` must be positive definite, found a non-positive eigenvalue")
+    return lyapunov_decreases(A_v, P_sym)
 
 
 def vertex_certificate(
