@@ -118,6 +118,32 @@ def test_a_check_loop_the_solve_misses_joins_the_active_set(fresh):
 
 
 @pytest.mark.lmi
+def test_a_round_cut_early_gives_the_verdict_of_the_solve_on_every_loop(paper, paper_design, fresh, monkeypatch):
+    """On small states a round stops at the first strictly feasible P a loop outside rejects; the verdicts hold."""
+    from scara_robust.sdp import backends
+
+    cut_early = False
+    for theta, expected in ((0.55, True), (0.6395, True), (0.6405, False)):  # the common P ends in 0.6401-0.6405
+        loops = box_closed_loops(paper.scaled(theta), paper_design.K)
+        solves: list = []
+        with monkeypatch.context() as m:
+            m.setattr(lmi, "solve_lmi", lambda *a, _s=solves, **k: _s.append(backends.solve_lmi(*a, **k)) or _s[-1])
+            rounds = sr.lmi_certificate(loops, stop="verified", solver="IPM")
+        # a solve the IPM stopped early (accepted) that another round followed: its P was a cut
+        cut_early |= any(r.accepted for r in solves[:-1])
+        with monkeypatch.context() as m:  # every loop at once, to the optimum
+            m.setattr(lmi, "_SOLVED", {})
+            m.setattr(lmi, "DIRECT_LOOPS", 4096)
+            m.setattr(lmi, "IPM_DIRECT_LOOPS", 4096)
+            m.setattr(lmi, "SMALL_STATES", 0)
+            whole = sr.lmi_certificate(loops, stop="optimum", solver="IPM")
+        assert rounds.certified is whole.certified is expected, theta
+        if rounds.certified:  # numpy's own check of the P the rounds found, on every corner
+            assert sr.decay_rate(loops, rounds.P) >= rounds.floor > 0
+    assert cut_early
+
+
+@pytest.mark.lmi
 def test_a_search_starts_from_the_last_active_set(paper, paper_design, fresh):
     test = sr.lmi_search()
     A = paper.subset("A")
