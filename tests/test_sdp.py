@@ -63,6 +63,53 @@ def test_structured_schur_complement_equals_its_definition(seed):
     assert np.allclose(M, M.T, rtol=0, atol=1e-13 * np.abs(M).max())
 
 
+def test_terms_of_one_variable_that_share_v_or_u_are_one_term():
+    rng = np.random.default_rng(4)
+    n, N = 3, 4
+    pb = LMIProblem()
+    P, Y = pb.symmetric("P", n), pb.matrix("Y", 2, n)
+    A, U1, U2, V2 = (rng.normal(size=(N, n, n)) for _ in range(4))
+    B = rng.normal(size=(N, 2, n))
+    fam = pb.add_lmi(terms=[(P, U1, A), (Y, B, np.eye(n)), (P, U2, A), (P, V2, np.eye(n)), (P, V2, A)])
+    # (P, U1, A) + (P, U2, A) share V; then (P, V2, I) and (P, V2, A) share U; Y stays apart
+    assert [t[0].name for t in fam.terms] == ["P", "Y", "P"]
+    y = rng.normal(size=pb.n_free)
+    Pv, Yv = P.value(y), Y.value(y)
+
+    def term(U, X, V):
+        T = np.swapaxes(U, -1, -2) @ X @ V
+        return T + np.swapaxes(T, -1, -2)
+
+    expected = (term(U1, Pv, A) + term(U2, Pv, A) + term(V2, Pv, np.eye(n)) + term(V2, Pv, A)
+                + term(B, Yv, np.eye(n)))
+    assert np.allclose(pb.blocks(y, constant=False)[0], expected, rtol=0, atol=1e-12)
+    W = _random_w(pb, rng)
+    D = dense_schur(pb, W)
+    assert np.abs(pb.schur(W) - D).max() <= 1e-12 * np.abs(D).max()
+
+
+def test_the_step_lengths_are_those_of_every_block_s_eigenvalues():
+    from scara_robust.sdp.ipm import _steps
+
+    rng = np.random.default_rng(5)
+    for fraction in (1.0, 0.95):
+        for size in (0.05, 0.5, 3.0):  # every block passes, some fail, most fail
+            v = [rng.uniform(0.5, 2.0, size=(N, 4)) for N in (1, 30)]
+            dZ = [size * _random_w_stack(rng, N) for N in (1, 30)]
+            dS = [size * _random_w_stack(rng, N) for N in (1, 30)]
+            expected = []
+            for D in (dZ, dS):
+                low = min(float(np.linalg.eigvalsh(d / np.sqrt(vf[:, :, None] * vf[:, None, :]))[:, 0].min())
+                          for vf, d in zip(v, D))
+                expected.append(min(1.0, fraction * (-1.0 / low if low < 0 else np.inf)))
+            assert _steps(v, dZ, dS, fraction) == pytest.approx(tuple(expected), rel=1e-12)
+
+
+def _random_w_stack(rng: np.random.Generator, N: int) -> np.ndarray:
+    X = rng.normal(size=(N, 4, 4))
+    return X + np.swapaxes(X, 1, 2)
+
+
 def test_adjoint_is_the_transpose_of_the_linear_map():
     rng = np.random.default_rng(3)
     pb = _every_kind(rng)

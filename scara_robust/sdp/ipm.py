@@ -43,6 +43,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..exceptions import ArgumentValueError
+from ._linalg import positive_definite
 from ._stacked import DENSE_ENTRIES, StackedProblem
 from .problem import LMIProblem, LMIVariable
 
@@ -129,21 +130,28 @@ def _inner(a: Sequence[Array], b: Sequence[Array]) -> float:
     return float(sum(np.vdot(x, y) for x, y in zip(a, b)))
 
 
-def _steps(v: Sequence[Array], dZ: Sequence[Array], dS: Sequence[Array]) -> tuple[float, float]:
-    """Largest αz, αs <= ∞ with diag(v) + α D ⪰ 0 over every block, D the scaled ΔZ and ΔS (v > 0).
+def _steps(v: Sequence[Array], dZ: Sequence[Array], dS: Sequence[Array], fraction: float = 1.0) -> tuple[float, float]:
+    """``min(1, fraction α)`` for αz, αs, the largest α with ``diag(v) + α D ⪰ 0`` over every block (v > 0).
 
-    Both directions of a family in one call of ``eigvalsh`` (the blocks stacked).
+    D is the scaled ΔZ or ΔS; with ``D̃ = diag(v)^(-1/2) D diag(v)^(-1/2)``, α = −1/λmin(D̃). A
+    block with ``D̃ + fraction I ≻ 0`` (one Cholesky factorization: λmin > −fraction) allows
+    the full step, so the eigenvalues are computed only for the blocks that fail it, the
+    ones the step's length comes from: the same lengths as every block's eigenvalues give.
+    Both directions of a family are factored in one stack.
     """
     alphas = [math.inf, math.inf]
     for vf, Z, S in zip(v, dZ, dS):
         root = 1.0 / np.sqrt(vf)
         scale = root[:, :, None] * root[:, None, :]
-        low = np.linalg.eigvalsh(_sym(np.concatenate([Z * scale, S * scale])))[:, 0]
-        for k, part in enumerate((low[:len(vf)], low[len(vf):])):
-            worst = float(part.min())
-            if worst < 0:
-                alphas[k] = min(alphas[k], -1.0 / worst)
-    return alphas[0], alphas[1]
+        stack = _sym(np.concatenate([Z * scale, S * scale]))
+        short = ~positive_definite(stack, np.full(len(stack), -fraction))
+        if not short.any():
+            continue
+        low = np.linalg.eigvalsh(stack[short])[:, 0]
+        for k, part in enumerate((low[np.flatnonzero(short) < len(vf)], low[np.flatnonzero(short) >= len(vf)])):
+            if part.size and float(part.min()) < 0:
+                alphas[k] = min(alphas[k], -1.0 / float(part.min()))
+    return min(1.0, fraction * alphas[0]), min(1.0, fraction * alphas[1])
 
 
 def _nt_scaling(Z: Sequence[Array], S: Sequence[Array]) -> tuple[list[Array], list[Array], list[Array]]:
@@ -151,10 +159,11 @@ def _nt_scaling(Z: Sequence[Array], S: Sequence[Array]) -> tuple[list[Array], li
     G, Ginv, v = [], [], []
     for Zf, Sf in zip(Z, S):
         LZ, LS = np.linalg.cholesky(Zf), np.linalg.cholesky(Sf)
-        U, d, _ = np.linalg.svd(np.swapaxes(LZ, 1, 2) @ LS)
+        U, d, Vt = np.linalg.svd(np.swapaxes(LZ, 1, 2) @ LS)
         root = np.sqrt(d)
         G.append((LZ @ U) / root[:, None, :])
-        Ginv.append((np.swapaxes(U, 1, 2) * root[:, :, None]) @ np.linalg.inv(LZ))
+        # LZᵀLS = U diag(d) Vᵀ gives LZ⁻¹ = U diag(d)⁻¹ Vᵀ LSᵀ, so G⁻¹ = diag(d)^(-1/2) Vᵀ LSᵀ: no inverse
+        Ginv.append((Vt / root[:, :, None]) @ np.swapaxes(LS, 1, 2))
         v.append(d)
     return G, Ginv, v
 
@@ -269,7 +278,7 @@ def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool]
         # second-order term come from G⁻¹ΔZG⁻ᵀ and GᵀΔSG
         dZt = [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)]
         dSt = [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]
-        ap, ad = (min(1.0, a) for a in _steps(v, dZt, dSt))
+        ap, ad = _steps(v, dZt, dSt)
         mu_aff = _inner([Zf + ap * d for Zf, d in zip(Z, dZ)], [Sf + ad * d for Sf, d in zip(S, dS)]) / dims
         sigma = min(1.0, (max(mu_aff, 0.0) / mu) ** max(1.0, 3.0 * min(ap, ad) ** 2)) if mu > 0 else 0.0
         Rc = []
@@ -280,8 +289,8 @@ def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool]
             H = 2.0 * R / (vf[:, :, None] + vf[:, None, :])
             Rc.append(_sym(g @ H @ np.swapaxes(g, 1, 2)))
         dy, dS, dZ = system.direction(Rc)
-        ap, ad = (min(1.0, gamma * a) for a in _steps(v, [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)],
-                                                       [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)]))
+        ap, ad = _steps(v, [gi @ z @ np.swapaxes(gi, 1, 2) for gi, z in zip(Ginv, dZ)],
+                        [np.swapaxes(g, 1, 2) @ s @ g for g, s in zip(G, dS)], gamma)
         if max(ap, ad) < 1e-10:
             status = "solver error: the steps vanished"
             break

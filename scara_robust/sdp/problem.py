@@ -102,7 +102,8 @@ class LMIFamily:
     Attributes
     ----------
     terms : tuple of (LMIVariable, ndarray (N, r, s), ndarray (N, c, s))
-        ``Uᵀ X V + Vᵀ Xᵀ U`` per block.
+        ``Uᵀ X V + Vᵀ Xᵀ U`` per block; terms of one variable that share V (or U) are one term,
+        their U's (V's) added.
     scalars : tuple of (LMIVariable, ndarray (N, s, s))
         ``s_j G_j`` per block, G symmetric.
     const : ndarray, shape (N, s, s)
@@ -256,6 +257,7 @@ class LMIProblem:
             if var.scalar:
                 raise ArgumentValueError("terms", f"take matrix variables; the scalar {var.name!r} goes in `scalars`")
             term_list.append((var, stack(U, var.shape[0], "U"), stack(V, var.shape[1], "V")))
+        term_list = _merged(term_list)
         scalar_list = []
         for var, G in scalars:
             if not var.scalar:
@@ -322,31 +324,25 @@ class LMIProblem:
         ndarray, shape (n_free, n_free)
         """
         M = np.zeros((self._size, self._size))
-        # Σ over the blocks and term pairs of the Hessian in the full entries of (X, X2), projected
-        # on the free entries once per pair of variables
-        full: dict[tuple[int, int], Array] = {}
+        # Σ over the blocks and term pairs of the Hessian in the full entries of (X, X2): the
+        # Kronecker factors of every family and term pair of one pair of variables are stacked
+        # along the blocks' axis, so each pair of variables costs two matrix products, one
+        # transposition and one projection on the free entries, however many families hold it
+        factors: dict[tuple[int, int], list[list[Array]]] = {}
         for fam, Wf in zip(self.families, W):
-            N = fam.count
             UW = [U @ Wf for _, U, _ in fam.terms]   # U W: (N, r, s)
             VW = [V @ Wf for _, _, V in fam.terms]   # V W: (N, c, s)
             tr = fam.transposed
             for a, (X, _, _) in enumerate(fam.terms):
-                r, c = X.shape
-                for b in range(a, len(fam.terms)):
-                    X2 = fam.terms[b][0]
-                    r2, c2 = X2.shape
-                    t1 = VW[a] @ tr[b][0]   # V W U2ᵀ: (N, c, r2)
-                    t2 = VW[b] @ tr[a][0]   # V2 W Uᵀ: (N, c2, r)
-                    H1 = (t1.reshape(N, c * r2).T @ t2.reshape(N, c2 * r)).reshape(c, r2, c2, r)
-                    t3 = VW[a] @ tr[b][1]   # V W V2ᵀ: (N, c, c2)
-                    t4 = UW[b] @ tr[a][0]   # U2 W Uᵀ: (N, r2, r)
-                    H2 = (t3.reshape(N, c * c2).T @ t4.reshape(N, r2 * r)).reshape(c, c2, r2, r)
-                    H = 2.0 * (H1.transpose(3, 0, 1, 2) + H2.transpose(3, 0, 2, 1)).reshape(r * c, r2 * c2)
-                    if b != a and X is X2:  # the pair (b, a) too
-                        H = H + H.T
-                    key = (X.offset, X2.offset) if X.offset <= X2.offset else (X2.offset, X.offset)
-                    H = H if key == (X.offset, X2.offset) else H.T
-                    full[key] = full[key] + H if key in full else H
+                for b, (X2, _, _) in enumerate(fam.terms):
+                    if X.offset > X2.offset:
+                        continue
+                    # (a, b) with X first; for one variable every ordered pair, (b, a) as well
+                    lists = factors.setdefault((X.offset, X2.offset), [[], [], [], []])
+                    lists[0].append(VW[a] @ tr[b][0])   # V W U2ᵀ: (N, c, r2)
+                    lists[1].append(VW[b] @ tr[a][0])   # V2 W Uᵀ: (N, c2, r)
+                    lists[2].append(VW[a] @ tr[b][1])   # V W V2ᵀ: (N, c, c2)
+                    lists[3].append(UW[b] @ tr[a][0])   # U2 W Uᵀ: (N, r2, r)
             GW = [G @ Wf for _, G in fam.scalars]
             for j, (s_var, _) in enumerate(fam.scalars):
                 for k in range(j, len(fam.scalars)):
@@ -361,13 +357,41 @@ class LMIProblem:
                     M[s_var.offset, X.slice] += vec
                     M[X.slice, s_var.offset] += vec
         by_offset = {v.offset: v for v in self.variables}
-        for (o1, o2), H in full.items():
+        for (o1, o2), lists in factors.items():
             X, X2 = by_offset[o1], by_offset[o2]
+            (r, c), (r2, c2) = X.shape, X2.shape
+            t1, t2, t3, t4 = (np.concatenate(t) if len(t) > 1 else t[0] for t in lists)
+            n = t1.shape[0]
+            H1 = (t1.reshape(n, c * r2).T @ t2.reshape(n, c2 * r)).reshape(c, r2, c2, r)
+            H2 = (t3.reshape(n, c * c2).T @ t4.reshape(n, r2 * r)).reshape(c, c2, r2, r)
+            H = 2.0 * (H1.transpose(3, 0, 1, 2) + H2.transpose(3, 0, 2, 1)).reshape(r * c, r2 * c2)
             block = _project(X, _project(X2, H.T).T)
             M[X.slice, X2.slice] += block
             if o1 != o2:
                 M[X2.slice, X.slice] += block.T
         return M
+
+
+def _merged(terms: list[tuple[LMIVariable, Array, Array]]) -> list[tuple[LMIVariable, Array, Array]]:
+    """The terms with those of one variable that share V (or U) as one: ``U₁ᵀXV + U₂ᵀXV = (U₁ + U₂)ᵀXV``.
+
+    The blocks are the same sums; the Schur complement stacks a Kronecker factor for each
+    ordered pair of terms, so k terms of one variable cost k² where one term costs one.
+    """
+    out: list[tuple[LMIVariable, Array, Array]] = []
+    for var, U, V in terms:
+        for k, (other, U2, V2) in enumerate(out):
+            if other is not var:
+                continue
+            if np.array_equal(V, V2):
+                out[k] = (var, U2 + U, V2)
+                break
+            if np.array_equal(U, U2):
+                out[k] = (var, U2, V2 + V)
+                break
+        else:
+            out.append((var, U, V))
+    return out
 
 
 def _project(X: LMIVariable, H: Array) -> Array:
