@@ -127,7 +127,8 @@ Beyond Theorem 1 (:mod:`scara_robust.robustness`)
     parameter_margin, PARAMETER_METHODS -- the certified range of every parameter, in its unit (``margin --model``)
     frozen_end                      -- which end of a parameter's range holds the unstable frozen plant, in its unit
     frozen_limit                    -- one parameter's frozen bound and its end, from a parameter_margin table
-    design_decay_rate, certified_decay_rate, DecayRate -- a design's decay rate: its own P or an LMI's, the larger
+    design_decay_rate, certified_decay_rate, DecayRate, DECAY_RTOL -- a design's decay rate: its own P or an LMI's
+                                    refined towards the decay-optimal common P, the larger
     parameter_rate, rate_bracket, RateBracket -- how fast a parameter may vary, unit/s: certificate below, growth above
     parameter_switching_growth      -- growth under a periodic ramp of a parameter at a given rate
     sampled_closed_loops, sampled_certificate, SampledCertificate -- exact ZOH loops, discrete common P

@@ -310,13 +310,14 @@ class LoadedSystem:
 
     def input_limit(self, design: Design | Any, decay: DecayRate,
                     box: np.ndarray | None) -> InputLimitCertificate | None:
-        """The initial errors certified within the input limits, with the P of the design's decay rate.
+        """The initial errors certified within the input limits, with the best of the decay rate's verified P's.
 
         Parameters
         ----------
         design : Design or array_like, shape (m, n)
         decay : DecayRate
-            Its certified P (:meth:`decay_rate`) makes the invariant ellipsoids.
+            Its certified P's (:meth:`decay_rate`, :attr:`~scara_robust.DecayRate.candidates`) make the
+            invariant ellipsoids; the one certifying the largest scale answers.
         box : ndarray, shape (n,), or None
             Half-widths of the initial errors (:meth:`initial_errors`).
 
@@ -332,8 +333,10 @@ class LoadedSystem:
         K = found.K if found is not None else np.asarray(design, dtype=float)
         if decay.P is None:  # no certified Lyapunov function: no invariant ellipsoid either
             return None
-        return input_limit_certificate(K, decay.P, physical.input_limits, box, inputs=physical.inputs,
-                                       closed_loops=decay.loops)
+        # every P verified on the set makes invariant ellipsoids: the one that certifies the largest scale answers
+        certificates = [input_limit_certificate(K, P, physical.input_limits, box, inputs=physical.inputs,
+                                                closed_loops=decay.loops) for P in decay.candidates or (decay.P,)]
+        return max(certificates, key=lambda cert: cert.scale)
 
     def feedforward(self) -> ArmFeedforward | None:
         """The model feedforward the loop was certified with (an arm's, from its robot file), or None.
