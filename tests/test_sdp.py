@@ -473,3 +473,25 @@ def test_use_lmi_solver_sets_the_default_of_every_analysis():
             pass
     with pytest.raises(ArgumentValueError, match="`solver`"):
         sr.resolve_lmi_solver("mosek")
+
+
+def test_iterates_that_diverge_stop_before_any_norm_overflows():
+    """The peak LMI at twice the loops' decay has no solution, and no Farkas certificate is reached either
+    (Clarabel fails on it too): the iterates grow without bound. The solver stops once its gap has grown
+    ``DIVERGED``-fold from its smallest, long before a norm overflows (which numpy warned of, 100 iterations
+    in, before this test), and names it; the same problem at half the decay is solved as before."""
+    import warnings
+
+    from scara_robust.sdp.ipm import MAX_ITERATIONS
+
+    rng = np.random.default_rng(5)
+    A = np.array([[-1.0, 2.0], [-2.0, -1.5]]) + 0.3 * rng.normal(size=(3, 2, 2))
+    Bw, C = np.broadcast_to(np.array([[0.0], [1.0]]), (3, 2, 1)), np.array([[1.0, 0.0]])
+    decay = -float(np.linalg.eigvals(A).real.max())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        diverged = solve(invariant_ellipsoid_problem(A, Bw, C, 2.0 * decay)[0], "IPM")
+        solved = solve(invariant_ellipsoid_problem(A, Bw, C, 0.5 * decay)[0], "IPM")
+    assert diverged.status == "solver error: the iterates diverged" and diverged.y is None
+    assert diverged.iterations < MAX_ITERATIONS
+    assert solved.status == "optimal"

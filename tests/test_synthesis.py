@@ -341,6 +341,7 @@ def test_peak_bound_of_a_first_order_lag_is_exact():
     assert result.upper == pytest.approx(1 / a, rel=1e-3) and result.upper >= result.lower
 
 
+@pytest.mark.filterwarnings("error")
 def test_peak_bound_holds_for_switching_and_bounded_disturbances():
     rng = np.random.default_rng(5)
     base = np.array([[-1.0, 2.0], [-2.0, -1.5]])

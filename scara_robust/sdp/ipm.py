@@ -79,6 +79,10 @@ ROUNDING_GAP = 1e-7
 UNBOUNDED = 1e12
 #: Residuals within which an answer stopped early is ``'optimal_inaccurate'``.
 INACCURATE = 1e-6
+#: A gap this many times the smallest one of the run: the iterates diverge (an interior-point
+#: method's gap shrinks; on an infeasible problem whose Farkas certificate it does not reach,
+#: the iterates grow until their norms overflow).
+DIVERGED = 1e12
 
 
 @dataclass(frozen=True)
@@ -247,6 +251,9 @@ def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool]
         if obj_y > UNBOUNDED and math.sqrt(_inner(Rd, Rd)) <= FEASIBILITY * obj_y:
             # a ray: the objective grows without bound on iterates whose blocks hold relative to it
             return LMIResult("unbounded", None, None, math.nan, gap, it)
+        if gaps and not (gap <= DIVERGED * min(gaps)):
+            status = "solver error: the iterates diverged"
+            break
         gaps.append(gap)
         if rel_p < INACCURATE and rel_d < INACCURATE and rel_gap < INACCURATE and (best is None or gap < best.gap):
             near = rel_gap < ROUNDING_GAP or gap < ABSOLUTE_GAP
