@@ -145,7 +145,7 @@ class DecayRate(AnalysisResult):
             refined = (f"from the LMI certificate's {self.lmi_certificate:.4g} 1/s, "
                        if self.lmi > self.lmi_certificate else "")
             other.append(f"decay-optimal search: {refined}no common P above {self.lmi_upper:.4g} 1/s found on "
-                         f"the LMI's loops in {self.lmi_solves} solves")
+                         f"the LMI's loops in {self.lmi_solves} solve{'' if self.lmi_solves == 1 else 's'}")
         if not self.certified:
             return f"no decay rate certified on {self.set_name} ({'; '.join(other)})"
         return f"decay rate α = {self.rate:.4g} 1/s ({'; '.join([self.source, *other])}) on {self.set_name}"
