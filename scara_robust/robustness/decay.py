@@ -262,7 +262,9 @@ def _decay_optimal(loops: Array, starts: list[Array], start_rate: float, rate_of
     Returns (the best P or None, its rate on every set, the upper end, the solves).
 
     ``AᵢᵀP + PAᵢ + 2αP ≺ 0`` is the common-P LMI of ``Aᵢ + αI``, feasible exactly below the
-    optimal rate α*. Each probe asks only whether a P exists at the bracket's middle: it stops
+    optimal rate α*. The first probe is just below the loops' eigenvalue bound (no quadratic V
+    decays faster than a loop's slowest mode), where the optimum often sits, the next ones at the
+    bracket's middle. Each probe asks only whether a P exists at its shift: it stops
     at the first P numpy verifies on every shifted loop (:func:`~scara_robust.lmi_search`, each
     probe's cutting planes started from the last one's active loops), and that P's exact rate
     on `loops` raises the lower end; a probe without one is the upper end. The last P found (the
@@ -276,8 +278,13 @@ def _decay_optimal(loops: Array, starts: list[Array], start_rate: float, rate_of
     high = float(-np.linalg.eigvals(loops).real.max())
     last, solves = None, 0
     probe = lmi_search(solver=solver, stop="verified")
+    # the first probe just below the eigenvalue bound, where the optimum often sits: a P found there ends
+    # the search, within rtol/2 of the best any quadratic V can do (a probe stops at the first P, just
+    # above its shift, so the higher probe of the two that end the search, high / (1 + rtol) and this
+    # one, gives the better P: measured on the Panda, 0.7633 against 0.7515 1/s); then a bisection
+    shift = high * (1.0 - rtol / 2)
     while high - low > rtol * low:
-        shift = 0.5 * (low + high)
+        shift = shift if solves == 0 and shift > low else 0.5 * (low + high)
         found = probe(loops + shift * eye)
         solves += 1
         rate = decay_rate(loops, found.P) if found.P is not None else -math.inf
