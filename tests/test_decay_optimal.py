@@ -106,3 +106,26 @@ def test_without_refinement_the_lmi_certificate_s_p_answers():
 def test_a_bad_rtol_is_refused_by_name(rtol):
     with pytest.raises(ArgumentValueError, match="rtol"):
         sr.certified_decay_rate(_loops(0), rtol=rtol)
+
+
+def test_a_probe_reaches_a_whole_solve_s_verdict_sooner():
+    """``stop='probe'`` ends a solve without a P once the dual bound puts t* at or below the bound a
+    finished solve reads as no P: the same verdict, in fewer iterations; with a P it is 'verified'."""
+    from scara_robust.robustness.lmi import MARGIN_FEASIBILITY_TOL, PROBE_MARGIN, common_p_problem
+    from scara_robust.sdp.ipm import solve_ipm
+
+    loops = _loops(1)
+    best = sr.certified_decay_rate(loops)
+    eye = np.eye(loops.shape[1])
+    above = loops + 1.05 * best.lmi_upper * eye  # no common P: above the search's upper end
+    scaled = above / np.abs(above).max()
+    problem, _, t = common_p_problem(scaled)
+    whole = solve_ipm(problem)
+    probe = solve_ipm(problem, reject=lambda bound: bound <= PROBE_MARGIN)
+    assert whole.status in ("optimal", "optimal_inaccurate") and whole.value(t) <= MARGIN_FEASIBILITY_TOL
+    assert probe.status == "rejected" and probe.y is None and probe.iterations < whole.iterations
+    assert not sr.lmi_certificate(above, stop="probe").certified
+    below = loops + 0.9 * best.rate * eye
+    for stop in ("probe", "verified"):
+        found = sr.lmi_certificate(below, stop=stop)
+        assert found.certified and sr.decay_rate(below, found.P) > 0

@@ -265,8 +265,9 @@ def _decay_optimal(loops: Array, starts: list[Array], start_rate: float, rate_of
     optimal rate α*. The first probe is just below the loops' eigenvalue bound (no quadratic V
     decays faster than a loop's slowest mode), where the optimum often sits, the next ones at the
     bracket's middle. Each probe asks only whether a P exists at its shift: it stops
-    at the first P numpy verifies on every shifted loop (:func:`~scara_robust.lmi_search`, each
-    probe's cutting planes started from the last one's active loops), and that P's exact rate
+    at the first P numpy verifies on every shifted loop, or once the solver's dual bound shows none
+    (``stop='probe'`` of :func:`~scara_robust.lmi_search`, each probe's cutting planes started from
+    the last one's active loops), and that P's exact rate
     on `loops` raises the lower end; a probe without one is the upper end. The last P found (the
     largest rate on `loops`) is returned where its rate on every set (`rate_of`, the checks
     included) beats `start_rate` (the best of `starts`', the P's already verified), so the answer
@@ -277,7 +278,7 @@ def _decay_optimal(loops: Array, starts: list[Array], start_rate: float, rate_of
     # a V that decays at α on a loop bounds its slowest mode's real part by −α
     high = float(-np.linalg.eigvals(loops).real.max())
     last, solves = None, 0
-    probe = lmi_search(solver=solver, stop="verified")
+    probe = lmi_search(solver=solver, stop="probe")
     # the first probe just below the eigenvalue bound, where the optimum often sits: a P found there ends
     # the search, within rtol/2 of the best any quadratic V can do (a probe stops at the first P, just
     # above its shift, so the higher probe of the two that end the search, high / (1 + rtol) and this

@@ -391,8 +391,20 @@ VERIFY_FARKAS_RTOL = 1e-9
 #: How a cutting-plane solve of :func:`lmi_certificate` stops, by name: ``'optimum'`` when the P of
 #: the active loops meets every loop's constraint of the whole problem (its optimum, to
 #: :data:`OPTIMUM_RTOL`); ``'verified'`` as soon as numpy verifies it on every loop (a bisection needs
-#: only the verdict).
-LMI_STOPS = ("optimum", "verified")
+#: only the verdict); ``'probe'`` as ``'verified'``, and also, with the package's solver, as soon as its
+#: dual bound shows no P with t above :data:`PROBE_MARGIN` (a search's step, not a proof: the answer is
+#: then ``'infeasible, certificate not verified'``).
+LMI_STOPS = ("optimum", "verified", "probe")
+
+#: A ``'probe'`` stops without a P once the solver's dual bound puts the always-feasible form's t*
+#: (:func:`common_p_problem`, on loops scaled to entries of at most one) at or below this: the
+#: bound at which a finished solve's t is taken as no strictly feasible P
+#: (:data:`MARGIN_FEASIBILITY_TOL`), so a probe reaches the verdict a finished solve would, earlier.
+#: Not a larger one: t* is also P's smallest eigenvalue, and a feasible LMI's t* can be 5e-8 (the
+#: SO-101's 95 plants). On a probe without a P, t* = 0 is attained at P = 0, a degenerate point the
+#: solver approaches slowly (the 6-joint arm's decay probe above its optimum: 54 iterations to the
+#: end, 42 to this bound).
+PROBE_MARGIN = 1e-9
 
 #: A loop outside the active set whose ``λmax(Āᵀ P + P Ā)`` (in the solver's scaled units, where
 #: the constraint is ``⪯ −I``) exceeds ``−1 + OPTIMUM_RTOL`` joins it, with ``stop='optimum'``.
@@ -437,14 +449,17 @@ def lmi_certificate(closed_loops: ArrayLike, *, check: Sequence[ArrayLike] = (),
         :attr:`LMICertificate.decay_rate` is the smallest over the loops and the checks.
     solver : {'IPM', 'CLARABEL', 'SCS'}, optional
         The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
-    stop : {'optimum', 'verified'}
+    stop : {'optimum', 'verified', 'probe'}
         ``'optimum'``: grow the active set until P meets every loop's constraint
         (``Āᵀ P + P Ā ⪯ −I`` to :data:`OPTIMUM_RTOL`), so P is the optimum of the problem on all
         of `closed_loops`; ``'verified'``: stop at the first P numpy verifies on every loop (a
         bisection needs only the verdict; the decay rate may be smaller); with the package's
         solver on at most :data:`SMALL_STATES` states, a round also stops at the first P the
         active loops' LMI holds strictly that a loop outside rejects, and adds the loops it
-        violates most (a cut without the active set's optimum). Either way the
+        violates most (a cut without the active set's optimum); ``'probe'``: as ``'verified'``, and
+        with the package's solver it also stops without a P once its dual bound shows the
+        always-feasible form's t* at most :data:`PROBE_MARGIN` (a search's step: no P found, not
+        proven infeasible). Either way the
         ``'decay'`` form of :data:`LMI_FORMS` is solved; where it fails numerically (not where
         the solver says infeasible), the ``'margin'`` form is tried (its P is returned when it
         certifies).
@@ -536,7 +551,7 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
     floor = decay_floor(A_v[:n_main])
 
     def violation(P: Array) -> Array:
-        if stop == "verified" and holds(P):
+        if stop != "optimum" and holds(P):
             return np.full(n_loops, -np.inf)  # no loop violated: their values are not needed
         PA = P @ A_s
         worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
@@ -573,7 +588,8 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
                     return True
                 return holds(P, ~outside) if cut_early else holds(P)
 
-            return _solve_common_p_ipm(A_s[idx], accept if stop == "verified" else None)
+            return _solve_common_p_ipm(A_s[idx], accept if stop != "optimum" else None,
+                                       reject_below=PROBE_MARGIN if stop == "probe" else None)
         return _solve_common_p(A_s[idx], solver, form)
 
     batch = ACTIVE_BATCH if A_v.shape[1] > SMALL_STATES else SMALL_BATCH
@@ -664,12 +680,13 @@ def common_p_problem(A_s: Array, *, quadratic: float = 0.0) -> tuple[LMIProblem,
 
 
 def _solve_common_p_ipm(A_s: Array, accept: Callable[[Array], bool] | None,
-                        quadratic: float = 0.0) -> tuple[str, Array | None]:
+                        quadratic: float = 0.0, reject_below: float | None = None) -> tuple[str, Array | None]:
     """The common-P LMI by the package's solver: (status, P in the 'decay' form's units, or None).
 
     The 'decay' form's P is the always-feasible form's divided by t (its constraint
     ``AᵀP + PA ⪯ −I``, which the cutting planes' optimum test reads); with `accept`, the
-    solver stops at the first P it accepts.
+    solver stops at the first P it accepts; with `reject_below`, as soon as its dual bound puts t* at
+    or below it (no P found, not proven infeasible).
     """
     problem, P, t = common_p_problem(A_s, quadratic=quadratic)
 
@@ -677,7 +694,10 @@ def _solve_common_p_ipm(A_s: Array, accept: Callable[[Array], bool] | None,
         t_y = float(y[t.offset])
         return t_y > 0 and accept is not None and accept(P.value(y) / t_y)
 
-    result = solve_lmi(problem, "IPM", accept=take if accept is not None else None)
+    reject = None if reject_below is None else (lambda bound: bound <= reject_below)
+    result = solve_lmi(problem, "IPM", accept=take if accept is not None else None, reject=reject)
+    if result.status == "rejected":
+        return INFEASIBLE_NOT_VERIFIED, None
     if result.y is None:
         return result.status, None
     t_val = result.value(t)
@@ -722,8 +742,9 @@ def lmi_search(*, solver: str | None = None, stop: str = "verified") -> Callable
     ----------
     solver : {'IPM', 'CLARABEL', 'SCS'}, optional
         The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
-    stop : {'verified', 'optimum'}
-        As for :func:`lmi_certificate`; a bisection needs only the verdict.
+    stop : {'verified', 'optimum', 'probe'}
+        As for :func:`lmi_certificate`; a bisection needs only the verdict ('probe': a search
+        step that may end without a P before a proof of infeasibility).
 
     Returns
     -------

@@ -362,7 +362,7 @@ def sampled_certificate(
     solver = resolve_lmi_solver(solver)
     check_controller("pid", pid, ("pid", "state feedback"),
                      "a DiscretePID (Design.discretize) or a SampledStateFeedback")
-    check_choice("stop", stop, LMI_STOPS)
+    check_choice("stop", stop, LMI_STOPS[:2])
     A, B = _plants(model)
     Ad, keep = _without_marginal(sampled_closed_loops(A, B, pid))
     n_marginal = int((~keep).sum())

@@ -90,7 +90,8 @@ def resolve_lmi_solver(solver: str | None) -> str:
 
 
 def solve_lmi(problem: LMIProblem, solver: str | None = None, *,
-          accept: Callable[[NDArray[np.float64]], bool] | None = None) -> LMIResult:
+          accept: Callable[[NDArray[np.float64]], bool] | None = None,
+          reject: Callable[[float], bool] | None = None) -> LMIResult:
     """Solve an LMI problem.
 
     Parameters
@@ -101,6 +102,9 @@ def solve_lmi(problem: LMIProblem, solver: str | None = None, *,
         None: :func:`default_lmi_solver`.
     accept : callable ``accept(y) -> bool``, optional
         With ``'IPM'``: stop at the first iterate it accepts (a bisection's question answered).
+    reject : callable ``reject(bound) -> bool``, optional
+        With ``'IPM'``: stop (status ``'rejected'``) once it accepts the dual bound on the
+        optimal value (a bisection's step that will find nothing better).
 
     Returns
     -------
@@ -108,7 +112,7 @@ def solve_lmi(problem: LMIProblem, solver: str | None = None, *,
     """
     solver = resolve_lmi_solver(solver)
     if solver == "IPM":
-        return solve_ipm(problem, accept=accept)
+        return solve_ipm(problem, accept=accept, reject=reject)
     return solve_lmi_cvxpy(problem, solver)
 
 

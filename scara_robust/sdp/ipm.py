@@ -24,7 +24,10 @@ It stops on **absolute** and relative tests (:data:`TOLERANCE`): the residuals o
 problems relative to their data and the gap ``Σ⟨Z_b, S_b⟩`` either relative to the objectives
 or below an absolute tolerance, so an optimal value of 1e-8 is resolved, not rounded to the
 default tolerance of a solver; or as soon as the caller's ``accept(y)`` says the current y
-answers its question (a bisection stops at the first certificate numpy verifies). A y
+answers its question (a bisection stops at the first certificate numpy verifies), or as soon
+as the caller's ``reject(bound)`` takes the dual objective ``⟨C, Z⟩``, an upper bound on the
+optimal value once the dual residual is at rounding's size, as an answer that no y will beat.
+A y
 whose blocks cannot be made positive definite is reported ``'infeasible'`` with the dual
 blocks Z (a Farkas certificate: ``F*(Z) ≈ 0``, ``⟨C, Z⟩ < 0``), which the caller verifies.
 """
@@ -79,6 +82,9 @@ ROUNDING_GAP = 1e-7
 UNBOUNDED = 1e12
 #: Residuals within which an answer stopped early is ``'optimal_inaccurate'``.
 INACCURATE = 1e-6
+#: The relative dual residual within which ``⟨C, Z⟩`` is taken as a bound on the optimal value for a
+#: caller's ``reject`` (the common-P problems reach 1e-16 to 1e-10 after a few iterations).
+REJECT_RESIDUAL = 1e-9
 #: A gap this many times the smallest one of the run: the iterates diverge (an interior-point
 #: method's gap shrinks; on an infeasible problem whose Farkas certificate it does not reach,
 #: the iterates grow until their norms overflow).
@@ -93,8 +99,8 @@ class LMIResult:
     ----------
     status : str
         ``'optimal'``, ``'optimal_inaccurate'``, ``'infeasible'`` (the dual blocks are a
-        Farkas certificate), ``'infeasible_inaccurate'``, ``'unbounded'`` or
-        ``'solver error: ...'``.
+        Farkas certificate), ``'infeasible_inaccurate'``, ``'unbounded'``, ``'rejected'`` (the
+        caller's ``reject`` took the dual bound) or ``'solver error: ...'``.
     y : ndarray, shape (n_free,), or None
     duals : list of ndarray, shape (N, s, s), or None
         Z per family (a certificate of infeasibility, normalized to ``⟨C, Z⟩ = −1``, when
@@ -181,7 +187,8 @@ def _blas() -> Any:
 
 
 def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = None,
-              tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS) -> LMIResult:
+              reject: Callable[[float], bool] | None = None, tolerance: float = TOLERANCE,
+              max_iterations: int = MAX_ITERATIONS) -> LMIResult:
     """Solve `problem` by the primal–dual interior-point method of this module.
 
     Parameters
@@ -190,6 +197,10 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
     accept : callable ``accept(y) -> bool``, optional
         Called on each iterate whose blocks are all positive semidefinite; True stops the
         solver there (status ``'optimal'``, ``accepted`` True).
+    reject : callable ``reject(bound) -> bool``, optional
+        Called with the dual objective ``⟨C, Z⟩`` on each iterate whose dual residual is within
+        :data:`REJECT_RESIDUAL` (then ``bᵀy <= ⟨C, Z⟩`` for every feasible y, to that residual
+        times ``‖y‖``); True stops the solver there (status ``'rejected'``, no y).
     tolerance : float
         Relative residuals and gap of an optimal answer.
     max_iterations : int
@@ -206,14 +217,14 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
     """
     with _blas().limit(limits=1, user_api="blas"):
         if StackedProblem.entries(problem) > DENSE_ENTRIES:
-            return _solve(problem, accept, tolerance, max_iterations)
+            return _solve(problem, accept, reject, tolerance, max_iterations)
         stacked = StackedProblem(problem)
-        result = _solve(stacked, accept, tolerance, max_iterations)
+        result = _solve(stacked, accept, reject, tolerance, max_iterations)
         return result if result.duals is None else replace(result, duals=stacked.split(result.duals))
 
 
-def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool] | None, tolerance: float,
-           max_iterations: int) -> LMIResult:
+def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool] | None,
+           reject: Callable[[float], bool] | None, tolerance: float, max_iterations: int) -> LMIResult:
     fams = problem.families
     b = problem.b()
     C = [f.const for f in fams]
@@ -242,6 +253,8 @@ def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool]
         rel_gap = gap / max(abs(obj_y), abs(obj_z), 1e-300)
         if accept is not None and _psd(lin) and accept(y):
             return LMIResult("optimal", y, Z, obj_y, gap, it, accepted=True)
+        if reject is not None and rel_p < REJECT_RESIDUAL and reject(obj_z):
+            return LMIResult("rejected", None, None, math.nan, gap, it)
         if rel_p < FEASIBILITY and rel_d < FEASIBILITY and (rel_gap < tolerance or gap < ABSOLUTE_GAP):
             return LMIResult("optimal", y, Z, obj_y, gap, it)
         if obj_z < 0:
