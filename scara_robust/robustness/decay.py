@@ -13,12 +13,13 @@ The LMI's own objective (the condition number of P, :func:`~scara_robust.lmi_cer
 is not the decay rate, and its optimum is not unique: two solvers' optima can prove
 different rates. The LMI's P is therefore refined towards the decay-optimal common P, the
 generalized eigenvalue problem ``maximize α: AᵢᵀP + PAᵢ + 2αP ≺ 0, P ≻ 0`` (Boyd et al.
-1994, §5.1.3), quasiconvex in α: a bisection on the shift α of the loops ``Aᵢ + αI`` from the
+1994, §5.1.3), quasiconvex in α: a search on the shift α of the loops ``Aᵢ + αI`` from the
 best rate a verified P (the design's or the certificate's) already proves, each step one LMI
-solve that stops at the first P numpy verifies on the shifted loops and jumps the lower end to
-that P's exact rate, until the bracket is :data:`DECAY_RTOL` of the rate wide. The bracket's upper end
-starts at ``min_i −max Re λ(Aᵢ)`` (no quadratic V decays faster on a loop than its slowest
-mode) and comes down where a shifted LMI has no P; every P's rate is numpy's, on every set.
+solve that stops at the first P numpy verifies on the shifted loops (and jumps the lower end to
+that P's exact rate) or once the solver's dual bound shows none, until the bracket is
+:data:`DECAY_RTOL` of the rate wide. The bracket's upper end starts at ``min_i −max Re λ(Aᵢ)``
+(no quadratic V decays faster on a loop than its slowest mode), where the first probe is made,
+just below it, and comes down where a shifted LMI has no P; every P's rate is numpy's, on every set.
 
 The set is the one the design's certificate is about: the interval box's corners (or the
 polytope's vertices) when they can be enumerated and a rate is certified there (exact for
