@@ -129,3 +129,43 @@ def test_a_probe_reaches_a_whole_solve_s_verdict_sooner():
     for stop in ("probe", "verified"):
         found = sr.lmi_certificate(below, stop=stop)
         assert found.certified and sr.decay_rate(below, found.P) > 0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_without_the_certificate_the_search_closes_its_bracket_or_answers_as_with_it(seed, monkeypatch):
+    """``certificate=False`` (compare on an arm): the certificate is solved only where the search needs
+    a lower end; where it is not, the rate is the exact rate of its P, within DECAY_RTOL of the upper
+    end and of the rate found with the certificate; where it is, the answer is the same one."""
+    from scara_robust.robustness import decay
+
+    loops = _loops(seed)
+    with_it = sr.certified_decay_rate(loops)
+    solved = []
+    real = decay.lmi_certificate
+    monkeypatch.setattr(decay, "lmi_certificate", lambda *a, **k: solved.append(1) or real(*a, **k))
+    without = sr.certified_decay_rate(loops, certificate=False)
+    assert without.certified and without.rate == pytest.approx(_exact_rate(loops, without.P), rel=1e-9)
+    if solved:  # the search needed the certificate: the same search, the same answer
+        assert without.rate == with_it.rate and without.lmi_upper == with_it.lmi_upper
+    else:
+        assert math.isnan(without.lmi_certificate) and without.lmi_solves == 1
+        assert without.lmi_upper - without.rate <= sr.DECAY_RTOL * without.rate * (1 + 1e-12)
+        assert with_it.rate / (1 + sr.DECAY_RTOL) <= without.rate <= with_it.lmi_upper * (1 + 1e-12)
+
+
+def test_a_design_s_p_within_the_tolerance_of_the_eigenvalue_bound_needs_no_lmi(monkeypatch):
+    from scara_robust.robustness import decay
+
+    A = np.array([[-0.5, 10.0, 0.0], [0.0, -2.0, 5.0], [0.0, 0.0, -3.0]])
+    best = sr.certified_decay_rate(A[None])  # within DECAY_RTOL of the slowest mode, 0.5 1/s
+    monkeypatch.setattr(decay, "lmi_search", None)  # neither a certificate nor a probe is solved
+    monkeypatch.setattr(decay, "lmi_certificate", None)
+    own = sr.certified_decay_rate(A[None], best.P, certificate=False)
+    assert own.source == "the design's P" and own.rate == best.rate and own.lmi_solves == 0
+    assert own.lmi_status.startswith("not needed") and own.lmi_upper == pytest.approx(0.5, rel=1e-12)
+
+
+@pytest.mark.parametrize("value", [0, 1, "no", None])
+def test_a_bad_certificate_flag_is_refused_by_name(value):
+    with pytest.raises(ArgumentValueError, match="certificate"):
+        sr.certified_decay_rate(_loops(0), certificate=value)

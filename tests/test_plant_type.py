@@ -401,12 +401,13 @@ def test_a_stability_scan_answers_as_the_eigenvalues_do_and_factors_where_it_can
         answers.append(expected)
     assert True in answers and False in answers  # both answers were asked
     assert scan.by_lyapunov > scan.by_eigenvalues  # most were decided by a kept P
-    # the candidates solve AᵀP + PA = −V⁻ᵀV⁻¹ and are positive definite
+    # the candidates are P = V⁻ᴴV⁻¹: AᵀP + PA = V⁻ᴴ diag(2 Re λ) V⁻¹ ≺ 0, and P ≻ 0
     A = base[:20] - (shift[:20] + 1.0)[:, None, None] * np.eye(n)
     P = _spectra._lyapunov_candidates(A)
     lam, V = np.linalg.eig(A)
     Vinv = np.linalg.inv(V)
-    rhs = -(np.swapaxes(Vinv, 1, 2).conj() @ Vinv).real
+    rhs = (np.swapaxes(Vinv, 1, 2).conj() @ (2 * lam.real[:, :, None] * Vinv)).real
+    assert np.linalg.eigvalsh(rhs)[:, -1].max() < 0
     residual = np.swapaxes(A, 1, 2) @ P + P @ A - rhs
     assert np.abs(residual).max() <= 1e-10 * np.abs(rhs).max()
     assert np.linalg.eigvalsh(P)[:, 0].min() > 0

@@ -900,11 +900,22 @@ def arm_uncertain_plant(
         found = [at_time[t] for t in times.tolist()]
         return PayloadTerms.stack([f[0] for f in found]), np.array([f[1] for f in found])
 
+    on_grid: dict[bytes, tuple[PayloadTerms, Array]] = {}  # per grid of reference times: its terms, τ_ff
+
+    def _picked(t_flat: Array) -> tuple[PayloadTerms, Array]:
+        key = t_flat.tobytes()
+        if key not in on_grid:  # a payload search asks for one grid of times at many masses
+            if len(on_grid) >= 4:
+                on_grid.pop(next(iter(on_grid)))
+            times, where = np.unique(t_flat, return_inverse=True)
+            terms, tau_ff = _terms(times)
+            on_grid[key] = (PayloadTerms(*(getattr(terms, f)[:, where] for f in ("mass", "bias", "dq", "dv", "dqa"))),
+                            tau_ff[where])
+        return on_grid[key]
+
     def _linearize(t_flat: Array, m_flat: Array) -> tuple[Array, Array]:
-        times, where = np.unique(t_flat, return_inverse=True)
-        terms, tau_ff = _terms(times)
-        picked = PayloadTerms(*(getattr(terms, f)[:, where] for f in ("mass", "bias", "dq", "dv", "dqa")))
-        dq, dv, Minv = picked.error_jacobians(tau_ff[where], m_flat)
+        picked, tau_ff = _picked(t_flat)
+        dq, dv, Minv = picked.error_jacobians(tau_ff, m_flat)
         A = np.zeros((t_flat.size, 2 * n, 2 * n))
         A[:, :n, n:] = np.eye(n)
         A[:, n:, :n] = dq

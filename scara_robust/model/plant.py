@@ -352,7 +352,8 @@ class ParameterSamples:
     def closed_loops(self, K: ArrayLike) -> Array:
         """``A_i − B_i K`` for a gain of shape (m, n), shape (k, n, n)."""
         K = check_array("K", K, shape=(self.B.shape[2], self.A.shape[1]))
-        return np.asarray(self.A - self.B @ K, dtype=float)
+        loops = np.matmul(self.B, K)  # one array of k loops, not two: a frozen scan builds one per scale
+        return np.subtract(self.A, loops, out=loops)
 
 
 #: ``matrices(values) -> (A, B)``: values maps each parameter name to an array (all of one

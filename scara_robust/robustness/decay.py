@@ -167,6 +167,7 @@ def certified_decay_rate(
     lmi: bool = True,
     solver: str | None = None,
     rtol: float = DECAY_RTOL,
+    certificate: bool = True,
 ) -> DecayRate:
     """The decay rate of a design on closed loops: the better of its own P and an LMI's P.
 
@@ -189,6 +190,15 @@ def certified_decay_rate(
     rtol : float
         The LMI's P is refined towards the decay-optimal common P on `closed_loops` until the
         search's bracket is this fraction of the rate wide (``inf``: the LMI's own P only).
+    certificate : bool
+        True (default): the LMI certificate (:func:`~scara_robust.lmi_certificate`, its own
+        objective) is solved first, and the search starts from the better of its P and the
+        design's. False, for a caller that reports the rate alone: the search first tries to
+        close its bracket without it, from the design's P and one probe just below the
+        eigenvalue bound; the certificate is solved, and the search run as with True, only
+        where that fails. The rate is then known to `rtol` all the same, and is the one True
+        gives unless the certificate's P proves a larger rate inside the closed bracket;
+        :attr:`DecayRate.candidates` lacks the certificate's P where it was not solved.
 
     Returns
     -------
@@ -209,6 +219,8 @@ def certified_decay_rate(
     solver = resolve_lmi_solver(solver)
     if not (isinstance(rtol, (int, float)) and not isinstance(rtol, bool) and rtol > 0):
         raise ArgumentValueError("rtol", f"must be a number > 0 (inf: no refinement), found {rtol!r}")
+    if not isinstance(certificate, bool):
+        raise ArgumentValueError("certificate", f"must be True or False, found {certificate!r}")
     loops = check_closed_loops("closed_loops", closed_loops)
     checks = [check_array(f"check[{k}]", c, shape=(None, *loops.shape[1:])) for k, c in enumerate(check)]
     every = [loops, *checks]
@@ -225,6 +237,18 @@ def certified_decay_rate(
     first_rate = math.nan
     found_p: list[tuple[float, str, Array]] = []
     upper, solves = math.nan, 0
+    if lmi and cvxpy_available() and not certificate and math.isfinite(rtol):
+        closed = _closed_without_certificate(loops, P, own, rate_of, solver, rtol)
+        if closed is not None:
+            best_p, best_rate, upper, solves, status = closed
+            candidates = sorted(((r, src, M) for r, src, M in
+                                 ((own, DECAY_SOURCES[0], P), (best_rate, DECAY_SOURCES[1], best_p))
+                                 if M is not None and np.isfinite(r) and r > 0 and r >= floor), key=lambda c: -c[0])
+            n_loops = sum(len(c) for c in every)
+            if candidates:  # a tie goes to the design's own P (first, and the sort is stable)
+                rate, source, best = candidates[0]
+                return DecayRate(rate, source, own, best_rate, status, set_name, n_loops, floor, best, loops,
+                                 upper, solves, tuple(M for _, _, M in candidates))
     if lmi:
         if cvxpy_available():
             # cutting planes on the set, grown from the checks' most violated loops: P holds on all of them
@@ -254,6 +278,37 @@ def certified_decay_rate(
     rate, source, best = candidates[0]
     return DecayRate(rate, source, own, lmi_rate, status, set_name, n_loops, floor, best, loops, upper, solves,
                      tuple(M for _, _, M in candidates), first_rate)
+
+
+def _closed_without_certificate(loops: Array, P: Array | None, own: float, rate_of: Callable[[Array], float],
+                                solver: str, rtol: float) -> tuple[Array | None, float, float, int, str] | None:
+    """The decay-optimal search's bracket closed without the LMI certificate, or None.
+
+    Returns (the probe's P or None, its rate on every set or nan, the upper end, the solves,
+    the status) where the best rate a verified P proves on every set, the design's or the
+    first probe's, is within `rtol` of the upper end: the loops' eigenvalue bound, or the
+    first probe's shift where it found no P. That probe is :func:`_decay_optimal`'s first
+    (the same loops, shift and stop; :func:`~scara_robust.lmi_certificate` keeps its answer),
+    so where the bracket stays open the search with the certificate repeats no solve.
+    """
+    high = float(-np.linalg.eigvals(loops).real.max())
+    best = own if P is not None and np.isfinite(own) else -math.inf
+    if best > 0 and high - best <= rtol * best:
+        return None, math.nan, high, 0, "not needed: the design's P is within rtol of the loops' eigenvalue bound"
+    shift = high * (1.0 - rtol / 2)
+    if P is not None and decay_rate(loops, P) >= shift:
+        return None  # the search with the certificate does not probe there: no probe to share
+    found = lmi_search(solver=solver, stop="probe")(loops + shift * np.eye(loops.shape[1]))
+    if found.P is not None and decay_rate(loops, found.P) > shift:
+        P_probe, rate = found.P, rate_of(found.P)
+        best = max(best, rate)
+    else:
+        P_probe, rate, high = None, math.nan, shift  # no P at this shift: the upper end comes down to it
+    if best > 0 and high - best <= rtol * best:
+        status = found.status if P_probe is not None else (
+            "not needed: no P found just below the loops' eigenvalue bound, and the design's P is within rtol of it")
+        return P_probe, rate, high, 1, status
+    return None
 
 
 def _decay_optimal(loops: Array, starts: list[Array], start_rate: float, rate_of: Callable[[Array], float],
@@ -308,6 +363,7 @@ def design_decay_rate(
     lmi: bool = True,
     solver: str | None = None,
     rtol: float = DECAY_RTOL,
+    certificate: bool = True,
 ) -> DecayRate:
     """The decay rate of a design on its uncertainty set, as every command reports it.
 
@@ -330,6 +386,9 @@ def design_decay_rate(
         The LMI solver; None: :func:`~scara_robust.default_lmi_solver` ('IPM' unless changed).
     rtol : float
         The decay-optimal search's relative bracket (:func:`certified_decay_rate`).
+    certificate : bool
+        Solve the LMI certificate before the search (default), or only where the search
+        needs it (:func:`certified_decay_rate`).
 
     Returns
     -------
@@ -352,7 +411,8 @@ def design_decay_rate(
         loops = np.asarray(model.vertex_closed_loops(K))  # type: ignore[union-attr]
         name = (f"the polytope's {len(loops)} vertices" if polytope else
                 f"the interval box's {len(loops)} corners")
-        on_box = certified_decay_rate(loops, own, set_name=name, lmi=lmi, solver=solver, rtol=rtol)
+        on_box = certified_decay_rate(loops, own, set_name=name, lmi=lmi, solver=solver, rtol=rtol,
+                                      certificate=certificate)
         if on_box.certified or plant is None:
             return on_box
     coarse = plant.samples(plant.coarse_points())
@@ -360,4 +420,4 @@ def design_decay_rate(
     name = (f"the plant's frozen plants ({coarse.n_samples} samples for the LMI, verified on {grid.n_samples} "
             f"and {fine.n_samples})")
     return certified_decay_rate(coarse.closed_loops(K), own, check=[grid.closed_loops(K), fine.closed_loops(K)],
-                                set_name=name, lmi=lmi, solver=solver, rtol=rtol)
+                                set_name=name, lmi=lmi, solver=solver, rtol=rtol, certificate=certificate)
