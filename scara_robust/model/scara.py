@@ -116,12 +116,23 @@ def scara_uncertain_plant(
     if n_times == 1:
         parameters = (Parameter("t_ref", "s", (0.0, 0.0)), parameters[1])
 
+    sampled: dict[bytes, tuple[Array, Array]] = {}  # the reference on each grid of times asked (a search asks again)
+
     def matrices(values: Mapping[str, Array]) -> tuple[Array, Array]:
         t = np.asarray(values["t_ref"], dtype=float)
         m = np.asarray(values["m_p"], dtype=float)
         shape = np.broadcast_shapes(t.shape, m.shape)
         t, m = np.broadcast_to(t, shape), np.broadcast_to(m, shape)
-        r, rd, _ = ref.sample(t.ravel())
+        times = np.ascontiguousarray(t.ravel())
+        key = times.tobytes()
+        if key not in sampled:
+            if len(sampled) >= 8:
+                sampled.pop(next(iter(sampled)))
+            r, rd, _ = ref.sample(times)
+            r.setflags(write=False)
+            rd.setflags(write=False)
+            sampled[key] = r, rd
+        r, rd = sampled[key]
         a_star, g_bar = error_dynamics_jacobians(robot, r, rd, m.ravel())
         A = np.zeros((t.size, 4, 4))
         A[:, :2, 2:] = np.eye(2)

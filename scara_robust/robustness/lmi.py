@@ -44,8 +44,10 @@ from .._validation import check_array, check_choice, check_closed_loops
 from ..exceptions import ArgumentValueError
 from ..results import AnalysisResult
 from ..sdp import LMIProblem, LMIVariable, solve_lmi
+from ..sdp._linalg import _factors
 from ..sdp.backends import resolve_lmi_solver
 from ._cutting import ACTIVE_BATCH, grow_active_set
+from ._spectra import _by_parts
 
 __all__ = ["LMICertificate", "LMI_SOLVERS", "LMI_STOPS", "LMI_VERDICTS", "cvxpy_available", "decay_rate",
            "lmi_certificate", "lmi_search", "verify_lyapunov"]
@@ -96,7 +98,7 @@ def decay_floor(closed_loops: ArrayLike) -> float:
         1/s.
     """
     A = check_array("closed_loops", closed_loops, ndim=3)
-    return float(DECAY_FLOOR_RTOL * np.linalg.norm(A, 2, axis=(1, 2)).max())
+    return float(DECAY_FLOOR_RTOL * _by_parts(lambda stack: np.linalg.norm(stack, 2, axis=(1, 2)), A).max())
 
 
 def solver_said(status: str) -> str:
@@ -294,8 +296,12 @@ def verify_lyapunov(closed_loops: ArrayLike, P: ArrayLike) -> tuple[float, float
     A_v = check_array("closed_loops", closed_loops, ndim=3)
     P = check_array("P", P, shape=(A_v.shape[1], A_v.shape[1]))
     scale = max(np.abs(P).max(), 1e-300)
-    PA = P @ A_v
-    max_vertex_eig = float(np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1].max())
+
+    def largest(stack: Array) -> Array:  # per loop λmax(AᵀP + PA)
+        PA = P @ stack
+        return np.asarray(np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1])
+
+    max_vertex_eig = float(_by_parts(largest, A_v).max())
     if not np.allclose(P, P.T, rtol=0.0, atol=1e-9 * scale):
         return max_vertex_eig, -np.inf
     eig_P = np.linalg.eigvalsh(0.5 * (P + P.T))
@@ -338,9 +344,13 @@ def decay_rate(closed_loops: ArrayLike, P: ArrayLike) -> float:
     if w[0] <= 0:
         return -math.inf
     root_inv = V @ np.diag(w**-0.5) @ V.T
-    PA = P @ A
-    M = root_inv @ (PA + np.swapaxes(PA, -1, -2)) @ root_inv
-    return float(-np.linalg.eigvalsh(M)[:, -1].max() / 2)
+
+    def largest(stack: Array) -> Array:  # per loop λmax(P^{-1/2}(AᵀP + PA)P^{-1/2})
+        PA = P @ stack
+        return np.asarray(np.linalg.eigvalsh(root_inv @ (PA + np.swapaxes(PA, -1, -2)) @ root_inv)[:, -1])
+
+    # loop by loop, the loops split between the cores (each loop the same calls: the same values)
+    return float(-_by_parts(largest, A).max() / 2)
 
 
 def farkas_certificate_holds(closed_loops: ArrayLike, duals: list[ArrayLike | None]) -> bool:
@@ -553,8 +563,11 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
     def violation(P: Array) -> Array:
         if stop != "optimum" and holds(P):
             return np.full(n_loops, -np.inf)  # no loop violated: their values are not needed
-        PA = P @ A_s
-        worst = np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1]
+        def largest(stack: Array) -> Array:
+            PA = P @ stack
+            return np.asarray(np.linalg.eigvalsh(PA + np.swapaxes(PA, -1, -2))[:, -1])
+
+        worst = _by_parts(largest, A_s)  # on the cores, each loop the same calls
         # numpy's own test: the decay rate of every loop above the floor
         verified = worst + 2 * floor * np.linalg.eigvalsh(P)[-1] / scale
         if stop == "optimum":  # the problem's own constraint on the loops, ⪯ −I; the checks verified
@@ -563,15 +576,14 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
 
     def holds(P: Array, rows: NDArray[np.bool_] | None = None) -> bool:
         """``violation(P) < 0`` on every loop (or those of `rows`), by one stacked Cholesky factorization."""
-        PA = P @ (A_s if rows is None else A_s[rows])
-        shifted = -(PA + np.swapaxes(PA, -1, -2)) - 2 * floor * np.linalg.eigvalsh(P)[-1] / scale * np.eye(P.shape[0])
-        if not np.isfinite(shifted).all():
-            return False
-        try:
-            np.linalg.cholesky(shifted)
-        except np.linalg.LinAlgError:
-            return False
-        return True
+        shift = 2 * floor * np.linalg.eigvalsh(P)[-1] / scale * np.eye(P.shape[0])
+
+        def factors(stack: Array) -> NDArray[np.bool_]:
+            PA = P @ stack
+            shifted = -(PA + np.swapaxes(PA, -1, -2)) - shift
+            return np.array([bool(np.isfinite(shifted).all()) and _factors(shifted)])
+
+        return bool(_by_parts(factors, A_s if rows is None else A_s[rows]).all())  # the loops split between the cores
 
     def solve(idx: NDArray[np.int64]) -> tuple[str, Array | None]:
         if solver == "IPM":

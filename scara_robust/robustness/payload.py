@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 from .._validation import check_instance, check_int, check_real
 from ..exceptions import ArgumentValueError
 from ..lyapunov.gain import Design, design_or_none
-from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload
+from ..model.plant import UncertainPlant
+from ..model.robot import PayloadProfile, ScaraParams, SinusoidalPayload, payload_range
 from ..model.scara import physical_samples, scara_uncertain_plant
 from ..model.signals import Reference
 from ..sdp.backends import resolve_lmi_solver
@@ -146,10 +147,16 @@ def payload_margin(
     if design.K.shape != (2, 6):
         raise ArgumentValueError("design", f"must be for the SCARA's 6-state error model, found K of {design.K.shape}")
 
+    plants: dict[tuple[int, int], UncertainPlant] = {}  # one per grid; a peak mass sets its payload range
+
     def closed(mass: float, nt: int, nm: int) -> Array:
         # the robot as a plant over (t_ref, m_p), its payload range [0, mass]: its frozen loops on the grid
         profile: PayloadProfile = SinusoidalPayload(0.5 * mass, 0.5 * mass)
-        plant = scara_uncertain_plant(params, reference, profile, n_times=nt, n_masses=nm)
+        if (nt, nm) not in plants:
+            plants[nt, nm] = plant = scara_uncertain_plant(params, reference, profile, n_times=nt, n_masses=nm)
+        else:  # the range scara_uncertain_plant gives this profile, on the plant that keeps the reference's samples
+            lo, hi = payload_range(profile, np.linspace(0.0, 2 * np.pi, nt))
+            plant = plants[nt, nm].with_ranges({"m_p": (lo, hi)})
         return plant.samples({"t_ref": nt, "m_p": nm}).closed_loops(design.K)
 
     context = PayloadContext(design, closed, n_times, n_masses, lmi_times, lmi_masses)
