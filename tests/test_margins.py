@@ -224,3 +224,19 @@ def test_a_gain_of_your_own_runs_the_certificate_table_and_refuses_what_has_no_p
         sr.Design.from_gain(model, [[3.75, 11.5]], P=-np.eye(2))
     with pytest.raises(sr.ArgumentValueError, match="`K`"):
         sr.Design.from_gain(model, [[3.75, 11.5, 1.0]])
+
+
+def test_a_scara_plant_with_its_payload_range_replaced_gives_the_loops_of_one_built_for_it():
+    """payload_margin keeps one plant per grid and replaces the payload range at each peak mass: the
+    closed loops are those of the plant built for that mass, bit for bit (its reference kept)."""
+    from scara_robust.model.robot import SinusoidalPayload, payload_range
+    from scara_robust.model.scara import scara_uncertain_plant
+
+    K = sr.design(sr.derived_model(), 3, 90).K
+    base = scara_uncertain_plant(None, None, SinusoidalPayload(0.5, 0.5), n_times=37, n_masses=5)
+    for mass in (1e-9, 2.0, 129.75, 271.25):
+        profile = SinusoidalPayload(0.5 * mass, 0.5 * mass)
+        fresh = scara_uncertain_plant(None, None, profile, n_times=37, n_masses=5)
+        kept = base.with_ranges({"m_p": payload_range(profile, np.linspace(0.0, 2 * np.pi, 37))})
+        grid = {"t_ref": 37, "m_p": 5}
+        assert np.array_equal(kept.samples(grid).closed_loops(K), fresh.samples(grid).closed_loops(K))

@@ -383,6 +383,26 @@ def test_spectral_abscissae_on_threads_equal_numpys_bit_for_bit(monkeypatch):
     assert np.array_equal(_spectra.spectral_abscissae(stack[:5]), expected[:5])  # below the threads' threshold
 
 
+def test_numpy_s_checks_of_a_p_on_threads_are_those_of_one_call(monkeypatch):
+    """decay_rate, verify_lyapunov and decay_floor split the loops between threads: the same values, bit for bit."""
+    from scara_robust.robustness import _spectra, lmi
+
+    rng = np.random.default_rng(12)
+    loops = 0.3 * rng.standard_normal((777, 6, 6)) - 2.0 * np.eye(6)
+    X = rng.standard_normal((6, 6))
+    P = X @ X.T + 6 * np.eye(6)
+    w, V = np.linalg.eigh(P)
+    root = V @ np.diag(w**-0.5) @ V.T
+    PA = P @ loops
+    rate = float(-np.linalg.eigvalsh(root @ (PA + np.swapaxes(PA, 1, 2)) @ root)[:, -1].max() / 2)
+    largest = float(np.linalg.eigvalsh(PA + np.swapaxes(PA, 1, 2))[:, -1].max())
+    floor = float(lmi.DECAY_FLOOR_RTOL * np.linalg.norm(loops, 2, axis=(1, 2)).max())
+    for workers in (3, 1):
+        monkeypatch.setattr(_spectra, "_workers", lambda: workers)  # noqa: B023
+        assert lmi.decay_rate(loops, P) == rate and lmi.verify_lyapunov(loops, P)[0] == largest
+        assert lmi.decay_floor(loops) == floor
+
+
 def test_a_stability_scan_answers_as_the_eigenvalues_do_and_factors_where_it_can():
     """StabilityScan: on a sequence of nearby stacks, the answer of max Re λ < 0 and its P's residual."""
     from scara_robust.robustness import _spectra

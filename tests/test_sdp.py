@@ -88,9 +88,13 @@ def test_terms_of_one_variable_that_share_v_or_u_are_one_term():
     assert np.abs(pb.schur(W) - D).max() <= 1e-12 * np.abs(D).max()
 
 
-def test_the_step_lengths_are_those_of_every_block_s_eigenvalues():
+@pytest.mark.parametrize("at_once", [True, False])
+def test_the_step_lengths_are_those_of_every_block_s_eigenvalues(at_once, monkeypatch):
+    """Both ways to the lengths: a small stack's eigenvalues at once, a large one's blocks that fail Cholesky."""
+    from scara_robust.sdp import ipm
     from scara_robust.sdp.ipm import _steps
 
+    monkeypatch.setattr(ipm, "EIGENVALUES_AT_ONCE", ipm.EIGENVALUES_AT_ONCE if at_once else 0)
     rng = np.random.default_rng(5)
     for fraction in (1.0, 0.95):
         for size in (0.05, 0.5, 3.0):  # every block passes, some fail, most fail
@@ -103,6 +107,19 @@ def test_the_step_lengths_are_those_of_every_block_s_eigenvalues():
                           for vf, d in zip(v, D))
                 expected.append(min(1.0, fraction * (-1.0 / low if low < 0 else np.inf)))
             assert _steps(v, dZ, dS, fraction) == pytest.approx(tuple(expected), rel=1e-12)
+
+
+def test_the_newton_solve_is_scipy_s_cholesky_solve_bit_for_bit():
+    import scipy.linalg
+
+    from scara_robust.sdp.ipm import _cho_solve, _factor
+
+    rng = np.random.default_rng(2)
+    for n in (1, 7, 22, 171):
+        X = rng.normal(size=(n, n))
+        factor = _factor(X @ X.T + n * np.eye(n))
+        rhs = rng.normal(size=n)
+        assert np.array_equal(_cho_solve(factor, rhs), scipy.linalg.cho_solve(factor, rhs))
 
 
 def _random_w_stack(rng: np.random.Generator, N: int) -> np.ndarray:
