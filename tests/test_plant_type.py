@@ -384,7 +384,7 @@ def test_spectral_abscissae_on_threads_equal_numpys_bit_for_bit(monkeypatch):
 
 
 def test_numpy_s_checks_of_a_p_on_threads_are_those_of_one_call(monkeypatch):
-    """decay_rate, verify_lyapunov and decay_floor split the loops between threads: the same values, bit for bit."""
+    """decay_rate, verify_lyapunov and decay_floor: the same values as one call on all loops, bit for bit."""
     from scara_robust.robustness import _spectra, lmi
 
     rng = np.random.default_rng(12)
@@ -397,6 +397,10 @@ def test_numpy_s_checks_of_a_p_on_threads_are_those_of_one_call(monkeypatch):
     rate = float(-np.linalg.eigvalsh(root @ (PA + np.swapaxes(PA, 1, 2)) @ root)[:, -1].max() / 2)
     largest = float(np.linalg.eigvalsh(PA + np.swapaxes(PA, 1, 2))[:, -1].max())
     floor = float(lmi.DECAY_FLOOR_RTOL * np.linalg.norm(loops, 2, axis=(1, 2)).max())
+    # the largest 2-norm from the few loops whose Frobenius norm can reach it: numpy's value, bit for bit
+    for scale in (1e-6, 1.0, 1e6):
+        scaled = scale * loops * rng.uniform(0.5, 2.0, size=(len(loops), 1, 1))
+        assert lmi._largest_spectral_norm(scaled) == float(np.linalg.norm(scaled, 2, axis=(1, 2)).max())
     for workers in (3, 1):
         monkeypatch.setattr(_spectra, "_workers", lambda: workers)  # noqa: B023
         assert lmi.decay_rate(loops, P) == rate and lmi.verify_lyapunov(loops, P)[0] == largest
