@@ -294,7 +294,8 @@ def _closed_without_certificate(loops: Array, P: Array | None, own: float, rate_
     high = float(-np.linalg.eigvals(loops).real.max())
     best = own if P is not None and np.isfinite(own) else -math.inf
     if best > 0 and high - best <= rtol * best:
-        return None, math.nan, high, 0, "not needed: the design's P is within rtol of the loops' eigenvalue bound"
+        return None, math.nan, high, 0, (f"not needed: the design's P is within {100 * rtol:g} % of the loops' "
+                                          "eigenvalue bound")
     shift = high * (1.0 - rtol / 2)
     if P is not None and decay_rate(loops, P) >= shift:
         return None  # the search with the certificate does not probe there: no probe to share
@@ -306,7 +307,8 @@ def _closed_without_certificate(loops: Array, P: Array | None, own: float, rate_
         P_probe, rate, high = None, math.nan, shift  # no P at this shift: the upper end comes down to it
     if best > 0 and high - best <= rtol * best:
         status = found.status if P_probe is not None else (
-            "not needed: no P found just below the loops' eigenvalue bound, and the design's P is within rtol of it")
+            f"not needed: no P found just below the loops' eigenvalue bound, and the design's P is within "
+            f"{100 * rtol:g} % of where the search found none")
         return P_probe, rate, high, 1, status
     return None
 
