@@ -8,6 +8,7 @@ error-model Jacobians must agree with differences of Pinocchio's ABA; the 6-join
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -415,3 +416,21 @@ def test_missing_package_of_a_urdf_is_named(tmp_path):
     (tmp_path / "robot.toml").write_text(text, encoding="utf-8")
     with pytest.raises(sr.InputFileError, match="no-such-robot-package.*not installed"):
         sr.load_arm(tmp_path / "robot.toml")
+
+
+@pytest.mark.lmi
+def test_six_joint_decay_rate_without_the_certificate_is_the_one_with_it(arm_setup):
+    """``compare`` on an arm asks the decay rate with ``certificate=False``: on the arm it closes its
+    bracket without the LMI certificate and reports the rate ``certify`` reports (the default)."""
+    from scara_robust.robustness import decay
+
+    plant = arm_setup.plant
+    d = sr.design(plant, 1000, 3)
+    with_it = sr.design_decay_rate(plant, d)
+    without = sr.design_decay_rate(plant, d, certificate=False)
+    assert with_it.certified and math.isnan(without.lmi_certificate)  # the certificate was not needed
+    assert without.rate == with_it.rate and without.source == with_it.source
+    assert without.rate == pytest.approx(sr.decay_rate(np.concatenate(
+        [plant.samples(p).closed_loops(d.K) for p in (plant.coarse_points(), None, plant.fine_points())]),
+        without.P), rel=1e-12)
+    assert decay.DECAY_RTOL * without.rate >= without.lmi_upper - without.rate
