@@ -407,6 +407,84 @@ def test_numpy_s_checks_of_a_p_on_threads_are_those_of_one_call(monkeypatch):
         assert lmi.decay_floor(loops) == floor
 
 
+@pytest.mark.parametrize("case", ["family", "spread", "near-ties", "not-first", "rounded", "small", "not-finite"])
+def test_the_largest_eigenvalue_of_a_stack_is_numpy_s_bit_for_bit(case, monkeypatch):
+    """largest_eigenvalue: eigvalsh(stack)[:, -1].max(), whichever matrices its screen sends to their eigenvalues."""
+    from scara_robust.robustness import _spectra
+
+    rng = np.random.default_rng(21)
+    X = rng.standard_normal((700, 6, 6))
+    stack = -(X @ np.swapaxes(X, 1, 2)) - 0.5 * np.eye(6)  # negative definite, λmax spread over the stack
+    factored = []
+    factors = _spectra._factors
+    monkeypatch.setattr(_spectra, "_factors", lambda part: factored.append(len(part)) or factors(part))
+    if case == "family":  # nearby matrices (a grid of loops): the first screen clears the whole stack
+        Y = rng.standard_normal((6, 6))
+        stack = -(Y @ Y.T) - np.eye(6) + 0.05 * (X + np.swapaxes(X, 1, 2))
+    elif case == "near-ties":  # a hundred matrices within rounding of the largest: they fail the screen, in chunks
+        stack[::7] = stack[0] * (1.0 + 1e-15 * rng.standard_normal((100, 1, 1)))
+    elif case == "not-first":  # the largest far from what the stack's mean points to: found by the chunks
+        stack[433] = -np.diag([1e-3, 50.0, 50.0, 50.0, 50.0, 50.0])
+    elif case == "rounded":  # P^(-1/2) S P^(-1/2), as decay_rate forms it: symmetric but for rounding
+        Y = rng.standard_normal((6, 6))
+        w, V = np.linalg.eigh(Y @ Y.T + np.eye(6))
+        root = V @ np.diag(w**-0.5) @ V.T
+        stack = root @ stack @ root
+        assert not np.array_equal(stack, np.swapaxes(stack, 1, 2))
+    elif case == "small":
+        stack = stack[:_spectra._SCREEN_FROM]
+    elif case == "not-finite":  # numpy refuses it; so does the screen, the same way
+        stack[5, 2, 1] = np.nan
+        with pytest.raises(np.linalg.LinAlgError):
+            np.linalg.eigvalsh(stack)
+        with pytest.raises(np.linalg.LinAlgError):
+            _spectra.largest_eigenvalue(stack)
+        return
+    expected = float(np.linalg.eigvalsh(stack)[:, -1].max())
+    assert _spectra.largest_eigenvalue(stack) == expected
+    if case == "family":
+        assert factored == [700 - _spectra._SCREEN_FIRST]  # one factorization, the eigenvalues of 8 matrices
+    elif case in ("spread", "near-ties", "not-first"):
+        assert len(factored) > 1  # the screen failed on the whole stack: the chunks answered
+    if case in ("spread", "near-ties", "not-first"):
+        assert _spectra.largest_eigenvalue(stack.copy()) == expected  # no state kept between calls
+
+
+def test_a_stability_scan_asks_the_last_unstable_matrices_first():
+    """A bisection's unstable steps: answered by the matrices the last unstable answer found, the same answers."""
+    from scara_robust.robustness import _spectra
+
+    rng = np.random.default_rng(6)
+    n = 6
+    base = rng.standard_normal((400, n, n)) / math.sqrt(n)
+    base -= (np.linalg.eigvals(base).real.max(axis=-1) + 1.0)[:, None, None] * np.eye(n)  # abscissae -1
+    direction = np.zeros_like(base)
+    direction[[17, 250]] = np.eye(n)  # two matrices cross the axis, at s = 1
+    calls = []
+    real = _spectra.spectral_abscissae
+
+    def counted(matrices):
+        calls.append(len(matrices))
+        return real(matrices)
+
+    for strict in (False, True):
+        scan, lo, hi = _spectra.StabilityScan(strict=strict), 0.0, 2.0
+        assert scan.all_stable(base) and not scan.all_stable(base + hi * direction)
+        while hi - lo > 1e-9:
+            mid = 0.5 * (lo + hi)
+            stack = base + mid * direction
+            expected = bool(np.linalg.eigvals(stack).real.max() < 0 if strict else
+                            np.linalg.eigvals(stack).real.max() <= 0)
+            calls.clear()
+            with pytest.MonkeyPatch.context() as patch:
+                patch.setattr(_spectra, "spectral_abscissae", counted)
+                assert scan.all_stable(stack) is expected
+            if not expected:  # the two matrices found last, their eigenvalues alone
+                assert calls == [2]
+            lo, hi = (mid, hi) if expected else (lo, mid)
+        assert hi == pytest.approx(1.0, abs=1e-8)
+
+
 def test_a_stability_scan_answers_as_the_eigenvalues_do_and_factors_where_it_can():
     """StabilityScan: on a sequence of nearby stacks, the answer of max Re λ < 0 and its P's residual."""
     from scara_robust.robustness import _spectra

@@ -249,6 +249,20 @@ def test_the_falsifier_s_tries_side_by_side_are_the_tries_one_at_a_time(case, pa
                                              rel=1e-9, abs=1e-12)
 
 
+def test_a_falsifier_try_whose_state_underflows_stops_there():
+    """‖x‖² below the smallest double: the try ends with a log-norm of −inf, the others go on as alone."""
+    fast = -40000.0 * np.eye(2)  # exp(−400) per dwell: ‖x‖² underflows to 0 at the first step
+    alone = sr.falsify(np.array([fast]), None, horizon=1.0, n_tries=3)
+    assert alone.growth_factor == 0.0 and alone.growth_rate == -np.inf and not alone.found
+    assert alone.verdict == "no counterexample found"
+    # the random tries that draw the fast vertex stop; the greedy ones never choose it, as without it
+    mixed = sr.falsify(np.concatenate([[fast], SWITCHED]), np.eye(2), horizon=20.0)
+    without = sr.falsify(SWITCHED, np.eye(2), horizon=20.0)
+    assert mixed.found and without.found and mixed.rule == without.rule != "random"
+    assert mixed.growth_rate == without.growth_rate
+    assert mixed.sequence.tolist() == (without.sequence + 1).tolist()
+
+
 def test_falsifier_finds_nothing_on_a_certified_set(paper, paper_design):
     assert sr.certify(paper, paper_design, "A").certified
     vertices = box_closed_loops(paper.subset("A"), paper_design.K)

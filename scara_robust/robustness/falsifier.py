@@ -294,26 +294,30 @@ def _follow(groups: list[tuple[slice, Array | None]], pairs: tuple[NDArrayInt, N
     logs = np.zeros(n_tries)
     halves = np.zeros(n_tries)
     alive = np.ones(n_tries, dtype=bool)
-    for k in range(steps):
-        v = sequences[:, k]
-        for tries, forms in groups:
-            if forms is not None:
-                Xg = X[tries]
-                v[tries] = np.argmax((Xg[:, pairs[0]] * Xg[:, pairs[1]]) @ forms, axis=1)
-        X = (Phi[v] @ X[:, :, None])[:, :, 0]
-        size = np.sqrt(np.einsum("ij,ij->i", X, X))
-        if not (size.min() > 0.0 and size.max() < math.inf):  # a try has stopped (or stops here)
-            ended = alive & ((size == 0.0) | ~np.isfinite(size))
-            logs[ended] = np.where(size[ended] == 0.0, -math.inf, math.inf)
-            alive &= ~ended
-            if not alive.any():
-                break
-            size[~alive] = 1.0
-            X[~alive] = 0.0
-            logs[alive] += np.log(size[alive])
-        else:
-            logs += np.log(size)
-        X /= size[:, None]
-        if k + 1 == half:  # a try that has stopped keeps 0, as it would alone
-            halves[alive] = logs[alive]
+    first, second = pairs
+    chosen = [(tries, forms) for tries, forms in groups if forms is not None]
+    with np.errstate(divide="ignore", invalid="ignore"):  # a state at 0 or beyond double precision: handled below
+        for k in range(steps):
+            v = sequences[:, k]
+            if chosen:
+                products = X[:, first] * X[:, second]  # every try's x_i x_j, i <= j
+                for tries, forms in chosen:
+                    v[tries] = (products[tries] @ forms).argmax(axis=1)
+            X = (Phi[v] @ X[:, :, None])[:, :, 0]
+            size = np.sqrt(np.einsum("ij,ij->i", X, X))
+            step = np.log(size)
+            if math.isfinite(step.sum()):  # every try's state finite and nonzero (a sum of logs of norms: no overflow)
+                logs += step
+            else:  # a try has stopped (or stops here)
+                ended = alive & ((size == 0.0) | ~np.isfinite(size))
+                logs[ended] = np.where(size[ended] == 0.0, -math.inf, math.inf)
+                alive &= ~ended
+                if not alive.any():
+                    break
+                size[~alive] = 1.0
+                X[~alive] = 0.0
+                logs[alive] += np.log(size[alive])
+            X /= size[:, None]
+            if k + 1 == half:  # a try that has stopped keeps 0, as it would alone
+                halves[alive] = logs[alive]
     return logs, halves
