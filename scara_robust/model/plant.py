@@ -491,16 +491,17 @@ class UncertainPlant:
             raise ArgumentValueError("outputs", f"must name the {q} controlled outputs, found {len(outputs)}")
         object.__setattr__(self, "inputs", inputs)
         object.__setattr__(self, "outputs", outputs)
-        # evaluate once at the nominal and at the grid: shapes, finiteness and the form's needs
-        A, B = self._plant_matrices({p.name: np.asarray([p.nominal], dtype=float) for p in params})
-        if A.shape != (1, n, n) or B.shape != (1, n, m):
-            raise ArgumentValueError("matrices", f"must give A of shape ({n}, {n}) and B of shape ({n}, {m}), found "
-                                                 f"{A.shape[1:]} and {B.shape[1:]}")
-        # the nominal and the box's corners (a cheap check; the samples are checked where used)
+        # evaluate once, at the nominal and the box's corners (a cheap check; the samples are checked where
+        # used): shapes, finiteness and the form's needs
         corners = self.grid_values({p.name: 2 for p in params if p.varies}) if len(self.varying) <= 10 else \
             np.zeros((0, len(params)))
         nominal_row = np.array([[p.nominal for p in params]], dtype=float).reshape(1, len(params))
-        self._check_form(np.vstack([nominal_row, corners]))
+        grid = np.vstack([nominal_row, corners])
+        A, B = self._plant_matrices({name: grid[:, k] for k, name in enumerate(self.names)})
+        if A.shape != (len(grid), n, n) or B.shape != (len(grid), n, m):
+            raise ArgumentValueError("matrices", f"must give A of shape ({n}, {n}) and B of shape ({n}, {m}), found "
+                                                 f"{A.shape[1:]} and {B.shape[1:]}")
+        self._check_form(grid, A, B)
 
     # --- constructors -------------------------------------------------------------------
 
@@ -982,10 +983,8 @@ class UncertainPlant:
         B_aug[..., q:, :] = B
         return A_aug, B_aug
 
-    def _check_form(self, grid: Array) -> None:
-        """Finite matrices on the grid, and what the design form needs of them."""
-        vals = {name: grid[:, k] for k, name in enumerate(self.names)}
-        A, B = self._plant_matrices(vals)
+    def _check_form(self, grid: Array, A: Array, B: Array) -> None:
+        """Finite matrices ``A``, ``B`` (the plant's at the rows of `grid`), and what the design form needs of them."""
         bad = ~(np.isfinite(A).all(axis=(-2, -1)) & np.isfinite(B).all(axis=(-2, -1)))
         if bad.any():
             k = int(np.argmax(bad))
