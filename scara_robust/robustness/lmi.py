@@ -593,8 +593,8 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
             verified[:n_main] = worst[:n_main] + 1.0 - OPTIMUM_RTOL
         return np.asarray(verified)
 
-    def holds(P: Array, rows: NDArray[np.bool_] | None = None) -> bool:
-        """``violation(P) < 0`` on every loop (or those of `rows`), by one stacked Cholesky factorization."""
+    def holds(P: Array, loops: Array | None = None) -> bool:
+        """``violation(P) < 0`` on every loop (or on `loops`, some of them), by one stacked Cholesky factorization."""
         shift = 2 * floor * np.linalg.eigvalsh(P)[-1] / scale * np.eye(P.shape[0])
 
         def factors(stack: Array) -> NDArray[np.bool_]:
@@ -602,22 +602,23 @@ def _cutting_planes(A_v: Array, n_main: int, solver: str, stop: str, first: NDAr
             shifted = -(PA + np.swapaxes(PA, -1, -2)) - shift
             return np.array([bool(np.isfinite(shifted).all()) and _factors(shifted)])
 
-        return bool(_by_parts(factors, A_s if rows is None else A_s[rows]).all())  # the loops split between the cores
+        return bool(_by_parts(factors, A_s if loops is None else loops).all())  # the loops split between the cores
 
     def solve(idx: NDArray[np.int64]) -> tuple[str, Array | None]:
         if solver == "IPM":
             outside = np.ones(n_loops, dtype=bool)
             outside[idx] = False
             cut_early = A_v.shape[1] <= SMALL_STATES and bool(outside.any())
+            A_out, A_in = (A_s[outside], A_s[~outside]) if cut_early else (A_s, A_s)  # taken once a solve
 
             def accept(P: Array) -> bool:
                 # a bisection's question is answered by the first P numpy verifies on every loop; on small
                 # states, where a solve is cheap and rounds are many, a P the active loops' LMI holds strictly
                 # (t > 0) that a loop outside rejects is a cut to make at once, without going on to the active
                 # set's optimum (`violation` then judges it, as every answer)
-                if cut_early and not holds(P, outside):
+                if cut_early and not holds(P, A_out):
                     return True
-                return holds(P, ~outside) if cut_early else holds(P)
+                return holds(P, A_in) if cut_early else holds(P)
 
             return _solve_common_p_ipm(A_s[idx], accept if stop != "optimum" else None,
                                        reject_below=PROBE_MARGIN if stop == "probe" else None)

@@ -212,8 +212,9 @@ def solve_ipm(problem: LMIProblem, *, accept: Callable[[Array], bool] | None = N
     ----------
     problem : LMIProblem
     accept : callable ``accept(y) -> bool``, optional
-        Called on each iterate whose blocks are all positive semidefinite; True stops the
-        solver there (status ``'optimal'``, ``accepted`` True).
+        Called on each iterate (a pure test of y); where it is True and the iterate's blocks
+        are all positive semidefinite the solver stops there (status ``'optimal'``,
+        ``accepted`` True).
     reject : callable ``reject(bound) -> bool``, optional
         Called with the dual objective ``⟨C, Z⟩`` on each iterate whose dual residual is within
         :data:`REJECT_RESIDUAL` (then ``bᵀy <= ⟨C, Z⟩`` for every feasible y, to that residual
@@ -268,7 +269,9 @@ def _solve(problem: LMIProblem | StackedProblem, accept: Callable[[Array], bool]
         rel_p = float(np.linalg.norm(rp)) / (1.0 + float(np.linalg.norm(b)))
         rel_d = math.sqrt(_inner(Rd, Rd)) / (1.0 + norm_C)
         rel_gap = gap / max(abs(obj_y), abs(obj_z), 1e-300)
-        if accept is not None and _psd(lin) and accept(y):
+        # accept first: a cheap test of y (the package's are, a loop check once t > 0) is false on most iterates,
+        # where the blocks' eigenvalues are then not needed
+        if accept is not None and accept(y) and _psd(lin):
             return LMIResult("optimal", y, Z, obj_y, gap, it, accepted=True)
         if reject is not None and rel_p < REJECT_RESIDUAL and reject(obj_z):
             return LMIResult("rejected", None, None, math.nan, gap, it)
