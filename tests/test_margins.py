@@ -62,6 +62,26 @@ def test_lower_bounds_never_exceed_upper_bounds(seed):
 
 
 @pytest.mark.lmi
+def test_the_table_runs_the_frozen_scan_once_before_the_searches_that_use_it(monkeypatch):
+    """Cheap methods first: the frozen bound from the vertex bound, then the LMI and falsifier from both ends."""
+    from scara_robust.robustness import margins
+
+    model, d = _design(1)
+    scans = []
+    frozen = margins._frozen
+    monkeypatch.setattr(margins, "_frozen", lambda *args: scans.append(args[2]) or frozen(*args))
+    table = sr.margin_table(model, d, tol=1e-2, falsifier_tries=3).set_index("method")
+    assert list(table.index) == ["theorem1", "vertex", "lmi", "frozen", "falsifier", "bracket"]  # the registry's order
+    vertex, upper = table.loc["vertex", "theta"], table.loc["frozen", "theta"]
+    assert scans == [max(table.loc["theorem1", "theta"], vertex)]  # one scan, from the best exact lower bound
+    assert f"scanned from θ = {vertex:.4g}" in table.loc["frozen", "message"]
+    # the LMI bisected below the frozen bound (given, not scanned again), the falsifier from both ends
+    assert table.loc["lmi", "hi"] <= upper and table.loc["falsifier", "lo"] >= table.loc["lmi", "theta"]
+    alone = sr.robustness_margin(model, d, "lmi", tol=1e-2, lower=vertex, upper=upper)
+    assert (alone.theta, alone.bracket) == (table.loc["lmi", "theta"], (table.loc["lmi", "lo"], table.loc["lmi", "hi"]))
+
+
+@pytest.mark.lmi
 def test_lmi_margin_certifies_at_lo_and_not_at_hi():
     model, d = _design(3)
     m = sr.robustness_margin(model, d, "lmi", tol=1e-3)

@@ -377,7 +377,11 @@ def margin_table(
     model: Model, design: Design | ArrayLike, *, elements: str = "all", tol: float = MARGIN_TOL,
     falsifier_tries: int = 10, seed: int = 0, anchor: str = "lower", progress: bool = False,
 ) -> pd.DataFrame:
-    """Every registered margin method, each lower bound feeding the searches after it.
+    """Every registered margin method, each bound feeding the searches after it.
+
+    The cheap methods run first (the exact lower bounds, then the frozen upper bound from
+    the best of them), so the LMI and falsifier searches start from both ends of what is
+    known; the rows keep the registry's order.
 
     Parameters
     ----------
@@ -402,20 +406,21 @@ def margin_table(
         the best upper bound on the true margin.
     """
     design = as_design(as_model("model", model), design)
-    rows: list[Margin] = []
+    done: dict[str, Margin] = {}
     best = 0.0
-    names = analysis_methods("margin", defaults=True)
-    for method in tqdm(names, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
+    names = [name for name in analysis_methods("margin", defaults=True)
+             if get_method("margin", name).applies_to(model.capabilities)]
+    order = sorted(names, key=lambda name: not get_method("margin", name).cheap)  # stable: cheap first, in order
+    for method in tqdm(order, disable=not progress, file=sys.stderr, desc="margin", unit="method"):
         entry = get_method("margin", method)
-        if not entry.applies_to(model.capabilities):
-            continue
-        upper = min((r.theta for r in rows if r.bound == "upper" and math.isfinite(r.theta)), default=None)
+        upper = min((r.theta for r in done.values() if r.bound == "upper" and math.isfinite(r.theta)), default=None)
         margin = robustness_margin(model, design, method, elements=elements, tol=tol,
                                    lower=best if "lower" in entry.needs else 0.0, upper=upper,
                                    falsifier_tries=falsifier_tries, seed=seed, anchor=anchor)
-        rows.append(margin)
+        done[method] = margin
         if margin.bound == "lower" and math.isfinite(margin.theta):
             best = max(best, margin.theta)
+    rows = [done[name] for name in names]
     lowers = [r.theta for r in rows if r.bound == "lower" and not math.isnan(r.theta)]
     uppers = [r.theta for r in rows if r.bound == "upper" and not math.isnan(r.theta)]
     lo, hi = max(lowers), min(uppers)
