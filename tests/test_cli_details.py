@@ -223,3 +223,37 @@ def test_an_interrupt_says_what_is_kept(monkeypatch, capsys, argv, said):
     monkeypatch.setattr(loader, "open_system", lambda *a, **k: interrupted(a))
     assert main(argv) == 130
     assert capsys.readouterr().err == said
+
+
+_HEAP_GROWTH = """
+import ctypes, sys
+from scara_robust.cli._allocator import keep_freed_memory
+libc = ctypes.CDLL(None)
+libc.sbrk.restype, libc.sbrk.argtypes = ctypes.c_void_p, [ctypes.c_long]
+libc.malloc.restype, libc.malloc.argtypes = ctypes.c_void_p, [ctypes.c_size_t]
+libc.free.argtypes = [ctypes.c_void_p]
+done = keep_freed_memory() if sys.argv[1] == "set" else None
+start = libc.sbrk(0)
+block = libc.malloc(8 << 20)
+print(done, libc.sbrk(0) - start >= (8 << 20))  # an 8-MB block from the heap, not a mapping of its own
+libc.free(block)
+"""
+
+
+@pytest.mark.parametrize("case", ["set", "default", "the user's own"])
+def test_a_command_keeps_freed_arrays_in_the_heap_unless_the_user_set_the_allocator(case):
+    """glibc: after keep_freed_memory an 8-MB array comes from the heap; the environment's settings stand."""
+    import os
+    import subprocess
+    import sys
+
+    if not (getattr(os, "confstr", None) and (os.confstr("CS_GNU_LIBC_VERSION") or "").startswith("glibc")):
+        pytest.skip("the allocator's thresholds are glibc's")
+    env = {k: v for k, v in os.environ.items() if k not in ("GLIBC_TUNABLES", "MALLOC_MMAP_THRESHOLD_",
+                                                              "MALLOC_TRIM_THRESHOLD_")}
+    if case == "the user's own":
+        env["MALLOC_TRIM_THRESHOLD_"] = str(1 << 30)
+    done = subprocess.run([sys.executable, "-c", _HEAP_GROWTH, "default" if case == "default" else "set"],
+                          capture_output=True, text=True, env=env, check=True)
+    assert done.stdout.split() == {"set": ["True", "True"], "default": ["None", "False"],
+                                   "the user's own": ["False", "False"]}[case], done.stderr

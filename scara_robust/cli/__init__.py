@@ -157,9 +157,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         import matplotlib
 
         from .._progress import shown
+        from ._allocator import keep_freed_memory
         from ._common import check_outputs, emit
         from ._system import load_system
 
+        keep_freed_memory()  # the searches' temporaries reused, not mapped and faulted in again (glibc)
         matplotlib.use("Agg")  # figures go to files; no display is needed
         system = load_system(args)  # the one place that tells the SCARA, an arm and a plant file apart
         check_outputs(args)
